@@ -1,0 +1,26 @@
+"""Physics of Berri et al. (numpy only, vectorised, SI units). See docs/paper-errata.md.
+
+Simplified lever model: :func:`eta_opposing` (eq 10), :func:`eta_aiding` (eq 12),
+:func:`u_from_eta_opposing` (eq 13), :func:`u_from_eta_aiding`,
+:func:`eta_aiding_from_opposing` (eq 14) and :func:`eta_opposing_from_aiding`.
+Reference spur-gear model (eqs 1-8): :class:`SpurGear`. Comparison: :func:`total_squared_error`
+(eq 15).
+"""
+from gear_phm.models.comparison import total_squared_error
+from gear_phm.models.lever import (
+    d_u_d_eta_aiding,
+    d_u_d_eta_opposing,
+    eta_aiding,
+    eta_aiding_from_opposing,
+    eta_opposing,
+    eta_opposing_from_aiding,
+    u_from_eta_aiding,
+    u_from_eta_opposing,
+)
+from gear_phm.models.spur_gear import SpurGear, min_teeth
+
+__all__ = [
+    'SpurGear', 'd_u_d_eta_aiding', 'd_u_d_eta_opposing', 'eta_aiding',
+    'eta_aiding_from_opposing', 'eta_opposing', 'eta_opposing_from_aiding', 'min_teeth',
+    'total_squared_error', 'u_from_eta_aiding', 'u_from_eta_opposing',
+]

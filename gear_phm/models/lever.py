@@ -1,0 +1,140 @@
+"""Simplified lever model of a transmission (Berri et al., eqs 9-14, corrected).
+
+A lever with friction in its pivot stands for any transmission of ratio ``R``. The pivot
+friction is a friction radius ``rho``: the hinge reaction is offset by ``rho`` to the side that
+opposes the motion. With motor arm ``l1`` and load arm ``l2``:
+
+* ``R = l1 / l2`` is the ideal force (torque) gain ``F_U / F_M`` -- the same meaning as
+  ``z2 / z1`` for a gear pair. The paper prints ``R = l2 / l1``; that contradicts its own
+  eqs 10, 13 and 14 (see docs/paper-errata.md, E1).
+* ``u = rho / l2`` is the dimensionless friction parameter [-]. ``u = 0`` is lossless.
+
+Opposing (direct) load, power flows motor -> load, reaction moves towards the motor force::
+
+    F_U (l2 + rho) = F_M (l1 - rho)
+    eta_D = F_U / (R F_M) = (R - u) / (R (1 + u))                                   (10)
+
+Aiding (inverse) load, power flows load -> motor, reaction on the other side::
+
+    F_U (l2 - rho) = F_M (l1 + rho)                                                 (11)
+    eta_I = R F_M / F_U  = R (1 - u) / (R + u)                                      (12)
+
+Inverses and the link between the two efficiencies (eq 14 corrected, E4)::
+
+    u = R (1 - eta_D) / (R eta_D + 1)                                               (13)
+    u = R (1 - eta_I) / (R + eta_I)                                       (13, aiding)
+    eta_I = (2 R eta_D + 1 - R) / ((R - 1) eta_D + 2)                               (14)
+    eta_D = (2 eta_I + R - 1) / (2 R - (R - 1) eta_I)                        (14 inverse)
+
+Domain. ``ratio`` must be finite and > 0, every argument finite: otherwise ``ValueError``
+naming the argument and the value. The physical domain is ``u >= 0``, which maps one-to-one to
+``eta_D in (-1/R, 1]`` and ``eta_I in (-R, 1]``. Outside it the functions return the algebraic
+continuation of the same formula while its denominator stays positive (e.g. ``eta > 1`` gives
+``u < 0``): a noisy measurement just above 1 must map to a slightly negative ``u`` without being
+clipped, or an estimator fed with it would be biased. Where the formula has a pole or no real
+pre-image (``u <= -1`` for eta_D, ``u <= -R`` for eta_I, ``eta_D <= -1/R``, ``eta_I <= -R``) the
+result is NaN. All functions broadcast their arguments like numpy ufuncs.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from gear_phm.models._validation import finite, positive
+
+#: Named parameters of the simplified model with their limits (progpy style).
+PARAMETER_LIMITS: dict[str, tuple[float, float]] = {
+    'ratio': (0.0, np.inf),   # R [-], ideal torque gain load/motor, exclusive lower bound
+    'u': (0.0, np.inf),       # friction parameter rho / l2 [-]; u > 1 self-locks, u > R jams
+}
+
+
+def _where_valid(valid: np.ndarray, numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
+    """numerator / denominator where ``valid``, NaN elsewhere, without warnings."""
+    safe = np.where(valid, denominator, 1.0)
+    result = np.where(valid, numerator / safe, np.nan)
+    return result[()] if result.ndim == 0 else result
+
+
+def eta_opposing(u: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Opposing-load (direct) efficiency eta_D [-] of friction parameter u [-] (eq 10).
+
+    eta_D = (R - u) / (R (1 + u)); 1 at u = 0, 0 at u = R, -> -1/R as u -> inf.
+    NaN where u <= -1.
+    """
+    u = finite('u', u)
+    ratio = positive('ratio', ratio)
+    return _where_valid(u > -1.0, ratio - u, ratio * (1.0 + u))
+
+
+def eta_aiding(u: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Aiding-load (inverse) efficiency eta_I [-] of friction parameter u [-] (eq 12).
+
+    eta_I = R (1 - u) / (R + u); 1 at u = 0, 0 at u = 1 (self-locking onset), -> -R.
+    NaN where u <= -R.
+    """
+    u = finite('u', u)
+    ratio = positive('ratio', ratio)
+    return _where_valid(u > -ratio, ratio * (1.0 - u), ratio + u)
+
+
+def u_from_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Friction parameter u [-] from the opposing-load efficiency eta_D [-] (eq 13).
+
+    u = R (1 - eta_D) / (R eta_D + 1). NaN where eta_D <= -1/R (no u reaches it).
+    """
+    eta = finite('eta', eta)
+    ratio = positive('ratio', ratio)
+    return _where_valid(ratio * eta + 1.0 > 0.0, ratio * (1.0 - eta), ratio * eta + 1.0)
+
+
+def u_from_eta_aiding(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Friction parameter u [-] from the aiding-load efficiency eta_I [-] (eq 13, aiding).
+
+    u = R (1 - eta_I) / (R + eta_I). NaN where eta_I <= -R (no u reaches it).
+    """
+    eta = finite('eta', eta)
+    ratio = positive('ratio', ratio)
+    return _where_valid(ratio + eta > 0.0, ratio * (1.0 - eta), ratio + eta)
+
+
+def eta_aiding_from_opposing(eta_opposing: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Aiding-load efficiency eta_I [-] implied by the opposing-load one eta_D [-] (eq 14).
+
+    eta_I = (2 R eta_D + 1 - R) / ((R - 1) eta_D + 2), the corrected eq 14. Defined where
+    eta_D has a pre-image u > -min(1, R); NaN elsewhere.
+    """
+    eta_d = finite('eta_opposing', eta_opposing)
+    ratio = positive('ratio', ratio)
+    u = u_from_eta_opposing(eta_d, ratio)
+    denominator = (ratio - 1.0) * eta_d + 2.0
+    valid = np.isfinite(u) & (u > -np.minimum(1.0, ratio)) & (denominator > 0.0)
+    return _where_valid(valid, 2.0 * ratio * eta_d + 1.0 - ratio, denominator)
+
+
+def eta_opposing_from_aiding(eta_aiding: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Opposing-load efficiency eta_D [-] implied by the aiding-load one eta_I [-].
+
+    eta_D = (2 eta_I + R - 1) / (2 R - (R - 1) eta_I), the inverse of eq 14. NaN outside the
+    image of u > -min(1, R).
+    """
+    eta_i = finite('eta_aiding', eta_aiding)
+    ratio = positive('ratio', ratio)
+    u = u_from_eta_aiding(eta_i, ratio)
+    denominator = 2.0 * ratio - (ratio - 1.0) * eta_i
+    valid = np.isfinite(u) & (u > -np.minimum(1.0, ratio)) & (denominator > 0.0)
+    return _where_valid(valid, 2.0 * eta_i + ratio - 1.0, denominator)
+
+
+def d_u_d_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Sensitivity du/deta_D [-] of eq 13: -R (R + 1) / (R eta_D + 1)^2 (for variance propagation)."""
+    eta = finite('eta', eta)
+    ratio = positive('ratio', ratio)
+    return _where_valid(ratio * eta + 1.0 > 0.0, -ratio * (ratio + 1.0), (ratio * eta + 1.0) ** 2)
+
+
+def d_u_d_eta_aiding(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
+    """Sensitivity du/deta_I [-] of eq 13 (aiding): -R (R + 1) / (R + eta_I)^2."""
+    eta = finite('eta', eta)
+    ratio = positive('ratio', ratio)
+    return _where_valid(ratio + eta > 0.0, -ratio * (ratio + 1.0), (ratio + eta) ** 2)

@@ -1,0 +1,32 @@
+"""ament_python package definition for gear_phm (layout of `ros2 pkg create`)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE_NAME = 'gear_phm'
+
+setup(
+    name=PACKAGE_NAME,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'bench']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
+        ('share/' + PACKAGE_NAME, ['package.xml']),
+        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='gear_phm maintainers',
+    maintainer_email='gear_phm@example.com',
+    description='Gearbox friction estimation and remaining useful life for ROS 2 Jazzy.',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'publisher = gear_phm.nodes.publisher:main',
+            'estimator = gear_phm.nodes.estimator:main',
+            'diagnostics = gear_phm.nodes.diagnostics:main',
+            'gear-phm = gear_phm.cli.main:main',
+        ],
+    },
+)
