@@ -1,0 +1,1 @@
+"""The ``gear-phm`` command line: one module per subcommand."""
