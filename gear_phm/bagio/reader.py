@@ -1,0 +1,159 @@
+"""Read rosbag2 (MCAP, sqlite3), bare MCAP files and ROS1 bags through rosbags."""
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+
+class BagError(Exception):
+    """A bag that cannot be used; the message names the bag and the problem on one line."""
+
+
+def _one_line(exc: BaseException) -> str:
+    text = ' '.join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def _bag_paths(path: Path) -> list[Path]:
+    """Paths to hand to AnyReader: a rosbag2 directory, or a ROS1 .bag file."""
+    if not path.exists():
+        raise BagError(f'bag not found: {path}')
+    if path.is_dir():
+        if not (path / 'metadata.yaml').exists():
+            raise BagError(f'{path} is a directory without metadata.yaml: not a rosbag2 bag '
+                           f'(after a crash, run: gear-phm recover {path})')
+        return [path]
+    if path.suffix in ('.mcap', '.db3') and (path.parent / 'metadata.yaml').exists():
+        return [path.parent]
+    if path.suffix == '.bag':
+        return [path]
+    if path.suffix == '.mcap':
+        raise BagError(f'{path}: bare .mcap files need their rosbag2 directory (metadata.yaml); '
+                       f'run: gear-phm recover {path.parent}')
+    raise BagError(f'{path}: not a bag (expected a rosbag2 directory, .mcap, .db3 or .bag)')
+
+
+class BagReader:
+    """Context manager over one bag. Messages come in log-time order.
+
+    ``topics`` maps topic name -> message type (``sensor_msgs/msg/JointState``).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._reader: AnyReader | None = None
+
+    def __enter__(self) -> BagReader:
+        paths = _bag_paths(self.path)
+        try:
+            self._reader = AnyReader(paths,
+                                     default_typestore=get_typestore(Stores.ROS2_JAZZY))
+            self._reader.open()
+        except Exception as exc:  # rosbags raises many types for corrupt input
+            raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}') from exc
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._reader is not None:
+            try:
+                self._reader.close()
+            finally:
+                self._reader = None
+
+    @property
+    def reader(self) -> AnyReader:
+        if self._reader is None:
+            raise BagError(f'bag {self.path} is not open')
+        return self._reader
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """Topic name -> message type."""
+        return {topic: info.msgtype or '' for topic, info in self.reader.topics.items()}
+
+    @property
+    def start_ns(self) -> int:
+        return int(self.reader.start_time)
+
+    @property
+    def end_ns(self) -> int:
+        return int(self.reader.end_time)
+
+    def message_count(self, topic: str | None = None) -> int:
+        if topic is None:
+            return int(self.reader.message_count)
+        return sum(c.msgcount for c in self.reader.connections if c.topic == topic)
+
+    def topics_of_type(self, msgtype: str) -> list[str]:
+        """Topics that carry ``msgtype``, sorted."""
+        return sorted(t for t, kind in self.topics.items() if kind == msgtype)
+
+    def resolve_topic(self, topic: str) -> str:
+        """The bag's spelling of ``topic``: 'joint_states' and '/joint_states' are the same."""
+        topics = self.topics
+        for candidate in (topic, '/' + topic.lstrip('/'), topic.lstrip('/')):
+            if candidate in topics:
+                return candidate
+        return topic
+
+    def require_topic(self, topic: str, msgtype: str) -> str:
+        """Return the bag's name of ``topic``; BagError unless it exists with type ``msgtype``."""
+        topics = self.topics
+        topic = self.resolve_topic(topic)
+        if topic not in topics:
+            raise BagError(f'bag {self.path} has no topic {topic!r} '
+                           f'(topics: {", ".join(sorted(topics)) or "none"})')
+        if topics[topic] != msgtype:
+            raise BagError(f'topic {topic!r} in bag {self.path} has type {topics[topic]}, '
+                           f'expected {msgtype}')
+        return topic
+
+    def _connections(self, topics: Iterable[str] | None) -> list:
+        wanted = None if topics is None else {self.resolve_topic(t) for t in topics}
+        return [c for c in self.reader.connections if wanted is None or c.topic in wanted]
+
+    def raw_messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
+                     stop_ns: int | None = None) -> Iterator[tuple[str, int, bytes]]:
+        """Yield (topic, log time [ns], serialized CDR bytes)."""
+        connections = self._connections(topics)
+        if not connections:
+            return
+        iterator = self.reader.messages(connections=connections, start=start_ns, stop=stop_ns)
+        while True:
+            try:
+                connection, t_ns, raw = next(iterator)
+            except StopIteration:
+                return
+            except Exception as exc:
+                raise BagError(f'bag {self.path} is truncated or corrupt: '
+                               f'{_one_line(exc)}') from exc
+            if not self.reader.is2:   # ROS1 bag: convert the payload to CDR
+                raw = self.reader.typestore.ros1_to_cdr(raw, connection.msgtype)
+            yield connection.topic, int(t_ns), bytes(raw)
+
+    def messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
+                 stop_ns: int | None = None) -> Iterator[tuple[str, int, Any]]:
+        """Yield (topic, log time [ns], deserialized rosbags message)."""
+        connections = self._connections(topics)
+        if not connections:
+            return
+        iterator = self.reader.messages(connections=connections, start=start_ns, stop=stop_ns)
+        while True:
+            try:
+                connection, t_ns, raw = next(iterator)
+                msg = self.reader.deserialize(raw, connection.msgtype)
+            except StopIteration:
+                return
+            except Exception as exc:
+                raise BagError(f'bag {self.path} is truncated or corrupt: '
+                               f'{_one_line(exc)}') from exc
+            yield connection.topic, int(t_ns), msg

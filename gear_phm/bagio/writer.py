@@ -1,0 +1,287 @@
+"""Write rosbag2 (version 9, Jazzy) MCAP directories with mcap's writer, crash-safely."""
+from __future__ import annotations
+
+import io
+import os
+import struct
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import yaml
+from mcap.reader import StreamReader
+from mcap.records import Channel, Message, Schema
+from mcap.writer import CompressionType, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, VECTOR3_STAMPED_TYPE, DiagnosticsOut,
+                                 Vector3Out, ns_to_sec_nanosec)
+
+#: rosbags typestore for ROS 2 Jazzy message types.
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+
+ROSBAG2_VERSION = 9
+_COMPRESSION = {None: CompressionType.NONE, '': CompressionType.NONE,
+                'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4}
+
+
+def absolute_topic(topic: str) -> str:
+    """'/name' for 'name' (bags store fully qualified topic names)."""
+    return topic if topic.startswith('/') else '/' + topic
+
+
+@dataclass
+class _Topic:
+    name: str
+    msgtype: str
+    channel_id: int
+    type_hash: str
+    count: int = 0
+
+
+class Rosbag2McapWriter:
+    """A rosbag2 directory ``<dir>/metadata.yaml`` + ``<dir>/<dir name>_0.mcap``.
+
+    ``flush_period_s``: the open chunk is written and the file flushed (and fsync'd when
+    ``fsync``) at least this often while messages arrive, and on :meth:`flush`; after a crash
+    everything older is recoverable with :func:`recover`. ``compression``: None, 'zstd', 'lz4'
+    (per MCAP chunk; rosbag2 reads chunk compression transparently). Output is deterministic
+    for the same input (no wall-clock times are written).
+    """
+
+    def __init__(self, directory: str | Path, compression: str | None = 'zstd',
+                 flush_period_s: float | None = 0.5, fsync: bool = False,
+                 chunk_size: int = 1 << 20) -> None:
+        self.directory = Path(directory)
+        if compression not in _COMPRESSION:
+            raise ValueError(f'compression must be one of None, zstd, lz4, got {compression!r}')
+        if flush_period_s is not None and flush_period_s <= 0:
+            raise ValueError(f'flush_period_s must be > 0 or None, got {flush_period_s!r}')
+        if self.directory.exists() and any(self.directory.iterdir()):
+            raise FileExistsError(f'{self.directory} exists and is not empty')
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.mcap_path = self.directory / f'{self.directory.name}_0.mcap'
+        self._file = open(self.mcap_path, 'wb')  # noqa: SIM115 (closed in close())
+        self._writer = Writer(self._file, chunk_size=chunk_size,
+                              compression=_COMPRESSION[compression])
+        self._writer.start(profile='ros2', library='gear_phm')
+        self._topics: dict[str, _Topic] = {}
+        self._schemas: dict[str, int] = {}
+        self._start_ns: int | None = None
+        self._end_ns = 0
+        self._flush_period_s = flush_period_s
+        self._fsync = fsync
+        self._last_flush = time.monotonic()
+        self._closed = False
+
+    # -- topics and messages --------------------------------------------------------------
+    def add_topic(self, topic: str, msgtype: str, offered_qos_profiles: str = '') -> None:
+        """Declare ``topic`` of ``msgtype`` (e.g. 'sensor_msgs/msg/JointState'); idempotent.
+
+        Relative names are stored absolute ('joint_states' -> '/joint_states'), as rosbag2 does.
+        """
+        topic = absolute_topic(topic)
+        if topic in self._topics:
+            if self._topics[topic].msgtype != msgtype:
+                raise ValueError(f'topic {topic!r} already added with type '
+                                 f'{self._topics[topic].msgtype}, not {msgtype}')
+            return
+        if msgtype not in self._schemas:
+            msgdef, _ = TYPESTORE.generate_msgdef(msgtype, ros_version=2)
+            self._schemas[msgtype] = self._writer.register_schema(
+                name=msgtype, encoding='ros2msg', data=msgdef.encode())
+        type_hash = TYPESTORE.hash_rihs01(msgtype)
+        channel_id = self._writer.register_channel(
+            topic=topic, message_encoding='cdr', schema_id=self._schemas[msgtype],
+            metadata={'offered_qos_profiles': offered_qos_profiles,
+                      'topic_type_hash': type_hash})
+        self._topics[topic] = _Topic(topic, msgtype, channel_id, type_hash)
+
+    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+        """Append one CDR payload at log time ``t_ns`` [ns] to a declared topic."""
+        topic = absolute_topic(topic)
+        entry = self._topics.get(topic)
+        if entry is None:
+            raise KeyError(f'topic {topic!r} was not added')
+        t_ns = int(t_ns)
+        self._writer.add_message(channel_id=entry.channel_id, log_time=t_ns, data=bytes(data),
+                                 publish_time=t_ns, sequence=entry.count)
+        entry.count += 1
+        self._start_ns = t_ns if self._start_ns is None else min(self._start_ns, t_ns)
+        self._end_ns = max(self._end_ns, t_ns)
+        if self._flush_period_s is not None \
+                and time.monotonic() - self._last_flush >= self._flush_period_s:
+            self.flush()
+
+    def write(self, topic: str, t_ns: int, msg: Any) -> None:
+        """Serialize a rosbags message object with CDR and append it."""
+        msgtype = self._topics[absolute_topic(topic)].msgtype
+        self.write_raw(topic, t_ns, TYPESTORE.serialize_cdr(msg, msgtype))
+
+    def write_output(self, output: Vector3Out | DiagnosticsOut, t_ns: int | None = None) -> None:
+        """Append a gear_phm output record (adds its topic on first use)."""
+        msgtype = VECTOR3_STAMPED_TYPE if isinstance(output, Vector3Out) \
+            else DIAGNOSTIC_ARRAY_TYPE
+        self.add_topic(output.topic, msgtype)
+        self.write(output.topic, output.stamp_ns if t_ns is None else t_ns, to_rosbags(output))
+
+    def flush(self) -> None:
+        """Finish the open chunk and push it to the file (and disk, with ``fsync``)."""
+        if self._closed:
+            return
+        self._writer.flush()
+        if self._fsync:
+            os.fsync(self._file.fileno())
+        self._last_flush = time.monotonic()
+
+    @property
+    def message_count(self) -> int:
+        return sum(t.count for t in self._topics.values())
+
+    # -- closing --------------------------------------------------------------------------
+    def close(self) -> None:
+        """Write the MCAP summary and footer, then metadata.yaml (atomically)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._writer.finish()
+        self._file.flush()
+        os.fsync(self._file.fileno())
+        self._file.close()
+        _write_metadata(self.directory, [self.mcap_path.name], list(self._topics.values()),
+                        self._start_ns or 0, self._end_ns)
+
+    def __enter__(self) -> Rosbag2McapWriter:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        self.close()
+
+
+def _write_metadata(directory: Path, files: list[str], topics: list[_Topic], start_ns: int,
+                    end_ns: int) -> None:
+    count = sum(t.count for t in topics)
+    duration = max(0, end_ns - start_ns)
+    info = {
+        'version': ROSBAG2_VERSION,
+        'storage_identifier': 'mcap',
+        'duration': {'nanoseconds': duration},
+        'starting_time': {'nanoseconds_since_epoch': start_ns},
+        'message_count': count,
+        'topics_with_message_count': [
+            {'topic_metadata': {'name': t.name, 'type': t.msgtype,
+                                'serialization_format': 'cdr', 'offered_qos_profiles': [],
+                                'type_description_hash': t.type_hash},
+             'message_count': t.count}
+            for t in topics],
+        'compression_format': '',
+        'compression_mode': '',
+        'relative_file_paths': files,
+        'files': [{'path': name, 'starting_time': {'nanoseconds_since_epoch': start_ns},
+                   'duration': {'nanoseconds': duration}, 'message_count': count}
+                  for name in files],
+        'custom_data': {},
+        'ros_distro': 'jazzy',
+    }
+    text = yaml.safe_dump({'rosbag2_bagfile_information': info}, sort_keys=False)
+    tmp = directory / 'metadata.yaml.tmp'
+    tmp.write_text(text, encoding='utf-8')
+    os.replace(tmp, directory / 'metadata.yaml')
+
+
+def recover(directory: str | Path) -> int:
+    """Rebuild a rosbag2 directory whose writer died (kill -9): complete MCAP + metadata.yaml.
+
+    Reads every complete record of the truncated ``.mcap`` file(s) with mcap's stream reader,
+    stops at the first incomplete one, rewrites the file with a summary and footer, and writes
+    metadata.yaml. Returns the number of messages recovered. A directory that is already
+    complete is rewritten identically in content.
+    """
+    directory = Path(directory)
+    sources = sorted(directory.glob('*.mcap'))
+    if not sources:
+        raise FileNotFoundError(f'no .mcap file in {directory}')
+    total = 0
+    for source in sources:
+        data = source.read_bytes()
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        messages: list[Message] = []
+        try:
+            for record in StreamReader(io.BytesIO(data), skip_magic=False,
+                                       emit_chunks=False).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    messages.append(record)
+        except (EOFError, struct.error, ValueError, Exception):  # noqa: BLE001 truncated tail
+            pass
+        tmp = source.with_suffix('.mcap.recovering')
+        with open(tmp, 'wb') as stream:
+            writer = Writer(stream, compression=CompressionType.ZSTD)
+            writer.start(profile='ros2', library='gear_phm')
+            for schema in schemas.values():
+                writer.register_schema(schema.name, schema.encoding, schema.data)
+            for channel in channels.values():
+                writer.register_channel(channel.topic, channel.message_encoding,
+                                        channel.schema_id, channel.metadata)
+            for message in sorted(messages, key=lambda m: m.log_time):
+                writer.add_message(message.channel_id, message.log_time, message.data,
+                                   message.publish_time, message.sequence)
+            writer.finish()
+        os.replace(tmp, source)
+        total += len(messages)
+    _rebuild_metadata(directory, sources)
+    return total
+
+
+def _rebuild_metadata(directory: Path, sources: list[Path]) -> None:
+    from mcap.reader import make_reader
+    topics: dict[str, _Topic] = {}
+    start_ns, end_ns = None, 0
+    for source in sources:
+        with open(source, 'rb') as stream:
+            reader = make_reader(stream)
+            for schema, channel, message in reader.iter_messages():
+                entry = topics.get(channel.topic)
+                if entry is None:
+                    entry = topics[channel.topic] = _Topic(
+                        channel.topic, schema.name, channel.id,
+                        channel.metadata.get('topic_type_hash', ''))
+                entry.count += 1
+                start_ns = message.log_time if start_ns is None else min(start_ns,
+                                                                          message.log_time)
+                end_ns = max(end_ns, message.log_time)
+    _write_metadata(directory, [s.name for s in sources], list(topics.values()),
+                    start_ns or 0, end_ns)
+
+
+# --- gear_phm output records -> rosbags messages -------------------------------------------
+def _header(stamp_ns: int, frame_id: str = '') -> Any:
+    sec, nanosec = ns_to_sec_nanosec(stamp_ns)
+    return TYPESTORE.types['std_msgs/msg/Header'](
+        stamp=TYPESTORE.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
+        frame_id=frame_id)
+
+
+def to_rosbags(output: Vector3Out | DiagnosticsOut) -> Any:
+    """Build the rosbags message object of an output record."""
+    types = TYPESTORE.types
+    if isinstance(output, Vector3Out):
+        return types[VECTOR3_STAMPED_TYPE](
+            header=_header(output.stamp_ns, output.frame_id),
+            vector=types['geometry_msgs/msg/Vector3'](x=float(output.x), y=float(output.y),
+                                                       z=float(output.z)))
+    status_type = types['diagnostic_msgs/msg/DiagnosticStatus']
+    key_value = types['diagnostic_msgs/msg/KeyValue']
+    return types[DIAGNOSTIC_ARRAY_TYPE](
+        header=_header(output.stamp_ns),
+        status=[status_type(level=int(s.level), name=s.name, message=s.message,
+                            hardware_id=s.hardware_id,
+                            values=[key_value(key=k, value=v) for k, v in s.values])
+                for s in output.statuses])

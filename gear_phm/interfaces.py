@@ -1,0 +1,316 @@
+"""Topic names, message layouts and message <-> sample conversion, free of ROS imports.
+
+Conversions are duck-typed: they read attributes (``msg.header.stamp.sec``, ``msg.name``, ...)
+so they work on rclpy messages and on rosbags-deserialized messages alike. Outputs are plain
+records (:class:`Vector3Out`, :class:`StatusOut`) that a node turns into rclpy messages
+(``gear_phm.nodes.common``) and ``gear-phm analyze`` into rosbags messages (``gear_phm.bagio``),
+so the live nodes and the offline analysis publish exactly the same topics.
+"""
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# --- topic names (relative, so namespaces and remaps apply) ---------------------------------
+JOINT_STATES = 'joint_states'
+TRUTH_FRICTION = 'gear_phm/truth/friction'
+TRUTH_EFFICIENCY = 'gear_phm/truth/efficiency'
+FRICTION = 'gear_phm/friction'
+FRICTION_COVARIANCE = 'gear_phm/friction_covariance'
+EFFICIENCY = 'gear_phm/efficiency'
+INNOVATION = 'gear_phm/innovation'
+COUNTS = 'gear_phm/counts'
+HEALTH_RUL = 'gear_phm/health/rul'
+HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
+DIAGNOSTICS = '/diagnostics'
+CLOCK = '/clock'
+
+JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
+VECTOR3_STAMPED_TYPE = 'geometry_msgs/msg/Vector3Stamped'
+DIAGNOSTIC_ARRAY_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
+CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
+
+#: Estimator outputs, all geometry_msgs/Vector3Stamped with identical stamps per update.
+ESTIMATOR_TOPICS = (FRICTION, FRICTION_COVARIANCE, EFFICIENCY, INNOVATION, COUNTS)
+
+# --- power-flow codes (docs/architecture.md) ---------------------------------------------------
+IMPOSSIBLE, IDLE, OPPOSING, AIDING, SELF_LOCKING = -1, 0, 1, 2, 3
+POWER_FLOW_NAMES = {IMPOSSIBLE: 'impossible', IDLE: 'idle', OPPOSING: 'opposing',
+                    AIDING: 'aiding', SELF_LOCKING: 'self_locking'}
+
+# --- diagnostic levels (diagnostic_msgs/DiagnosticStatus, sent as bytes) -------------------
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
+
+
+def stamp_to_ns(stamp: Any) -> int:
+    """builtin_interfaces/Time (sec, nanosec) -> integer nanoseconds."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def ns_to_sec_nanosec(stamp_ns: int) -> tuple[int, int]:
+    """Integer nanoseconds -> (sec, nanosec) as in builtin_interfaces/Time."""
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return sec, nanosec
+
+
+class BadMessage(ValueError):
+    """A message that cannot be used; ``reason`` is a short counter key."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        super().__init__(f'{reason}: {detail}')
+        self.reason = reason
+        self.detail = detail
+
+
+@dataclass(frozen=True, slots=True)
+class JointSample:
+    """One synchronised sample of both shafts. Angles [rad], speeds [rad/s], torques [N m]."""
+
+    stamp_ns: int
+    motor_position: float
+    motor_velocity: float
+    motor_effort: float
+    load_position: float
+    load_velocity: float
+    load_effort: float
+
+    @property
+    def t(self) -> float:
+        """Sample time [s]."""
+        return self.stamp_ns * 1e-9
+
+
+def _pick(values: Sequence[float], index: int, field_name: str, joint: str) -> float:
+    if len(values) <= index:
+        raise BadMessage('short_arrays',
+                         f'{field_name} has {len(values)} element(s), joint {joint!r} needs '
+                         f'index {index}')
+    return float(values[index])
+
+
+def joint_state_to_sample(msg: Any, motor_joint: str, load_joint: str) -> JointSample:
+    """Extract the motor and load joints of a JointState; raise BadMessage with a reason.
+
+    Reasons: ``missing_joint`` (a name is absent), ``short_arrays`` (velocity or effort shorter
+    than the name list). Position may be empty (then 0.0). NaN/Inf values are passed through:
+    the estimator counts them itself.
+    """
+    names = list(msg.name)
+    try:
+        motor_index = names.index(motor_joint)
+        load_index = names.index(load_joint)
+    except ValueError:
+        missing = [n for n in (motor_joint, load_joint) if n not in names]
+        raise BadMessage('missing_joint',
+                         f'joint(s) {missing} not in message names {names}') from None
+    position = msg.position
+    return JointSample(
+        stamp_ns=stamp_to_ns(msg.header.stamp),
+        motor_position=float(position[motor_index]) if len(position) > motor_index else 0.0,
+        motor_velocity=_pick(msg.velocity, motor_index, 'velocity', motor_joint),
+        motor_effort=_pick(msg.effort, motor_index, 'effort', motor_joint),
+        load_position=float(position[load_index]) if len(position) > load_index else 0.0,
+        load_velocity=_pick(msg.velocity, load_index, 'velocity', load_joint),
+        load_effort=_pick(msg.effort, load_index, 'effort', load_joint),
+    )
+
+
+# --- batch decoding of JointState CDR (offline analysis fast path) --------------------------
+
+@dataclass
+class JointBatch:
+    """Columns of many samples (numpy arrays of equal length) plus rejected-message counts."""
+
+    stamp_ns: np.ndarray
+    motor_position: np.ndarray
+    motor_velocity: np.ndarray
+    motor_effort: np.ndarray
+    load_position: np.ndarray
+    load_velocity: np.ndarray
+    load_effort: np.ndarray
+    rejected: dict[str, int] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.stamp_ns.shape[0])
+
+    @classmethod
+    def from_samples(cls, samples: Sequence[JointSample],
+                     rejected: dict[str, int] | None = None) -> JointBatch:
+        """Stack JointSample records into columns."""
+        columns = {name: np.array([getattr(s, name) for s in samples],
+                                  dtype=np.int64 if name == 'stamp_ns' else float)
+                   for name in _COLUMNS}
+        return cls(**columns, rejected=dict(rejected or {}))
+
+
+_COLUMNS = ('stamp_ns', 'motor_position', 'motor_velocity', 'motor_effort', 'load_position',
+            'load_velocity', 'load_effort')
+
+
+def _align(offset: int, size: int) -> int:
+    return (offset + size - 1) // size * size
+
+
+def _read_string(raw: bytes, offset: int) -> tuple[str, int]:
+    offset = _align(offset, 4)
+    (length,) = struct.unpack_from('<I', raw, offset)
+    start = offset + 4
+    return raw[start:start + max(length - 1, 0)].decode('utf-8', 'replace'), start + length
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Byte offsets of the fields of one JointState CDR layout (little-endian, after 4-byte
+    encapsulation header; CDR alignment counts from the end of that header)."""
+
+    size: int
+    names_start: int
+    names_end: int
+    array_offsets: tuple[int, int, int]   # start of position, velocity, effort float64 data
+    array_lengths: tuple[int, int, int]
+
+
+def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]]:
+    if len(raw) < 8 or raw[1] != 0x01:
+        raise BadMessage('bad_encoding', 'not little-endian CDR (encapsulation header)')
+    body = raw[4:]
+    offset = 8                                          # stamp: int32 sec, uint32 nanosec
+    _, offset = _read_string(body, offset)              # frame_id
+    names_start = _align(offset, 4)
+    (count,) = struct.unpack_from('<I', body, names_start)
+    offset = names_start + 4
+    names = []
+    for _ in range(count):
+        name, offset = _read_string(body, offset)
+        names.append(name)
+    names_end = offset
+    offsets, lengths = [], []
+    for _ in range(3):
+        offset = _align(offset, 4)
+        (length,) = struct.unpack_from('<I', body, offset)
+        offset += 4
+        if length:
+            offset = _align(offset, 8)
+        offsets.append(4 + offset)
+        lengths.append(length)
+        offset += 8 * length
+    if 4 + offset > len(raw):
+        raise BadMessage('truncated', f'JointState CDR needs {4 + offset} bytes, has {len(raw)}')
+    layout = _Layout(len(raw), 4 + names_start, 4 + names_end, tuple(offsets), tuple(lengths))
+    return layout, names
+
+
+def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str) -> JointBatch:
+    """Decode many JointState CDR payloads into columns, vectorised where layouts repeat.
+
+    Messages that share the byte size and the name list of the previous layout are decoded
+    with one numpy gather; others are parsed one by one. Unusable messages are left out and
+    counted in ``rejected`` by reason (``missing_joint``, ``short_arrays``, ``truncated``,
+    ``bad_encoding``).
+    """
+    n = len(raws)
+    out = {name: np.empty(n, dtype=np.int64 if name == 'stamp_ns' else float)
+           for name in _COLUMNS}
+    keep = np.zeros(n, dtype=bool)
+    rejected: dict[str, int] = {}
+    groups: dict[tuple[int, bytes], list[int]] = {}
+    layouts: dict[tuple[int, bytes], tuple[_Layout, int, int]] = {}
+    for i, raw in enumerate(raws):
+        size = len(raw)
+        matched = None
+        for key, (layout, _, _) in layouts.items():
+            if key[0] == size and raw[layout.names_start:layout.names_end] == key[1]:
+                matched = key
+                break
+        if matched is None:
+            try:
+                layout, names = _parse_layout(raw)
+                if motor_joint not in names or load_joint not in names:
+                    raise BadMessage('missing_joint', f'{motor_joint!r}/{load_joint!r} not in '
+                                                      f'{names}')
+                mi, li = names.index(motor_joint), names.index(load_joint)
+                for kind, length in zip(('velocity', 'effort'), layout.array_lengths[1:]):
+                    if length <= max(mi, li):
+                        raise BadMessage('short_arrays', f'{kind} has {length} element(s)')
+            except BadMessage as exc:
+                rejected[exc.reason] = rejected.get(exc.reason, 0) + 1
+                continue
+            except (struct.error, UnicodeDecodeError, IndexError):
+                rejected['truncated'] = rejected.get('truncated', 0) + 1
+                continue
+            matched = (size, raw[layout.names_start:layout.names_end])
+            layouts[matched] = (layout, mi, li)
+        groups.setdefault(matched, []).append(i)
+    for key, indices in groups.items():
+        layout, mi, li = layouts[key]
+        index = np.asarray(indices)
+        block = np.frombuffer(b''.join(raws[i] for i in indices), dtype=np.uint8)
+        block = block.reshape(len(indices), layout.size)
+        sec = block[:, 4:8].copy().view('<i4')[:, 0].astype(np.int64)
+        nanosec = block[:, 8:12].copy().view('<u4')[:, 0].astype(np.int64)
+        out['stamp_ns'][index] = sec * 1_000_000_000 + nanosec
+        for (kind, start, length) in zip(('position', 'velocity', 'effort'),
+                                         layout.array_offsets, layout.array_lengths):
+            for joint, j in (('motor', mi), ('load', li)):
+                column = out[f'{joint}_{kind}']
+                if j < length:
+                    pos = start + 8 * j
+                    column[index] = block[:, pos:pos + 8].copy().view('<f8')[:, 0]
+                else:
+                    column[index] = 0.0
+        keep[index] = True
+    return JointBatch(**{name: out[name][keep] for name in _COLUMNS}, rejected=rejected)
+
+
+# --- output records --------------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Vector3Out:
+    """A geometry_msgs/Vector3Stamped to publish on ``topic``."""
+
+    topic: str
+    stamp_ns: int
+    x: float
+    y: float
+    z: float
+    frame_id: str = ''
+
+
+@dataclass(frozen=True)
+class StatusOut:
+    """A diagnostic_msgs/DiagnosticStatus (level is one of OK/WARN/ERROR/STALE)."""
+
+    level: int
+    name: str
+    message: str
+    hardware_id: str
+    values: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class DiagnosticsOut:
+    """A diagnostic_msgs/DiagnosticArray on /diagnostics."""
+
+    stamp_ns: int
+    statuses: tuple[StatusOut, ...]
+    topic: str = DIAGNOSTICS
+
+
+def format_value(value: float | int | str) -> str:
+    """KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
+    value = float(value)
+    if math.isnan(value):
+        return 'nan'
+    if math.isinf(value):
+        return 'inf' if value > 0 else '-inf'
+    return repr(value)

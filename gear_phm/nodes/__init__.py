@@ -1,0 +1,1 @@
+"""Thin rclpy adapters around the pure logic: publisher, estimator, diagnostics."""

@@ -1,0 +1,151 @@
+"""Shared rclpy helpers: QoS, parameter declaration, /diagnostics, output publishing, main()."""
+from __future__ import annotations
+
+import sys
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+from gear_phm.interfaces import (DiagnosticsOut, StatusOut, Vector3Out, format_value,
+                                 ns_to_sec_nanosec)
+
+#: Sensor inputs: best effort, keep last 5 (rclpy's qos_profile_sensor_data).
+SENSOR_QOS = qos_profile_sensor_data
+#: Outputs: reliable, keep last 10.
+OUTPUT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+
+class ConfigError(Exception):
+    """Invalid start-up configuration: printed on one line by :func:`run_node`, exit 2."""
+
+
+def declare(node: Node, name: str, default: Any, description: str, *,
+            low: float | int | None = None, high: float | int | None = None,
+            constraints: str = '', read_only: bool = False) -> Any:
+    """Declare a parameter with a ParameterDescriptor (description, range) and return its value.
+
+    ``low``/``high`` set a FloatingPointRange for floats or an IntegerRange for ints (step 0).
+    A value outside the range is refused by rclpy with its own reason.
+    """
+    descriptor = ParameterDescriptor(description=description, read_only=read_only,
+                                     additional_constraints=constraints)
+    if low is not None or high is not None:
+        if isinstance(default, bool) or not isinstance(default, (int, float)):
+            raise TypeError(f'range given for non-numeric parameter {name}')
+        if isinstance(default, float):
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(-sys.float_info.max if low is None else low),
+                to_value=float(sys.float_info.max if high is None else high), step=0.0)]
+        else:
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(-2**62 if low is None else low),
+                to_value=int(2**62 if high is None else high), step=0)]
+    return node.declare_parameter(name, default, descriptor).value
+
+
+def stamp(stamp_ns: int) -> Time:
+    """builtin_interfaces/Time from integer nanoseconds."""
+    sec, nanosec = ns_to_sec_nanosec(stamp_ns)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def to_rclpy(output: Vector3Out | DiagnosticsOut) -> Vector3Stamped | DiagnosticArray:
+    """rclpy message of an output record (the offline twin is gear_phm.bagio.to_rosbags)."""
+    if isinstance(output, Vector3Out):
+        msg = Vector3Stamped()
+        msg.header.stamp = stamp(output.stamp_ns)
+        msg.header.frame_id = output.frame_id
+        msg.vector.x, msg.vector.y, msg.vector.z = (float(output.x), float(output.y),
+                                                    float(output.z))
+        return msg
+    msg = DiagnosticArray()
+    msg.header.stamp = stamp(output.stamp_ns)
+    msg.status = [status_msg(s) for s in output.statuses]
+    return msg
+
+
+def status_msg(status: StatusOut) -> DiagnosticStatus:
+    """diagnostic_msgs/DiagnosticStatus; the level goes in as a byte, as diagnostic_updater."""
+    return DiagnosticStatus(level=bytes([int(status.level)]), name=status.name,
+                            message=status.message, hardware_id=status.hardware_id,
+                            values=[KeyValue(key=k, value=v) for k, v in status.values])
+
+
+class OutputPublisher:
+    """Publishes output records, creating one reliable publisher per topic on first use."""
+
+    def __init__(self, node: Node, topics: Iterable[tuple[str, type]] = ()) -> None:
+        self._node = node
+        self._publishers: dict[str, Any] = {}
+        for topic, msg_type in topics:
+            self._publishers[topic] = node.create_publisher(msg_type, topic, OUTPUT_QOS)
+
+    def publish(self, outputs: Sequence[Vector3Out | DiagnosticsOut]) -> None:
+        for output in outputs:
+            publisher = self._publishers.get(output.topic)
+            msg = to_rclpy(output)
+            if publisher is None:
+                publisher = self._node.create_publisher(type(msg), output.topic, OUTPUT_QOS)
+                self._publishers[output.topic] = publisher
+            publisher.publish(msg)
+
+
+class DropCounter:
+    """Counts used and dropped messages by reason, for a node's own /diagnostics status."""
+
+    def __init__(self) -> None:
+        self.received = 0
+        self.dropped: Counter[str] = Counter()
+
+    def drop(self, reason: str) -> None:
+        self.dropped[reason] += 1
+
+    @property
+    def dropped_total(self) -> int:
+        return sum(self.dropped.values())
+
+    def status(self, name: str, hardware_id: str, level: int, message: str,
+               extra: Sequence[tuple[str, Any]] = ()) -> StatusOut:
+        """StatusOut with received/dropped counts, one ``dropped_<reason>`` entry per reason."""
+        values = [('messages_received', format_value(self.received)),
+                  ('messages_dropped', format_value(self.dropped_total))]
+        values += [(f'dropped_{reason}', format_value(count))
+                   for reason, count in sorted(self.dropped.items())]
+        values += [(key, format_value(value)) for key, value in extra]
+        return StatusOut(level=level, name=name, message=message, hardware_id=hardware_id,
+                         values=tuple(values))
+
+
+def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
+             spin: Callable[[Node], None] | None = None) -> int:
+    """Jazzy main(): init, build, spin, clean shutdown. ConfigError/ValueError at start -> exit 2.
+
+    ``spin`` replaces ``rclpy.spin(node)`` (e.g. a node that finishes by itself).
+    """
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = factory()
+        if spin is None:
+            rclpy.spin(node)
+        else:
+            spin(node)
+        return 0
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    except ConfigError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
