@@ -1,0 +1,123 @@
+"""Kinematically driven transmission plant: motor shaft, massless gearbox, load with air load.
+
+A servo makes the motor speed follow the duty cycle exactly, ``w_m = R w_l``. The load is a
+control surface of inertia ``J_l`` [kg m^2] with a flap-like air-load hinge moment that always
+pushes it back towards retracted (position 0), growing with deflection::
+
+    T_air(theta) = -(T0 + k theta)                                      [N m]
+
+The gearbox output shaft must deliver (``effort_load``, positive along the load position)::
+
+    tau_out = J_l dw_l/dt + T0 + k theta_l                              [N m]
+
+Gearbox, massless, efficiencies eta_D (opposing) and eta_I (aiding) [-]:
+
+- ``tau_out w_l > 0`` (power to the load, opposing):  tau_in = tau_out / (R eta_D)
+- ``tau_out w_l < 0`` (load drives, aiding):          tau_in = eta_I tau_out / R
+  (eta_I < 0 when self-locking: the motor must push the load back)
+- ``w_l = 0`` (holding):                              tau_in = max(eta_I, 0) tau_out / R
+
+Motor torque (``effort_motor``, electromagnetic, includes the rotor) ``tau_in + J_m dw_m/dt``.
+So ``P_m = effort_motor w_m`` and ``P_l = -effort_load w_l`` as in docs/architecture.md.
+
+Efficiency source (``efficiency_model``):
+
+- ``lever``: the friction value is the lever parameter u; eta_D = eta_opposing(u, R),
+  eta_I = eta_aiding(u, R).
+- ``spur``: the friction value is the tooth-tooth Coulomb coefficient f of one spur stage
+  (pinion ``pinion_teeth``, wheel ``R * pinion_teeth``, other geometry fixed); the true u is
+  the lever u with the same eta_D, ``u_from_eta_opposing(eta_D, R)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.simulation._checks import non_negative, one_of, positive, real
+
+EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
+
+#: Power-flow phase codes (docs/architecture.md).
+PHASE_IDLE, PHASE_OPPOSING, PHASE_AIDING, PHASE_SELF_LOCKING = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Plant parameters (SI). ratio R [-] = load torque / motor torque, ideal.
+
+    motor_inertia J_m and load_inertia J_l [kg m^2]; air_load_preload T0 [N m] and
+    air_load_stiffness k [N m/rad]; spur geometry: pinion_teeth [-], module [m],
+    pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur').
+    """
+
+    ratio: float = 3.0
+    motor_inertia: float = 2.0e-3
+    load_inertia: float = 0.5
+    air_load_preload: float = 20.0
+    air_load_stiffness: float = 60.0
+    efficiency_model: str = 'lever'
+    pinion_teeth: float = 20.0
+    module: float = 1.0e-3
+    pressure_angle: float = float(np.deg2rad(20.0))
+    bearing_radius_1: float = 0.0
+    bearing_radius_2: float = 0.0
+
+    def __post_init__(self) -> None:
+        positive('ratio', self.ratio)
+        non_negative('motor_inertia', self.motor_inertia)
+        non_negative('load_inertia', self.load_inertia)
+        non_negative('air_load_preload', self.air_load_preload)
+        real('air_load_stiffness', self.air_load_stiffness)
+        one_of('efficiency_model', self.efficiency_model, EFFICIENCY_MODELS)
+        if self.efficiency_model == 'spur':
+            self.spur_gear(0.0)  # geometry errors surface now, naming the field
+
+    def spur_gear(self, friction: ArrayLike) -> SpurGear:
+        """The spur stage (pinion ``pinion_teeth``, wheel ``ratio * pinion_teeth``)."""
+        pinion = positive('pinion_teeth', self.pinion_teeth)
+        return SpurGear(z1=pinion, z2=self.ratio * pinion, module=self.module,
+                        pressure_angle=self.pressure_angle, friction=friction,
+                        bearing_radius_1=self.bearing_radius_1,
+                        bearing_radius_2=self.bearing_radius_2)
+
+    def efficiencies(self, friction: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(true lever u, eta_D, eta_I) [-] for the plant friction value(s) [-]."""
+        friction = np.asarray(friction, dtype=float)
+        if self.efficiency_model == 'lever':
+            u = friction
+            eta_d = np.asarray(eta_opposing(u, self.ratio))
+            eta_i = np.asarray(eta_aiding(u, self.ratio))
+        else:
+            eta_d, eta_i = (np.asarray(e) for e in self.spur_gear(friction).efficiencies())
+            u = np.asarray(u_from_eta_opposing(eta_d, self.ratio))
+        return u, eta_d, eta_i
+
+    def output_torque(self, position: ArrayLike, acceleration: ArrayLike) -> np.ndarray:
+        """Torque the gearbox applies to the load, tau_out [N m], at load position [rad]
+        and load acceleration [rad/s^2]."""
+        position = np.asarray(position, dtype=float)
+        return (self.load_inertia * np.asarray(acceleration, dtype=float)
+                + self.air_load_preload + self.air_load_stiffness * position)
+
+    def input_torque(self, tau_out: ArrayLike, velocity_load: ArrayLike, eta_d: ArrayLike,
+                     eta_i: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """(gearbox input torque tau_in [N m] on the motor side, power-flow phase code)."""
+        tau_out = np.asarray(tau_out, dtype=float)
+        w = np.asarray(velocity_load, dtype=float)
+        eta_d = np.broadcast_to(np.asarray(eta_d, dtype=float), tau_out.shape)
+        eta_i = np.broadcast_to(np.asarray(eta_i, dtype=float), tau_out.shape)
+        load_power = tau_out * w
+        opposing = load_power > 0.0
+        aiding = load_power < 0.0
+        holding = np.maximum(eta_i, 0.0) * tau_out / self.ratio
+        safe_eta_d = np.where(opposing, eta_d, 1.0)
+        tau_in = np.where(opposing, tau_out / (self.ratio * safe_eta_d),
+                          np.where(aiding, eta_i * tau_out / self.ratio, holding))
+        phase = np.full(tau_out.shape, PHASE_IDLE, dtype=np.int8)
+        phase[opposing] = PHASE_OPPOSING
+        phase[aiding & (eta_i >= 0.0)] = PHASE_AIDING
+        phase[aiding & (eta_i < 0.0)] = PHASE_SELF_LOCKING
+        return tau_in, phase

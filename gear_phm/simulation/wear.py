@@ -1,0 +1,80 @@
+"""Wear trajectory of the plant's friction value (lever u or spur tooth coefficient f) [-].
+
+``kind``:
+
+- ``constant``:    value(t) = initial
+- ``linear``:      value(t) = initial + rate t                 (rate [1/s], absolute)
+- ``exponential``: value(t) = initial exp(rate t)              (rate [1/s], relative growth)
+- ``step``:        value(t) = initial + step for t >= t_fault, initial before (sudden fault)
+
+Time t [s] is simulation time (``t = 0`` at the start of a run). Wear never decreases.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from gear_phm.simulation._checks import non_negative, one_of
+
+WEAR_KINDS: tuple[str, ...] = ('constant', 'linear', 'exponential', 'step')
+
+
+@dataclass(frozen=True)
+class Wear:
+    """Friction value as a function of time; see the module docstring. Values [-], times [s]."""
+
+    kind: str = 'constant'
+    initial: float = 0.05
+    rate: float = 0.0
+    t_fault: float = 0.0
+    step: float = 0.0
+
+    def __post_init__(self) -> None:
+        one_of('kind', self.kind, WEAR_KINDS)
+        initial = non_negative('initial', self.initial)
+        non_negative('rate', self.rate)
+        non_negative('t_fault', self.t_fault)
+        non_negative('step', self.step)
+        if self.kind == 'exponential' and initial == 0.0 and self.rate > 0.0:
+            raise ValueError('initial must be > 0 for exponential wear, got 0.0')
+
+    @classmethod
+    def reaching(cls, kind: str, initial: float, final: float, duration: float) -> Wear:
+        """Linear or exponential wear going from ``initial`` to ``final`` in ``duration`` [s]."""
+        one_of('kind', kind, ('linear', 'exponential'))
+        initial = non_negative('initial', initial)
+        final = non_negative('final', final)
+        if final < initial:
+            raise ValueError(f'final must be >= initial = {initial!r}, got {final!r}')
+        if duration <= 0.0:
+            raise ValueError(f'duration must be > 0, got {duration!r}')
+        if kind == 'linear':
+            return cls('linear', initial, (final - initial) / duration)
+        if initial <= 0.0:
+            raise ValueError('initial must be > 0 for exponential wear, got 0.0')
+        return cls('exponential', initial, float(np.log(final / initial) / duration))
+
+    def value(self, t: ArrayLike) -> np.ndarray:
+        """Friction value [-] at times t [s] (same shape as t)."""
+        t = np.asarray(t, dtype=float)
+        if self.kind == 'linear':
+            return self.initial + self.rate * t
+        if self.kind == 'exponential':
+            return self.initial * np.exp(self.rate * t)
+        if self.kind == 'step':
+            return np.where(t >= self.t_fault, self.initial + self.step, self.initial)
+        return np.full_like(t, self.initial)
+
+    def time_to_reach(self, value: float) -> float:
+        """First time [s] at which the friction value reaches ``value`` (inf if never)."""
+        if value <= self.initial:
+            return 0.0
+        if self.kind == 'linear' and self.rate > 0.0:
+            return float((value - self.initial) / self.rate)
+        if self.kind == 'exponential' and self.rate > 0.0:
+            return float(np.log(value / self.initial) / self.rate)
+        if self.kind == 'step' and self.initial + self.step >= value:
+            return float(self.t_fault)
+        return float('inf')
