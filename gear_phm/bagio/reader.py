@@ -2,12 +2,27 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+from dataclasses import fields
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
+
+
+_JAZZY = get_typestore(Stores.ROS2_JAZZY)
+
+
+def _to_jazzy(value: Any) -> Any:
+    """Copy a ROS1 message into the Jazzy type of the same name (drops e.g. Header.seq)."""
+    msgtype = getattr(value, '__msgtype__', None)
+    if msgtype is None:
+        if isinstance(value, list):
+            return [_to_jazzy(item) for item in value]
+        return value
+    cls = _JAZZY.types[msgtype]
+    return cls(**{f.name: _to_jazzy(getattr(value, f.name)) for f in fields(cls)})
 
 
 class BagError(Exception):
@@ -51,8 +66,9 @@ class BagReader:
     def __enter__(self) -> BagReader:
         paths = _bag_paths(self.path)
         try:
-            self._reader = AnyReader(paths,
-                                     default_typestore=get_typestore(Stores.ROS2_JAZZY))
+            ros2 = paths[0].suffix != '.bag'   # ROS1 bags carry their own definitions
+            self._reader = AnyReader(
+                paths, default_typestore=get_typestore(Stores.ROS2_JAZZY) if ros2 else None)
             self._reader.open()
         except Exception as exc:  # rosbags raises many types for corrupt input
             raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}') from exc
@@ -136,8 +152,9 @@ class BagReader:
             except Exception as exc:
                 raise BagError(f'bag {self.path} is truncated or corrupt: '
                                f'{_one_line(exc)}') from exc
-            if not self.reader.is2:   # ROS1 bag: convert the payload to CDR
-                raw = self.reader.typestore.ros1_to_cdr(raw, connection.msgtype)
+            if not self.reader.is2:   # ROS1 bag: re-encode as ROS 2 Jazzy CDR
+                msg = _to_jazzy(self.reader.deserialize(raw, connection.msgtype))
+                raw = _JAZZY.serialize_cdr(msg, connection.msgtype)
             yield connection.topic, int(t_ns), bytes(raw)
 
     def messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,

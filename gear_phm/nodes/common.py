@@ -127,7 +127,7 @@ class DropCounter:
 
 def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
              spin: Callable[[Node], None] | None = None) -> int:
-    """Jazzy main(): init, build, spin, clean shutdown. ConfigError/ValueError at start -> exit 2.
+    """Jazzy main(): init, build, spin, clean shutdown. ConfigError at start -> one line, exit 2.
 
     ``spin`` replaces ``rclpy.spin(node)`` (e.g. a node that finishes by itself).
     """

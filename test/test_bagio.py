@@ -1,0 +1,188 @@
+"""bagio: rosbag2 MCAP writing read back by rosbags and by mcap's own reader; errors; recovery."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag1 import Writer as Ros1Writer
+from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
+from rosbags.typesys import Stores, get_typestore
+
+from gear_phm.bagio import TYPESTORE, BagError, BagReader, Rosbag2McapWriter, recover
+from gear_phm.interfaces import (DiagnosticsOut, StatusOut, Vector3Out, decode_joint_states,
+                                 joint_state_to_sample)
+
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+
+
+def joint_state(i: int, names: tuple[str, ...] = ('motor', 'load')):
+    types = TYPESTORE.types
+    header = types['std_msgs/msg/Header'](
+        stamp=types['builtin_interfaces/msg/Time'](sec=10 + i // 1000, nanosec=(i % 1000) * 10**6),
+        frame_id='')
+    n = len(names)
+    return types[JOINT_STATE](header=header, name=list(names),
+                              position=np.arange(n, dtype=float) + i,
+                              velocity=np.full(n, 0.5 * i), effort=np.linspace(-1.0, 1.0, n))
+
+
+def write_bag(directory: Path, count: int, **kwargs) -> None:
+    with Rosbag2McapWriter(directory, **kwargs) as writer:
+        writer.add_topic('joint_states', JOINT_STATE)
+        for i in range(count):
+            writer.write('joint_states', 10**10 + i * 10**6, joint_state(i))
+        writer.write_output(Vector3Out('gear_phm/friction', 10**10, 0.125, -1.5, math.inf))
+        writer.write_output(DiagnosticsOut(10**10, (StatusOut(
+            1, 'gear_phm: flap', 'warn', 'bench-1', (('u', '0.125'), ('rul_s', 'inf'))),)))
+
+
+def test_written_bag_reads_back_with_rosbags_and_mcap(tmp_path: Path) -> None:
+    bag = tmp_path / 'out'
+    write_bag(bag, 500)
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        assert {c.topic for c in reader.connections} == {
+            '/joint_states', '/gear_phm/friction', '/diagnostics'}
+        decoded = [(c.topic, t, reader.deserialize(raw, c.msgtype))
+                   for c, t, raw in reader.messages()]
+    assert len(decoded) == 502
+    states = [m for topic, _, m in decoded if topic == '/joint_states']
+    assert [float(m.velocity[0]) for m in states[:3]] == [0.0, 0.5, 1.0]
+    vector = next(m for topic, _, m in decoded if topic == '/gear_phm/friction').vector
+    assert (vector.x, vector.y, vector.z) == (0.125, -1.5, math.inf)
+    status = next(m for topic, _, m in decoded if topic == '/diagnostics').status[0]
+    assert (status.level, status.name, status.hardware_id) == (1, 'gear_phm: flap', 'bench-1')
+    assert [(kv.key, kv.value) for kv in status.values] == [('u', '0.125'), ('rul_s', 'inf')]
+
+    mcap_file = next(bag.glob('*.mcap'))
+    with open(mcap_file, 'rb') as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        assert reader.get_header().profile == 'ros2'
+        assert summary.statistics.message_count == 502
+        schemas = {s.name: s for s in summary.schemas.values()}
+        assert schemas[JOINT_STATE].encoding == 'ros2msg'
+        assert b'MSG: std_msgs/Header' in schemas[JOINT_STATE].data
+        channels = list(summary.channels.values())
+        assert {c.message_encoding for c in channels} == {'cdr'}
+        assert all(c.metadata['topic_type_hash'].startswith('RIHS01_') for c in channels)
+
+
+def test_writer_is_deterministic(tmp_path: Path) -> None:
+    write_bag(tmp_path / 'a', 300)
+    write_bag(tmp_path / 'b', 300)
+    files_a = sorted(p.name for p in (tmp_path / 'a').iterdir())
+    assert files_a == ['a_0.mcap', 'metadata.yaml']
+    assert (tmp_path / 'a' / 'a_0.mcap').read_bytes() == (tmp_path / 'b' / 'b_0.mcap').read_bytes()
+
+
+def test_reader_accepts_sqlite3_and_ros1(tmp_path: Path) -> None:
+    sqlite_bag = tmp_path / 'sqlite'
+    with Ros2Writer(sqlite_bag, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connection = writer.add_connection('/joint_states', JOINT_STATE, typestore=TYPESTORE)
+        for i in range(20):
+            writer.write(connection, 10**9 + i, TYPESTORE.serialize_cdr(joint_state(i), JOINT_STATE))
+    ros1_store = get_typestore(Stores.ROS1_NOETIC)
+    ros1_bag = tmp_path / 'old.bag'
+    with Ros1Writer(ros1_bag) as writer:
+        connection = writer.add_connection('/joint_states', JOINT_STATE, typestore=ros1_store)
+        for i in range(20):
+            msg = ros1_store.types[JOINT_STATE](
+                header=ros1_store.types['std_msgs/msg/Header'](
+                    seq=i, stamp=ros1_store.types['builtin_interfaces/msg/Time'](
+                        sec=10, nanosec=i), frame_id=''),
+                name=['motor', 'load'], position=np.zeros(2), velocity=np.array([1.0, float(i)]),
+                effort=np.array([2.0, 3.0]))
+            writer.write(connection, 10**9 + i, ros1_store.serialize_ros1(msg, JOINT_STATE))
+    for path in (sqlite_bag, ros1_bag):
+        with BagReader(path) as bag:
+            topic = bag.require_topic('joint_states', JOINT_STATE)
+            raws = [raw for _, _, raw in bag.raw_messages([topic])]
+            samples = [joint_state_to_sample(m, 'motor', 'load')
+                       for _, _, m in bag.messages([topic])]
+        batch = decode_joint_states(raws, 'motor', 'load')
+        assert len(batch) == 20
+        np.testing.assert_array_equal(batch.load_velocity, [s.load_velocity for s in samples])
+        np.testing.assert_array_equal(batch.stamp_ns, [s.stamp_ns for s in samples])
+
+
+@pytest.mark.parametrize('make, message', [
+    (lambda p: p / 'missing', 'bag not found'),
+    (lambda p: (p / 'empty').mkdir() or p / 'empty', 'without metadata.yaml'),
+    (lambda p: (p / 'x.txt').write_text('hi') and p / 'x.txt', 'not a bag'),
+])
+def test_reader_errors_name_the_problem(tmp_path: Path, make, message: str) -> None:
+    path = make(tmp_path)
+    with pytest.raises(BagError, match=message) as info:
+        with BagReader(path):
+            pass
+    assert str(path) in str(info.value) and '\n' not in str(info.value)
+
+
+def test_reader_topic_errors(tmp_path: Path) -> None:
+    write_bag(tmp_path / 'bag', 10)
+    with BagReader(tmp_path / 'bag') as bag:
+        with pytest.raises(BagError, match="no topic 'wheel_states'"):
+            bag.require_topic('wheel_states', JOINT_STATE)
+        with pytest.raises(BagError, match='has type geometry_msgs/msg/Vector3Stamped'):
+            bag.require_topic('gear_phm/friction', JOINT_STATE)
+        assert bag.require_topic('joint_states', JOINT_STATE) == '/joint_states'
+
+
+def test_truncated_bag_is_an_error_then_recoverable(tmp_path: Path) -> None:
+    bag = tmp_path / 'bag'
+    write_bag(bag, 2000, chunk_size=4096, compression=None)
+    mcap_file = next(bag.glob('*.mcap'))
+    data = mcap_file.read_bytes()
+    mcap_file.write_bytes(data[:len(data) * 3 // 4])
+    with pytest.raises(BagError, match='cannot read bag'):
+        with BagReader(bag) as reader:
+            list(reader.raw_messages())
+    recovered = recover(bag)
+    assert 1200 < recovered < 2000
+    with BagReader(bag) as reader:
+        stamps = [t for _, t, _ in reader.raw_messages(['joint_states'])]
+    assert stamps == [10**10 + i * 10**6 for i in range(len(stamps))]
+
+
+def test_flush_period_makes_data_durable_without_close(tmp_path: Path) -> None:
+    """A writer process killed with SIGKILL loses at most the data since the last flush."""
+    bag = tmp_path / 'live'
+    script = f'''
+import os, signal, time
+from gear_phm.bagio import Rosbag2McapWriter
+from gear_phm.interfaces import Vector3Out
+w = Rosbag2McapWriter({str(bag)!r}, flush_period_s=0.2)
+for i in range(300):
+    w.write_output(Vector3Out('gear_phm/friction', 10**9 + i * 10**7, float(i), 0.0, 0.0))
+    time.sleep(0.005)
+w.flush()
+os.kill(os.getpid(), signal.SIGKILL)
+'''
+    result = subprocess.run([sys.executable, '-c', script], timeout=60)
+    assert result.returncode == -9
+    assert not (bag / 'metadata.yaml').exists()
+    assert recover(bag) == 300
+    with BagReader(bag) as reader:
+        values = [m.vector.x for _, _, m in reader.messages()]
+    assert values == [float(i) for i in range(300)]
+
+
+def test_recover_cli(tmp_path: Path) -> None:
+    bag = tmp_path / 'bag'
+    write_bag(bag, 100)
+    (bag / 'metadata.yaml').unlink()
+    exe = Path(sys.executable).with_name('gear-phm')
+    ok = subprocess.run([str(exe), 'recover', str(bag)], capture_output=True, text=True,
+                        timeout=60)
+    assert ok.returncode == 0, ok.stderr
+    assert 'recovered 102 messages on 3 topics' in ok.stdout
+    bad = subprocess.run([str(exe), 'recover', str(tmp_path / 'nope')], capture_output=True,
+                         text=True, timeout=60)
+    assert bad.returncode == 2
+    assert bad.stderr.strip() == f'gear-phm recover: error: not a directory: {tmp_path / "nope"}'
