@@ -275,3 +275,26 @@ def test_undercut_limit_is_two_over_sine_squared(theta_deg: float) -> None:
     if below < limit:
         with pytest.raises(ValueError, match=rf'^z1 must be >= .* got {below!r}$'):
             SpurGear(below, 1000.0, pressure_angle=theta)
+
+
+# ---------------------------------------------------------------- bearing placement
+
+@SETTINGS
+@given(geometry=geometries(max_bearing_fraction=0.9))
+def test_motor_bearing_alone_follows_the_infinite_ratio_lever(geometry: dict) -> None:
+    """With only the motor-wheel bearing lossy, eta_I = 2 - 1/eta_D whatever z2/z1 is: the
+    limit R -> inf of eq 14. This is why the simplified model, which ties the eta_D-eta_I
+    relation to R alone, misses gears whose losses sit in the bearings (see
+    docs/paper-reproduction.md)."""
+    geometry.update(friction=0.0, bearing_radius_2=0.0)
+    eta_d, eta_i = SpurGear(**geometry).efficiencies()
+    assert eta_i == pytest.approx(2.0 - 1.0 / eta_d, rel=1e-12, abs=1e-12)
+
+
+@SETTINGS
+@given(geometry=geometries(max_bearing_fraction=0.9))
+def test_load_bearing_alone_follows_the_zero_ratio_lever(geometry: dict) -> None:
+    """With only the load-wheel bearing lossy, eta_D = 2 - 1/eta_I: eq 14 at R -> 0."""
+    geometry.update(friction=0.0, bearing_radius_1=0.0)
+    eta_d, eta_i = SpurGear(**geometry).efficiencies()
+    assert eta_d == pytest.approx(2.0 - 1.0 / eta_i, rel=1e-12, abs=1e-12)
