@@ -1,0 +1,138 @@
+"""Saxena et al. prognostic metrics (pure numpy). Definitions with formulas: docs/prognostics.md.
+
+Inputs everywhere: prediction times ``t`` [s] (increasing), predicted RUL ``rul`` [s] at those
+times (median; inf allowed), true end of life ``t_eol`` [s], and the time ``t_start`` [s] at
+which prognostics starts (default: the first prediction time). True RUL r*(t) = t_eol - t.
+Lambda times: t_lambda = t_start + lambda (t_eol - t_start). The prediction used at t_lambda
+is the latest one made at or before t_lambda.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+LAMBDAS = (0.25, 0.5, 0.75)
+ALPHA = 0.2
+
+
+@dataclass(frozen=True)
+class AlphaLambda:
+    """Alpha-lambda check at one lambda: the prediction within (1 +/- alpha) r*(t_lambda)."""
+
+    lam: float
+    t_lambda: float
+    true_rul: float
+    predicted_rul: float
+    lower: float
+    upper: float
+    passed: bool
+    relative_accuracy: float
+
+
+def _inputs(t: ArrayLike, rul: ArrayLike, t_eol: float,
+            t_start: float | None) -> tuple[np.ndarray, np.ndarray, float, float]:
+    times = np.asarray(t, dtype=float).ravel()
+    values = np.asarray(rul, dtype=float).ravel()
+    if times.shape != values.shape:
+        raise ValueError(f't and rul must have the same length, got {times.size} and '
+                         f'{values.size}')
+    if times.size == 0:
+        raise ValueError('t must hold at least one prediction, got none')
+    if not np.isfinite(times).all() or np.any(np.diff(times) < 0.0):
+        raise ValueError('t must be finite and non-decreasing')
+    if np.isnan(values).any():
+        raise ValueError(f'rul must not be NaN (index {int(np.argmax(np.isnan(values)))})')
+    if not math.isfinite(t_eol):
+        raise ValueError(f't_eol must be finite, got {t_eol!r}')
+    start = float(times[0]) if t_start is None else float(t_start)
+    if not start < t_eol:
+        raise ValueError(f't_start must be < t_eol = {t_eol!r}, got {start!r}')
+    return times, values, float(t_eol), start
+
+
+def relative_accuracy(true_rul: float, predicted_rul: float) -> float:
+    """RA = 1 - |r* - r| / r* (1 is perfect; -inf for an infinite prediction)."""
+    if true_rul <= 0.0:
+        return math.nan
+    if math.isinf(predicted_rul):
+        return -math.inf
+    return 1.0 - abs(true_rul - predicted_rul) / true_rul
+
+
+def alpha_lambda(t: ArrayLike, rul: ArrayLike, t_eol: float, lam: float, alpha: float = ALPHA,
+                 t_start: float | None = None) -> AlphaLambda:
+    """Alpha-lambda accuracy at ``lam``: (1 - alpha) r* <= r(t_lambda) <= (1 + alpha) r*."""
+    if not 0.0 <= lam < 1.0:
+        raise ValueError(f'lam must be in [0, 1), got {lam!r}')
+    if not alpha > 0.0:
+        raise ValueError(f'alpha must be > 0, got {alpha!r}')
+    times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
+    t_lambda = start + lam * (t_eol - start)
+    true = t_eol - t_lambda
+    lower, upper = (1.0 - alpha) * true, (1.0 + alpha) * true
+    index = int(np.searchsorted(times, t_lambda, side='right')) - 1
+    if index < 0:
+        return AlphaLambda(lam, t_lambda, true, math.nan, lower, upper, False, math.nan)
+    predicted = float(values[index])
+    return AlphaLambda(lam, t_lambda, true, predicted, lower, upper,
+                       bool(lower <= predicted <= upper), relative_accuracy(true, predicted))
+
+
+def prognostic_horizon(t: ArrayLike, rul: ArrayLike, t_eol: float, alpha: float = ALPHA,
+                       t_start: float | None = None) -> float:
+    """PH [s] = t_eol - t_i, t_i the first prediction time from which every prediction up to
+    t_eol stays within r*(t) +/- alpha (t_eol - t_start). 0 if the last one is outside."""
+    times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
+    keep = (times >= start) & (times < t_eol)
+    times, values = times[keep], values[keep]
+    if times.size == 0:
+        return 0.0
+    half_width = alpha * (t_eol - start)
+    inside = np.abs(values - (t_eol - times)) <= half_width
+    if not inside[-1]:
+        return 0.0
+    outside = np.flatnonzero(~inside)
+    first = 0 if outside.size == 0 else int(outside[-1]) + 1
+    return float(t_eol - times[first])
+
+
+def cumulative_relative_accuracy(t: ArrayLike, rul: ArrayLike, t_eol: float,
+                                 t_start: float | None = None) -> float:
+    """Mean RA over the predictions made in [t_start, t_eol) (NaN if none)."""
+    times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
+    keep = (times >= start) & (times < t_eol)
+    scores = [relative_accuracy(t_eol - ti, ri) for ti, ri in zip(times[keep], values[keep])]
+    return float(np.mean(scores)) if scores else math.nan
+
+
+def evaluate(t: ArrayLike, rul: ArrayLike, t_eol: float, alpha: float = ALPHA,
+             lambdas: Sequence[float] = LAMBDAS, t_start: float | None = None) -> dict:
+    """All metrics as a JSON-ready dict (non-finite numbers as the strings 'inf'/'-inf'/'nan')."""
+    times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
+    checks = [alpha_lambda(times, values, t_eol, lam, alpha, start) for lam in lambdas]
+    result = {
+        'alpha': alpha,
+        't_start_s': start,
+        't_eol_s': t_eol,
+        'predictions': int(times.size),
+        'alpha_lambda': [asdict(check) for check in checks],
+        'prognostic_horizon_s': prognostic_horizon(times, values, t_eol, alpha, start),
+        'relative_accuracy': {str(check.lam): check.relative_accuracy for check in checks},
+        'cumulative_relative_accuracy': cumulative_relative_accuracy(times, values, t_eol,
+                                                                     start),
+    }
+    return _json_ready(result)
+
+
+def _json_ready(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return 'nan' if math.isnan(value) else ('inf' if value > 0 else '-inf')
+    return value

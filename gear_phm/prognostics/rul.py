@@ -1,0 +1,207 @@
+"""Remaining useful life from the friction filter's posterior on x = [u, du/dt].
+
+Trend models (time to go tau [s] from the current posterior u, r = du/dt to u_eol):
+
+- linear:       u(t + tau) = u + r tau                    ->  tau = (u_eol - u) / r
+- exponential:  du/dt grows like r exp(k tau), i.e. u(t + tau) = u + (r / k)(exp(k tau) - 1)
+                                                          ->  tau = ln(1 + k (u_eol - u) / r) / k
+
+The exponential form is ``u = c + a exp(k t)`` for any offset c, so k = u'' / u' does not need
+to know the offset (the spur plant's u has one from the bearings).
+
+Choice (``trend='auto'``): :class:`TrendDetector` keeps a history of (t, u, P_uu) posteriors
+over the last ``trend_window`` seconds and fits u(s) = a + b s + c s^2 (s = t - t_now) by
+least squares weighted with 1/P_uu. The trend is exponential when both
+
+1. the curvature is significant: c > accel_z * se(c), se from the weighted residual scatter, and
+2. the rate grows materially: 2 c * span / b > min_growth (relative growth of du/dt across the
+   window span) with b > 0,
+
+and linear otherwise. Then k = 2 c / b with standard error from se(c) (first order).
+
+Uncertainty: Monte Carlo. (u, r) is drawn from N(x, P) and k from N(k, se_k) (clipped at 0),
+tau is computed per draw (inf where the draw never reaches u_eol, 0 where it already has), and
+the 5 %, 50 % and 95 % quantiles are taken (inverted-CDF, so inf quantiles stay inf). Monte
+Carlo rather than the analytic first-passage formula because the exponential model and draws
+with r <= 0 make tau non-Gaussian and possibly infinite. The standard-normal draws are fixed
+once from ``seed`` (common random numbers), so the same posterior always gives the same RUL
+and successive RULs do not jitter from resampling.
+
+No degradation: when r <= detect_z * sigma_r the rate is not significantly > 0 and every RUL
+quantile is inf. Already worn (u >= u_eol): every quantile is 0.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+LINEAR, EXPONENTIAL, NONE = 'linear', 'exponential', 'none'
+
+
+@dataclass(frozen=True)
+class Trend:
+    """Fitted trend: ``model`` (linear/exponential), k [1/s] and its standard error [1/s]."""
+
+    model: str = LINEAR
+    k: float = 0.0
+    k_sigma: float = 0.0
+    curvature_z: float = 0.0
+    growth: float = 0.0
+
+
+@dataclass(frozen=True)
+class RulEstimate:
+    """RUL quantiles [s] (inf allowed) and the trend model used ('none' if no degradation)."""
+
+    median: float
+    p5: float
+    p95: float
+    model: str
+
+
+class TrendDetector:
+    """History of (t, u, P_uu) and the linear/exponential decision (module docstring)."""
+
+    def __init__(self, window: float, accel_z: float = 3.0, min_growth: float = 0.25,
+                 max_points: int = 200, min_points: int = 10, min_span: float = 0.25
+                 ) -> None:
+        if not window > 0.0:
+            raise ValueError(f'window must be > 0 s, got {window!r}')
+        self.window = float(window)
+        self.accel_z = float(accel_z)
+        self.min_growth = float(min_growth)
+        self.min_points = int(min_points)
+        self.min_span = float(min_span)
+        self._period = self.window / max_points
+        self._history: deque[tuple[float, float, float]] = deque()
+
+    def reset(self) -> None:
+        """Forget the history (e.g. after the filter re-initialised)."""
+        self._history.clear()
+
+    def __len__(self) -> int:
+        return len(self._history)
+
+    def add(self, t: float, u: float, u_variance: float) -> None:
+        """Record a posterior at time t [s]; at most one point per window/max_points."""
+        if not (math.isfinite(t) and math.isfinite(u) and math.isfinite(u_variance)
+                and u_variance > 0.0):
+            return
+        if self._history and t < self._history[-1][0]:
+            self.reset()                                   # time went backwards: new run
+        if self._history and t - self._history[-1][0] < self._period:
+            return
+        self._history.append((t, u, u_variance))
+        while self._history and self._history[0][0] < t - self.window:
+            self._history.popleft()
+
+    def fit(self) -> Trend:
+        """Decide the trend from the history; linear when too short or not accelerating."""
+        if len(self._history) < self.min_points:
+            return Trend()
+        data = np.asarray(self._history)
+        t_now = data[-1, 0]
+        span = t_now - data[0, 0]
+        if span < self.min_span * self.window:
+            return Trend()
+        s = data[:, 0] - t_now                              # <= 0 [s]
+        weights = 1.0 / data[:, 2]
+        weights = weights / weights.mean()
+        u = data[:, 1]
+        rss_linear = _wls_rss(np.column_stack([np.ones_like(s), s]), u, weights)
+        ks = np.geomspace(0.01, 20.0, 120) / span
+        rss = _exponential_rss(ks, s, u, weights)
+        best = int(np.argmin(rss))
+        k = float(ks[best])
+        dof = len(s) - 3
+        sigma2 = rss[best] / dof
+        improvement_z = (rss_linear - rss[best]) / sigma2 if sigma2 > 0.0 else math.inf
+        growth = math.expm1(k * span)
+        # curvature of RSS(k) at the minimum (log-spaced grid: central differences in k)
+        lo, hi = max(best - 1, 0), min(best + 1, len(ks) - 1)
+        k_sigma = k
+        if 0 < best < len(ks) - 1 and sigma2 > 0.0:
+            d1, d2 = ks[best] - ks[lo], ks[hi] - ks[best]
+            second = 2.0 * (d1 * rss[hi] - (d1 + d2) * rss[best] + d2 * rss[lo]) \
+                / (d1 * d2 * (d1 + d2))
+            if second > 0.0:
+                k_sigma = math.sqrt(2.0 * sigma2 / second)
+        accelerating = (0 < best < len(ks) - 1 and improvement_z > self.accel_z ** 2
+                        and growth > self.min_growth)
+        if accelerating:
+            return Trend(EXPONENTIAL, k, float(k_sigma), float(math.sqrt(improvement_z)),
+                         float(growth))
+        return Trend(LINEAR, 0.0, 0.0, float(math.sqrt(max(improvement_z, 0.0))),
+                     float(growth))
+
+
+def _exponential_rss(ks: np.ndarray, s: np.ndarray, u: np.ndarray,
+                     weights: np.ndarray) -> np.ndarray:
+    """Weighted RSS of u ~ c + a exp(k s) for every k in ``ks`` (closed-form 2x2 WLS)."""
+    e = np.exp(np.outer(ks, s))                              # (k, n)
+    sw, su, suu = weights.sum(), weights @ u, weights @ (u * u)
+    se, see, seu = e @ weights, (e * e) @ weights, e @ (weights * u)
+    det = sw * see - se * se
+    with np.errstate(divide='ignore', invalid='ignore'):
+        explained = (see * su * su - 2.0 * se * su * seu + sw * seu * seu) / det
+    return np.where(det > 1e-12 * sw * see, suu - explained, np.inf)
+
+
+def _wls_rss(design: np.ndarray, values: np.ndarray, weights: np.ndarray) -> float:
+    """Weighted residual sum of squares of a least-squares fit."""
+    root = np.sqrt(weights)
+    a = design * root[:, None]
+    b = values * root
+    coef, *_ = np.linalg.lstsq(a, b, rcond=None)
+    residual = b - a @ coef
+    return float(residual @ residual)
+
+
+class RulPredictor:
+    """RUL quantiles from a posterior (module docstring); fixed seeded draws."""
+
+    def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
+                 seed: int = 0) -> None:
+        if not math.isfinite(u_eol):
+            raise ValueError(f'u_eol must be finite, got {u_eol!r}')
+        if samples < 2:
+            raise ValueError(f'samples must be >= 2, got {samples!r}')
+        self.u_eol = float(u_eol)
+        self.detect_z = float(detect_z)
+        self._normals = np.random.default_rng(seed).standard_normal((int(samples), 3))
+
+    def predict(self, u: float, rate: float, covariance: np.ndarray,
+                trend: Trend = Trend()) -> RulEstimate:
+        """RUL [s] from posterior mean (u [-], rate [1/s]) and 2x2 covariance."""
+        cov = np.asarray(covariance, dtype=float).reshape(2, 2)
+        if not (math.isfinite(u) and math.isfinite(rate) and np.isfinite(cov).all()):
+            raise ValueError(f'posterior must be finite, got u={u!r}, rate={rate!r}, '
+                             f'P={cov.tolist()!r}')
+        if u >= self.u_eol:
+            return RulEstimate(0.0, 0.0, 0.0, trend.model)
+        rate_sigma = math.sqrt(max(cov[1, 1], 0.0))
+        if not rate > self.detect_z * rate_sigma or rate <= 0.0:
+            return RulEstimate(math.inf, math.inf, math.inf, NONE)
+        root = _psd_sqrt(0.5 * (cov + cov.T))
+        draws = np.array([u, rate]) + self._normals[:, :2] @ root.T
+        u_i, r_i = draws[:, 0], draws[:, 1]
+        gap = self.u_eol - u_i
+        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+            tau = np.where(r_i > 0.0, gap / r_i, np.inf)
+            if trend.model == EXPONENTIAL and trend.k > 0.0:
+                k_i = np.maximum(trend.k + trend.k_sigma * self._normals[:, 2], 0.0)
+                growth = np.where(r_i > 0.0, k_i * gap / r_i, np.inf)
+                tau_exp = np.log1p(growth) / np.where(k_i > 0.0, k_i, 1.0)
+                tau = np.where(k_i > 0.0, tau_exp, tau)
+        tau = np.where(gap <= 0.0, 0.0, tau)
+        p5, median, p95 = np.quantile(tau, [0.05, 0.5, 0.95], method='inverted_cdf')
+        return RulEstimate(float(median), float(p5), float(p95), trend.model)
+
+
+def _psd_sqrt(cov: np.ndarray) -> np.ndarray:
+    """A matrix square root L (L L^T = cov) that tolerates semi-definite covariances."""
+    values, vectors = np.linalg.eigh(cov)
+    return vectors * np.sqrt(np.clip(values, 0.0, None))
