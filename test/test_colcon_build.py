@@ -1,0 +1,86 @@
+"""`colcon build` of the package in a throw-away workspace; the installed CLI must start."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+VENV_BIN = Path(sys.executable).parent
+EXECUTABLES = ('publisher', 'estimator', 'diagnostics', 'gear-phm')
+TOP_LEVEL_NOT_SOURCES = {'.venv', '.git', 'build', 'install', 'log', 'bags', 'out',
+                         '.hypothesis', '.pytest_cache'}
+ANYWHERE_NOT_SOURCES = shutil.ignore_patterns('__pycache__', '*.egg-info')
+
+
+def _not_sources(directory: str, names: list[str]) -> set[str]:
+    ignored = set(ANYWHERE_NOT_SOURCES(directory, names))
+    if Path(directory) == REPO:
+        ignored |= TOP_LEVEL_NOT_SOURCES.intersection(names)
+    return ignored
+
+
+@pytest.fixture(scope='module')
+def workspace(tmp_path_factory) -> Path:
+    """Copy of the repo in <ws>/src/gear_phm (a copy, so egg-info never lands in the repo),
+    built with colcon from the venv."""
+    root = tmp_path_factory.mktemp('colcon_ws')
+    shutil.copytree(REPO, root / 'src' / 'gear_phm', ignore=_not_sources)
+    env = dict(os.environ, PATH=f'{VENV_BIN}{os.pathsep}{os.environ.get("PATH", "")}')
+    started = time.monotonic()
+    result = subprocess.run(
+        [str(VENV_BIN / 'colcon'), 'build', '--base-paths', 'src', '--build-base', 'build',
+         '--install-base', 'install', '--event-handlers', 'console_direct-'],
+        cwd=root, env={**env, 'COLCON_LOG_PATH': str(root / 'log')}, capture_output=True,
+        text=True, timeout=240)
+    elapsed = time.monotonic() - started
+    print(f'colcon build took {elapsed:.1f} s')
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'Summary: 1 package finished' in result.stdout
+    return root
+
+
+def _site_packages(install: Path) -> Path:
+    found = sorted((install / 'lib').glob('python3*/site-packages'))
+    assert len(found) == 1, found
+    return found[0]
+
+
+@pytest.mark.integration
+def test_install_space_layout(workspace: Path) -> None:
+    install = workspace / 'install' / 'gear_phm'
+    for name in EXECUTABLES:
+        script = install / 'lib' / 'gear_phm' / name
+        assert script.is_file(), script
+        assert os.access(script, os.X_OK), script
+    assert (install / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            / 'gear_phm').is_file()
+    assert (install / 'share' / 'gear_phm' / 'package.xml').read_text() == \
+        (REPO / 'package.xml').read_text()
+    package = _site_packages(install) / 'gear_phm'
+    for module in ('models/lever.py', 'models/spur_gear.py', 'cli/main.py', 'cli/paper.py',
+                   'paper/reproduce.py'):
+        assert (package / module).is_file(), module
+    assert not list(package.rglob('test_*.py'))
+
+
+@pytest.mark.integration
+def test_installed_cli_starts_from_the_install_space(workspace: Path) -> None:
+    install = workspace / 'install' / 'gear_phm'
+    site = _site_packages(install)
+    env = dict(os.environ, PYTHONPATH=f'{site}{os.pathsep}{os.environ.get("PYTHONPATH", "")}')
+    result = subprocess.run([str(install / 'lib' / 'gear_phm' / 'gear-phm'), '--help'],
+                            env=env, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith('usage: gear-phm')
+    assert 'paper' in result.stdout
+    # The installed copy is the one imported, not the working tree.
+    where = subprocess.run([sys.executable, '-c', 'import gear_phm; print(gear_phm.__file__)'],
+                           env=env, cwd=workspace, capture_output=True, text=True, timeout=60)
+    assert where.returncode == 0, where.stderr
+    assert Path(where.stdout.strip()).is_relative_to(site)
