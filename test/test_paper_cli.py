@@ -124,7 +124,8 @@ def test_out_below_a_file_is_a_one_line_error(tmp_path, capsys) -> None:
 
 
 @pytest.mark.parametrize('arguments', [['--samples', '0'], ['--samples', 'many'],
-                                       ['--seed', '-1']])
+                                       ['--seed', '-1'], ['--max-bearing-fraction', '-1'],
+                                       ['--max-bearing-fraction', 'x']])
 def test_bad_numbers_exit_2(tmp_path, capsys, arguments) -> None:
     with pytest.raises(SystemExit) as info:
         main(['paper', '--out', str(tmp_path), *arguments])

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from gear_phm.cli.main import CliError
@@ -29,14 +30,29 @@ def _seed(text: str) -> int:
     return value
 
 
+def _bearing_fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a number, got {text!r}') from None
+    if not 0.0 <= value <= 10.0:
+        raise argparse.ArgumentTypeError(f'must be in [0, 10], got {value:g}')
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from gear_phm.paper.reproduce import DEFAULT_SAMPLES, DEFAULT_SEED
+    from gear_phm.paper.reproduce import DEFAULT_SAMPLES, DEFAULT_SEED, SamplingRanges
     parser.add_argument('--out', required=True, type=Path, metavar='DIR',
                         help='output directory (created if missing)')
     parser.add_argument('--seed', type=_seed, default=DEFAULT_SEED,
                         help=f'random seed of the gear sampling (default {DEFAULT_SEED})')
     parser.add_argument('--samples', type=_positive_int, default=DEFAULT_SAMPLES,
                         help=f'number of random reference gears (default {DEFAULT_SAMPLES})')
+    parser.add_argument('--max-bearing-fraction', type=_bearing_fraction, default=None,
+                        metavar='X',
+                        help='upper end of the uniform bearing friction radius / pitch radius '
+                             f'range (default {SamplingRanges().bearing_fraction[1]:g}; values '
+                             'near 1 give irreversible gears)')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,9 +63,12 @@ def run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise CliError(f'cannot create --out directory {str(out)!r}: {exc.strerror}') from None
-    from gear_phm.paper.reproduce import FIGURE_FILES, reproduce
+    from gear_phm.paper.reproduce import FIGURE_FILES, SamplingRanges, reproduce
+    ranges = SamplingRanges()
+    if args.max_bearing_fraction is not None:
+        ranges = replace(ranges, bearing_fraction=(0.0, args.max_bearing_fraction))
     try:
-        summary = reproduce(out, seed=args.seed, samples=args.samples)
+        summary = reproduce(out, seed=args.seed, samples=args.samples, ranges=ranges)
     except OSError as exc:
         raise CliError(f'cannot write into {str(out)!r}: {exc.strerror}') from None
     e_tot = summary['e_tot']
