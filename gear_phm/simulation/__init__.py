@@ -18,6 +18,7 @@ from gear_phm.simulation.plant import (
     PHASE_SELF_LOCKING,
     Plant,
 )
+from gear_phm.simulation.parameters import PARAMETERS, config_from_parameters
 from gear_phm.simulation.sensors import CHANNELS, Channel, Sensors
 from gear_phm.simulation.simulator import (
     SimulationConfig,
@@ -30,6 +31,6 @@ from gear_phm.simulation.wear import WEAR_KINDS, Wear
 
 __all__ = [
     'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PHASE_AIDING', 'PHASE_IDLE',
-    'PHASE_OPPOSING', 'PHASE_SELF_LOCKING', 'Plant', 'Sensors', 'SimulationConfig',
-    'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear', 'sample_times', 'simulate',
+    'PARAMETERS', 'PHASE_OPPOSING', 'PHASE_SELF_LOCKING', 'Plant', 'Sensors', 'SimulationConfig',
+    'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear', 'config_from_parameters', 'sample_times', 'simulate',
 ]
