@@ -1,0 +1,42 @@
+"""Power-flow classification of gearbox samples (docs/architecture.md codes), vectorised."""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+IMPOSSIBLE, IDLE, OPPOSING, AIDING, SELF_LOCKING = -1, 0, 1, 2, 3
+
+
+def shaft_powers(motor_velocity: ArrayLike, motor_effort: ArrayLike, load_velocity: ArrayLike,
+                 load_effort: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Powers entering the gearbox [W]: P_m = effort_m w_m, P_l = -effort_l w_l."""
+    p_motor = np.asarray(motor_effort, dtype=float) * np.asarray(motor_velocity, dtype=float)
+    p_load = -np.asarray(load_effort, dtype=float) * np.asarray(load_velocity, dtype=float)
+    return p_motor, p_load
+
+
+def classify(p_motor: ArrayLike, p_load: ArrayLike, motor_velocity: ArrayLike,
+             power_threshold: float = 0.0, speed_threshold: float = 0.0) -> np.ndarray:
+    """Power-flow code per sample (int8): 0 idle, 1 opposing, 2 aiding, 3 self-locking,
+    -1 impossible.
+
+    A sample is idle when ``|w_m| <= speed_threshold`` [rad/s] or when either power is inside
+    the deadband ``|P| <= power_threshold`` [W]; otherwise the signs of P_m and P_l decide:
+    (+, -) opposing, (-, +) aiding, (+, +) self-locking, (-, -) impossible. NaN gives idle.
+    """
+    if not power_threshold >= 0.0:
+        raise ValueError(f'power_threshold must be >= 0 W, got {power_threshold!r}')
+    if not speed_threshold >= 0.0:
+        raise ValueError(f'speed_threshold must be >= 0 rad/s, got {speed_threshold!r}')
+    p_m = np.asarray(p_motor, dtype=float)
+    p_l = np.asarray(p_load, dtype=float)
+    moving = np.abs(np.asarray(motor_velocity, dtype=float)) > speed_threshold
+    m_in, m_out = p_m > power_threshold, p_m < -power_threshold
+    l_in, l_out = p_l > power_threshold, p_l < -power_threshold
+    code = np.zeros(np.broadcast(p_m, p_l).shape, dtype=np.int8)
+    code[m_in & l_out] = OPPOSING
+    code[m_out & l_in] = AIDING
+    code[m_in & l_in] = SELF_LOCKING
+    code[m_out & l_out] = IMPOSSIBLE
+    code[~moving] = IDLE
+    return code

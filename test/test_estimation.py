@@ -1,0 +1,282 @@
+"""Estimator core: power flow, energy windows, Kalman filter, pipeline (pure, seeded)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.stats import chi2
+from test_estimation_plant import lever_plant
+
+from gear_phm import interfaces
+from gear_phm.estimation import (EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
+                                 FrictionFilter, classify, to_measurement)
+from gear_phm.models import SpurGear, eta_aiding, eta_opposing
+
+NOISE = dict(motor_torque_noise=0.05, motor_speed_noise=0.01, load_torque_noise=0.05,
+             load_speed_noise=0.01)
+CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
+
+
+def _feed(pipeline: EstimatorPipeline, run, start: int = 0, stop: int | None = None) -> list:
+    s = slice(start, stop)
+    return pipeline.on_batch(run.stamp_ns[s], run.motor_velocity[s], run.motor_effort[s],
+                             run.load_velocity[s], run.load_effort[s])
+
+
+def _track(config: EstimatorConfig, run) -> tuple[np.ndarray, ...]:
+    """Posterior after each accepted update: t [s], x (n, 2), P (n, 2, 2), NIS."""
+    records = []
+    pipeline = EstimatorPipeline(config)
+    pipeline.on_measurement = lambda m, ok: ok and records.append(
+        (m.t, pipeline.filter.x, pipeline.filter.P, pipeline.filter.last.nis))
+    _feed(pipeline, run)
+    t, x, p, nis = (np.array(v) for v in zip(*records))
+    return t, x, p, nis
+
+
+# --- power flow --------------------------------------------------------------------------------
+
+def test_classify_codes_and_deadband() -> None:
+    p_m = np.array([10.0, -10.0, 10.0, -10.0, 0.05, 10.0, 10.0])
+    p_l = np.array([-9.0, 9.0, 1.0, -1.0, -0.05, -9.0, 0.0])
+    w_m = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0])
+    codes = classify(p_m, p_l, w_m, power_threshold=0.1, speed_threshold=0.01)
+    assert codes.tolist() == [1, 2, 3, -1, 0, 0, 0]
+
+
+@given(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3), st.floats(0.0, 10.0))
+def test_classify_is_symmetric_in_sign_of_both_powers_only(p_m: float, p_l: float,
+                                                           thr: float) -> None:
+    code = int(classify(p_m, p_l, 1.0, power_threshold=thr))
+    if abs(p_m) <= thr or abs(p_l) <= thr:
+        assert code == 0
+    else:
+        assert code == {(1, -1): 1, (-1, 1): 2, (1, 1): 3, (-1, -1): -1}[
+            (int(np.sign(p_m)), int(np.sign(p_l)))]
+
+
+# --- windows -------------------------------------------------------------------------------
+
+def test_energy_window_removes_rotor_inertia_bias() -> None:
+    run = lever_plant(3, 60.0, 0.1, noise=(0, 0, 0, 0), motor_inertia=0.05)
+    code = classify(run.motor_effort * run.motor_velocity,
+                    -run.load_effort * run.load_velocity, run.motor_velocity, 0.01, 0.01)
+    results = {}
+    for inertia in (0.0, 0.05):
+        integ = EnergyIntegrator(1.0, 0.5, motor_inertia=inertia)
+        windows = integ.process(run.t, run.motor_velocity, run.motor_effort, run.load_velocity,
+                                run.load_effort, code, code > 0)
+        meas = [to_measurement(w, 3.0, 0.2, 0.01, 1e-6) for w in windows]
+        results[inertia] = np.array([m.u for m in meas if not isinstance(m, str)])
+    assert np.max(np.abs(results[0.05] - 0.1)) < 2e-4
+    assert np.max(np.abs(results[0.0] - 0.1)) > 5e-3      # uncorrected: biased per window
+
+
+def test_window_variance_matches_monte_carlo_scatter() -> None:
+    zs = []
+    for seed in range(4):
+        run = lever_plant(seed, 120.0, 0.2)
+        records = []
+        pipeline = EstimatorPipeline(CONFIG, on_measurement=lambda m, ok: records.append(m))
+        _feed(pipeline, run)
+        zs += [(m.u - 0.2) / math.sqrt(m.u_variance) for m in records]
+    zs = np.array(zs)
+    assert len(zs) > 200
+    assert abs(zs.mean()) < 0.15 and 0.85 < zs.std() < 1.15
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.integers(1, 4000), min_size=1, max_size=8))
+def test_results_do_not_depend_on_batch_split(cuts: list[int]) -> None:
+    run = lever_plant(7, 30.0, 0.1)
+    whole = EstimatorPipeline(CONFIG)
+    expected = _feed(whole, run)
+    split = EstimatorPipeline(CONFIG)
+    bounds = sorted(set([0, run.t.size] + [int(np.cumsum(cuts)[i]) % run.t.size
+                                           for i in range(len(cuts))]))
+    got = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        got += _feed(split, run, a, b)
+    assert [(o.topic, o.stamp_ns) for o in got] == [(o.topic, o.stamp_ns) for o in expected]
+    assert np.allclose([o.x for o in got], [o.x for o in expected], rtol=1e-9, atol=1e-12,
+                       equal_nan=True)
+    assert split.counts == whole.counts
+
+
+# --- Kalman filter -------------------------------------------------------------------------
+
+def test_filter_gates_outlier_and_reinitialises_after_repeated_rejections() -> None:
+    kf = FrictionFilter(0.1, 0.01, 1e-4, 0.0, gate_threshold=10.83, max_consecutive_gated=3)
+    assert kf.update(0.1, 1e-6, 1.0).accepted
+    outlier = kf.update(0.2, 1e-6, 2.0)
+    assert not outlier.accepted and outlier.nis > 10.83
+    assert not kf.update(0.2, 1e-6, 3.0).accepted
+    third = kf.update(0.2, 1e-6, 4.0)
+    assert third.accepted and third.reinitialised and kf.x[0] == pytest.approx(0.2)
+
+
+def test_filter_predict_covariance_grows_with_process_noise() -> None:
+    kf = FrictionFilter(0.1, 0.01, 1e-3, 1e-6, 10.83, 3)
+    kf.predict(0.0)
+    x, p = kf.predicted(10.0)
+    assert p[0, 0] > kf.P[0, 0] and kf.t == 0.0          # predicted() does not mutate
+    kf.predict(10.0)
+    assert np.allclose(kf.P, p) and np.allclose(kf.x, x)
+
+
+# --- acceptance: simplified-model plant ----------------------------------------------------
+
+def test_simplified_plant_accuracy_coverage_and_consistency() -> None:
+    """M independent seeded runs. NEES: final posterior of each run, averaged over runs, vs
+    chi2(2M)/M (NEES along one run is autocorrelated). NIS: innovations are white, so all
+    post-convergence NIS are pooled, vs chi2(K)/K. Accuracy and band coverage after 60 s."""
+    config = CONFIG.replace(process_noise=0.0)     # matched to the constant-u plant
+    final_nees, nis, cover = [], [], []
+    runs = 16
+    for seed in range(runs):
+        u_true = 0.05 + 0.01 * seed
+        t, x, p, n = _track(config, lever_plant(seed, 120.0, u_true))
+        after = t > 60.0
+        err = x[after] - np.array([u_true, 0.0])
+        assert np.max(np.abs(err[:, 0])) <= 0.02 * u_true
+        final_nees.append(err[-1] @ np.linalg.inv(p[after][-1]) @ err[-1])
+        nis.append(n[after])
+        cover.append(np.abs(err[:, 0]) <= 1.96 * np.sqrt(p[after][:, 0, 0]))
+    nis, cover = np.concatenate(nis), np.concatenate(cover)
+    assert cover.mean() >= 0.90
+    low, high = chi2.ppf([0.025, 0.975], 2 * runs) / runs
+    assert low <= np.mean(final_nees) <= high
+    k = nis.size
+    low, high = chi2.ppf([0.025, 0.975], k) / k
+    assert low <= nis.mean() <= high
+
+
+def test_spur_gear_plant_efficiencies_within_0_01() -> None:
+    gear = SpurGear(20, 60, friction=0.08, bearing_radius_1=2e-4, bearing_radius_2=6e-4)
+    eta_d, eta_i = gear.efficiencies()
+    run = lever_plant(11, 200.0, 0.0, eta_pair=(lambda t: np.full(t.shape, eta_d),
+                                                lambda t: np.full(t.shape, eta_i)))
+    pipeline = EstimatorPipeline(CONFIG.replace(ratio=float(gear.ratio)))
+    out = _feed(pipeline, run)
+    summary = pipeline.summary()
+    assert abs(summary['eta_opposing'] - eta_d) <= 0.01
+    assert abs(summary['eta_aiding'] - eta_i) <= 0.01
+    late = [o for o in out if o.topic == interfaces.EFFICIENCY and
+            o.stamp_ns > run.stamp_ns[0] + 60e9]
+    assert max(abs(o.x - eta_d) for o in late) <= 0.01
+    assert max(abs(o.y - eta_i) for o in late) <= 0.01
+
+
+def test_tracks_wear_ramp_and_detects_step() -> None:
+    ramp = lambda t: 0.1 + 0.1 * np.clip((t - 100.0) / 200.0, 0.0, 1.0)  # noqa: E731
+    run = lever_plant(5, 400.0, ramp)
+    out = _feed(EstimatorPipeline(CONFIG), run)
+    fr = [o for o in out if o.topic == interfaces.FRICTION]
+    t = (np.array([o.stamp_ns for o in fr]) - run.stamp_ns[0]) * 1e-9
+    u = np.array([o.x for o in fr])
+    during = (t > 140.0) & (t < 300.0)
+    lag = np.mean((ramp(t[during]) - u[during]) / (0.1 / 200.0))
+    assert abs(lag) < 3.0                                  # seconds
+    assert np.max(np.abs(u[during] - ramp(t[during]))) < 0.01
+
+    step = lambda t: np.where(t < 90.0, 0.1, 0.15)  # noqa: E731
+    run = lever_plant(5, 150.0, step)
+    pipeline = EstimatorPipeline(CONFIG)
+    out = _feed(pipeline, run)
+    fr = [o for o in out if o.topic == interfaces.FRICTION]
+    t = (np.array([o.stamp_ns for o in fr]) - run.stamp_ns[0]) * 1e-9
+    u = np.array([o.x for o in fr])
+    detected = t[(t >= 90.0) & (np.abs(u - 0.15) < 0.0075)]
+    assert detected.size and detected[0] - 90.0 < 8.0
+    assert pipeline.counts['reinitialised'] >= 1
+
+
+# --- robustness ----------------------------------------------------------------------------
+
+def test_garbage_samples_are_counted_and_do_not_disturb_estimate() -> None:
+    run = lever_plant(2, 120.0, 0.1)
+    clean = EstimatorPipeline(CONFIG.replace(backwards_policy='skip'))
+    _feed(clean, run)
+    dirty = EstimatorPipeline(CONFIG.replace(backwards_policy='skip'))
+    stamps = run.stamp_ns.copy()
+    effort = run.motor_effort.copy()
+    effort[5000:5010] = np.nan
+    effort[6000] = np.inf
+    stamps_bad = stamps.copy()
+    stamps_bad[7000:7005] = stamps[100:105]                # stale stamps
+    dirty.on_batch(stamps_bad, run.motor_velocity, effort, run.load_velocity,
+                   run.load_effort)
+    assert dirty.counts['nonfinite'] == 11
+    assert dirty.counts['backwards'] == 5
+    assert dirty.summary()['u'] == pytest.approx(clean.summary()['u'], abs=3e-4)
+
+
+def test_backwards_stamps_reset_the_estimator_when_policy_is_reset() -> None:
+    run = lever_plant(4, 60.0, 0.1)
+    pipeline = EstimatorPipeline(CONFIG)
+    _feed(pipeline, run)
+    updates = pipeline.filter.updates
+    out = _feed(pipeline, run)                         # the bag loops
+    assert pipeline.counts['stamp_reset'] == 1
+    assert pipeline.filter.updates == updates          # fresh filter, same data
+    stamps = [o.stamp_ns for o in out]
+    assert stamps == sorted(stamps)
+
+
+def test_sensor_timeout_predicts_only_and_is_flagged() -> None:
+    run = lever_plant(4, 40.0, 0.1)
+    pipeline = EstimatorPipeline(CONFIG)
+    _feed(pipeline, run, 0, 10000)
+    assert pipeline.on_clock(int(run.stamp_ns[9999]) + 100_000_000) == []
+    out = pipeline.on_clock(int(run.stamp_ns[9999]) + 2_000_000_000)
+    assert pipeline.timed_out and pipeline.counts['timeout'] == 1
+    assert {o.topic for o in out} >= set(interfaces.ESTIMATOR_TOPICS)
+    pipeline.on_clock(int(run.stamp_ns[9999]) + 3_000_000_000)
+    assert pipeline.counts['timeout'] == 1
+    _feed(pipeline, run, 30000, 31000)
+    assert not pipeline.timed_out and pipeline.counts['timeout'] == 1
+
+
+class _Msg:
+    """Duck-typed JointState."""
+
+    def __init__(self, stamp_ns: int, names, velocity, effort) -> None:
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        self.header = type('H', (), {'stamp': type('S', (), {'sec': sec,
+                                                            'nanosec': nanosec})()})()
+        self.name, self.position, self.velocity, self.effort = names, [], velocity, effort
+
+
+def test_on_joint_state_counts_bad_messages_and_matches_batch_path() -> None:
+    run = lever_plant(8, 12.0, 0.1)
+    single = EstimatorPipeline(CONFIG)
+    out = []
+    for i in range(run.t.size):
+        out += single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['load', 'motor'],
+                                          [run.load_velocity[i], run.motor_velocity[i]],
+                                          [run.load_effort[i], run.motor_effort[i]]))
+        if i % 1000 == 0:
+            single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['a', 'b'], [1.0, 1.0], [1, 1]))
+            single.on_joint_state(_Msg(int(run.stamp_ns[i]), [], [], []))
+            single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['motor', 'load'], [1.0], []))
+            single.on_joint_state(object())
+    batch = EstimatorPipeline(CONFIG)
+    expected = _feed(batch, run)
+    assert [(o.topic, o.stamp_ns) for o in out] == [(o.topic, o.stamp_ns) for o in expected]
+    assert single.counts['missing_joint'] == 24 and single.counts['short_arrays'] == 12
+    assert single.counts['bad_message'] == 12
+
+
+def test_config_validation_names_field_and_value() -> None:
+    with pytest.raises(ValueError, match=r'min_window must be < window .* got 2\.0'):
+        EstimatorConfig(window=1.0, min_window=2.0)
+    with pytest.raises(ValueError, match=r"ratio must be in .* got -1\.0"):
+        EstimatorConfig(ratio=-1.0)
+    with pytest.raises(ValueError, match='backwards_policy'):
+        EstimatorConfig(backwards_policy='loop')
+    with pytest.raises(ValueError, match='unknown'):
+        CONFIG.replace(windw=2.0)
+    assert eta_opposing(0.0, 3.0) == 1.0 and eta_aiding(0.0, 3.0) == 1.0
