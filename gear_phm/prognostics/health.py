@@ -22,7 +22,7 @@ def chi_square_mean_bound(window: int, probability: float) -> float:
     """Upper ``probability`` quantile of the mean of ``window`` chi-square(1) values.
 
     Wilson-Hilferty: chi2_q(n) ~ n (1 - 2/(9n) + z_q sqrt(2/(9n)))^3; divided by n. Within
-    1 % of the exact quantile for n >= 3 at q = 0.999 (n = 1: 10.2 vs exact 10.83).
+    2 % of the exact quantile for n >= 3 at q = 0.999 (n = 1: 10.2 vs exact 10.83).
     """
     if window < 1:
         raise ValueError(f'window must be >= 1, got {window!r}')

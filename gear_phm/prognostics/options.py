@@ -20,10 +20,11 @@ def add_health_arguments(parser: argparse.ArgumentParser) -> None:
         if name in _SKIP:
             continue
         default = getattr(defaults, name)
+        text = description.replace('%', '%%')
         group.add_argument('--' + name.replace('_', '-'), dest='health_' + name,
                            type=type(default), default=default, metavar=unit.upper()
                            if unit != '-' else 'VALUE',
-                           help=f'{description} [{unit}], in [{low:g}, {high:g}] '
+                           help=f'{text} [{unit}], in [{low:g}, {high:g}] '
                                 f'(default {default})')
     group.add_argument('--no-self-locking-eol', dest='health_self_locking_eol',
                        action='store_false', default=defaults.self_locking_eol,

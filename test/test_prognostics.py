@@ -1,0 +1,308 @@
+"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics,
+wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter."""
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.stats import chi2
+
+from gear_phm.estimation.kalman import FrictionFilter
+from gear_phm.interfaces import ERROR, OK, WARN
+from gear_phm.prognostics import (Estimate, HealthConfig, HealthMonitor, RulPredictor, Trend,
+                                  TrendDetector, WearState, WearStateSaver, end_of_life_u,
+                                  health_level, load_wear_state, save_wear_state)
+from gear_phm.prognostics.health import DivergenceMonitor, chi_square_mean_bound, is_stale
+from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
+                                          evaluate, prognostic_horizon)
+from gear_phm.simulation.wear import Wear
+
+TINY = np.diag([1e-12, 1e-16])
+
+
+# --- end of life ---------------------------------------------------------------------------
+def test_end_of_life_threshold_is_min_of_enabled_criteria() -> None:
+    assert end_of_life_u(3.0, 0.5) == pytest.approx((0.6, 'eta_opposing_min'))
+    # eta_D = 0.2 needs u = 3 * 0.8 / 1.6 = 1.5 > 1: self-locking (u = 1) binds first
+    assert end_of_life_u(3.0, 0.2) == (1.0, 'self_locking')
+    assert end_of_life_u(3.0, 0.2, self_locking_eol=False) == pytest.approx((1.5,
+                                                                             'eta_opposing_min'))
+    assert end_of_life_u(3.0, 0.5, u_max=0.3) == (0.3, 'u_max')
+    with pytest.raises(ValueError, match='eta_opposing_min'):
+        end_of_life_u(3.0, -0.5)
+
+
+def test_config_cross_field_rules_name_the_parameter() -> None:
+    with pytest.raises(ValueError, match='eta_warn must be > eta_opposing_min'):
+        HealthConfig(eta_warn=0.5, eta_opposing_min=0.5)
+    with pytest.raises(ValueError, match='mc_samples'):
+        HealthConfig(mc_samples=10)
+    with pytest.raises(ValueError, match='trend'):
+        HealthConfig(trend='quadratic')
+    assert HealthConfig().replace(eta_warn=0.9).eta_warn == 0.9
+
+
+# --- RUL -----------------------------------------------------------------------------------
+def test_linear_rul_exact_for_a_sharp_posterior() -> None:
+    rul = RulPredictor(0.6).predict(0.1, 1e-4, TINY)
+    assert rul.model == 'linear'
+    assert rul.median == pytest.approx(5000.0, rel=1e-3)
+    assert rul.p5 == pytest.approx(5000.0, rel=2e-3) and rul.p95 == pytest.approx(5000.0,
+                                                                                rel=2e-3)
+
+
+def test_linear_rul_bounds_match_the_rate_quantiles() -> None:
+    sigma_r = 1e-5
+    rul = RulPredictor(0.6, samples=20000).predict(0.1, 1e-4, np.diag([1e-12, sigma_r ** 2]))
+    # tau = gap / r is monotone in r: its 5 % quantile comes from the 95 % quantile of r
+    assert rul.p5 == pytest.approx(0.5 / (1e-4 + 1.6449 * sigma_r), rel=0.01)
+    assert rul.p95 == pytest.approx(0.5 / (1e-4 - 1.6449 * sigma_r), rel=0.01)
+    assert rul.median == pytest.approx(5000.0, rel=0.01)
+
+
+def test_rul_inf_without_significant_degradation_and_zero_at_end_of_life() -> None:
+    predictor = RulPredictor(0.6, detect_z=2.0)
+    no_wear = predictor.predict(0.1, 1e-5, np.diag([1e-6, (1e-5) ** 2]))   # 1 sigma
+    assert (no_wear.median, no_wear.p5, no_wear.p95, no_wear.model) == (math.inf, math.inf,
+                                                                        math.inf, 'none')
+    assert predictor.predict(0.1, -1e-4, TINY).median == math.inf
+    worn = predictor.predict(0.61, 1e-4, TINY)
+    assert (worn.median, worn.p5, worn.p95) == (0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match='posterior must be finite'):
+        predictor.predict(math.nan, 1e-4, TINY)
+
+
+def test_exponential_rul_formula() -> None:
+    k = 1e-3
+    rul = RulPredictor(0.6).predict(0.1, 1e-4, TINY, Trend('exponential', k, 0.0))
+    assert rul.model == 'exponential'
+    assert rul.median == pytest.approx(math.log1p(k * 0.5 / 1e-4) / k, rel=1e-3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(u=st.floats(0.0, 0.5), rate=st.floats(1e-6, 1e-2), rel_sigma=st.floats(0.0, 0.4),
+       k=st.floats(0.0, 1e-2))
+def test_rul_quantiles_ordered_and_deterministic(u: float, rate: float, rel_sigma: float,
+                                                 k: float) -> None:
+    predictor = RulPredictor(0.6, samples=500, seed=3)
+    cov = np.diag([1e-6, (rel_sigma * rate) ** 2 + 1e-20])
+    trend = Trend('exponential', k, 0.1 * k) if k > 0 else Trend()
+    first = predictor.predict(u, rate, cov, trend)
+    assert first.p5 <= first.median <= first.p95
+    assert first == predictor.predict(u, rate, cov, trend)
+    faster = predictor.predict(u, 2.0 * rate, cov, trend)
+    assert faster.median <= first.median
+
+
+def _history(detector: TrendDetector, wear: Wear, duration: float, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    for t in np.arange(0.0, duration, 5.0):
+        detector.add(float(t), float(wear.value(t) + 1e-3 * rng.standard_normal()), 1e-6)
+
+
+def test_trend_detector_chooses_linear_and_exponential() -> None:
+    linear = TrendDetector(1800.0)
+    _history(linear, Wear.reaching('linear', 0.05, 0.6, 3600.0), 1800.0, 0)
+    assert linear.fit().model == 'linear'
+    exponential = TrendDetector(1800.0)
+    wear = Wear.reaching('exponential', 0.05, 0.6, 3600.0)
+    _history(exponential, wear, 1800.0, 0)
+    trend = exponential.fit()
+    assert trend.model == 'exponential'
+    assert trend.k == pytest.approx(wear.rate, rel=0.1)
+
+
+# --- health levels -------------------------------------------------------------------------
+@pytest.mark.parametrize(('u', 'eta', 'p5', 'divergence', 'level', 'text'), [
+    (0.1, 0.9, math.inf, '', OK, 'ok'),
+    (0.1, 0.9, 100.0, '', WARN, 'RUL p5'),
+    (0.45, 0.55, math.inf, '', WARN, 'eta_D'),
+    (0.6, 0.5, 0.0, '', ERROR, 'end of life'),
+    (1.0, -0.2, 0.0, '', ERROR, 'self-locking'),
+    (0.1, 0.9, math.inf, 'filter diverged: x', ERROR, 'diverged'),
+])
+def test_health_level_rules(u: float, eta: float, p5: float, divergence: str, level: int,
+                            text: str) -> None:
+    u_eol, reason = (1.0, 'self_locking') if u >= 1.0 else (0.6, 'eta_opposing_min')
+    got, message = health_level(u, u_eol, reason, eta, 0.6, p5, 3600.0, divergence)
+    assert got == level and text in message
+
+
+def test_stale_rule() -> None:
+    assert is_stale(10.0, None, 2.0)
+    assert not is_stale(10.0, 8.5, 2.0)
+    assert is_stale(10.0, 7.9, 2.0)
+
+
+@pytest.mark.parametrize('window', [3, 20, 100])
+def test_chi_square_bound_close_to_exact(window: int) -> None:
+    exact = chi2.ppf(0.999, window) / window
+    assert chi_square_mean_bound(window, 0.999) == pytest.approx(exact, rel=0.02)
+
+
+def test_divergence_monitor() -> None:
+    monitor = DivergenceMonitor(window=10, probability=0.999, max_u_sigma=0.5)
+    rng = np.random.default_rng(1)
+    for _ in range(200):                                   # consistent filter: NIS ~ chi2(1)
+        y = rng.standard_normal()
+        assert monitor.update(y, 1.0, y * y, 0.01) == ''
+    for i in range(9):                                     # inflated innovations
+        assert monitor.update(10.0 + i, 1.0, 25.0, 0.01) in ('', monitor.update(10.0 + i, 1.0,
+                                                                                25.0, 0.01))
+    assert 'mean NIS' in monitor.update(99.0, 1.0, 25.0, 0.01)
+    fresh = DivergenceMonitor(window=3)
+    for _ in range(5):                                     # republished, counted once
+        fresh.update(3.0, 1.0, 9.0, 0.01)
+    assert fresh.nis_mean == 9.0 and len(fresh._nis) == 1
+    assert 'sigma_u' in fresh.update(1.0, 1.0, 1.0, 2.0)
+
+
+def test_monitor_reports_levels_along_linear_wear() -> None:
+    monitor = HealthMonitor(HealthConfig(warn_horizon=600.0))
+    levels = []
+    for t in np.arange(0.0, 4000.0, 10.0):
+        u = 0.05 + 1.5e-4 * t
+        estimate = Estimate(int(t * 1e9), u, 1.5e-4, (1e-6, 0.0, 1e-12))
+        levels.append(monitor.on_estimate(estimate).level)
+    first = {level: levels.index(level) for level in (OK, WARN, ERROR)}
+    assert first[OK] < first[WARN] < first[ERROR]
+    # eta_D < 0.6 at u > 0.4286 (t > 2524 s); RUL p5 < 600 s at t > 3067 s; EOL at 3667 s
+    assert first[WARN] * 10.0 == pytest.approx(2530.0, abs=10.0)
+    assert first[ERROR] * 10.0 == pytest.approx(3670.0, abs=10.0)
+    assert monitor.on_estimate(Estimate(0, math.nan, 0.0, (1.0, 0.0, 1.0))) is None
+    assert monitor.rejected == {'non_finite_estimate': 1}
+
+
+def test_status_key_values_exact_keys_and_inf() -> None:
+    monitor = HealthMonitor(HealthConfig())
+    status = monitor.on_estimate(Estimate(5_000_000_000, 0.1, 0.0, (1e-4, 0.0, 1e-10),
+                                          samples_used=7, samples_rejected=2, power_flow=1))
+    values = dict(status.key_values())
+    assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
+                            'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected']
+    assert values['rul_s'] == 'inf' and values['samples_used'] == '7'
+    assert float(values['u_sigma']) == pytest.approx(0.01)
+    assert float(values['eta_opposing']) == pytest.approx((3.0 - 0.1) / (3.0 * 1.1))
+    diagnostics, rul, efficiency = status.outputs('left_aileron', 'hw1')
+    assert diagnostics.statuses[0].name == 'gear_phm: left_aileron'
+    assert diagnostics.stamp_ns == 5_000_000_000 and efficiency.z == float(OK)
+
+
+# --- Saxena metrics ------------------------------------------------------------------------
+def test_metrics_on_perfect_and_biased_predictions() -> None:
+    t = np.arange(0.0, 100.0, 1.0)
+    perfect = 100.0 - t
+    result = evaluate(t, perfect, 100.0)
+    assert all(check['passed'] for check in result['alpha_lambda'])
+    assert result['prognostic_horizon_s'] == 100.0
+    assert result['cumulative_relative_accuracy'] == pytest.approx(1.0)
+    biased = 1.3 * perfect                                 # 30 % too long everywhere
+    check = alpha_lambda(t, biased, 100.0, 0.5)
+    assert not check.passed and check.relative_accuracy == pytest.approx(0.7)
+    assert check.t_lambda == 50.0 and check.true_rul == 50.0 and check.predicted_rul == 65.0
+    # PH bound +/- 0.2 * 100 = 20 s: 0.3 (100 - t) <= 20 from t >= 33.33 -> t_i = 34
+    assert prognostic_horizon(t, biased, 100.0) == 66.0
+    assert cumulative_relative_accuracy(t, biased, 100.0) == pytest.approx(0.7)
+
+
+def test_metrics_inputs_validated_and_infinite_predictions() -> None:
+    t = np.array([0.0, 10.0, 20.0])
+    assert not alpha_lambda(t, [np.inf] * 3, 40.0, 0.5).passed
+    assert evaluate(t, [np.inf] * 3, 40.0)['prognostic_horizon_s'] == 0.0
+    with pytest.raises(ValueError, match='same length'):
+        evaluate(t, [1.0], 40.0)
+    with pytest.raises(ValueError, match='t_start'):
+        evaluate(t, [1.0, 1.0, 1.0], 40.0, t_start=50.0)
+    assert json.dumps(evaluate(t, [np.inf] * 3, 40.0))         # JSON-ready
+
+
+# --- wear state ----------------------------------------------------------------------------
+def _state(t: float = 12.5) -> WearState:
+    return WearState.from_posterior(t, np.array([0.2, 3e-5]),
+                                    np.array([[1e-6, 1e-9], [1e-9, 1e-11]]), 3.0)
+
+
+def test_wear_state_round_trip_and_periodic_saver(tmp_path) -> None:
+    path = tmp_path / 'sub' / 'wear.json'
+    save_wear_state(path, _state())
+    loaded, reason = load_wear_state(path, ratio=3.0)
+    assert reason == '' and loaded == _state()
+    assert np.array_equal(loaded.P, _state().P) and loaded.x[0] == 0.2
+    assert sorted(os.listdir(path.parent)) == ['wear.json']          # no tmp left behind
+    saver = WearStateSaver(path, period=10.0)
+    assert saver.maybe_save(0.0, _state(0.0))
+    assert not saver.maybe_save(5.0, _state(5.0))
+    assert saver.maybe_save(10.0, _state(10.0))
+    assert load_wear_state(path)[0].t == 10.0
+
+
+@pytest.mark.parametrize(('content', 'reason'), [
+    (None, 'does not exist'),
+    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1', 'not valid JSON'),
+    (b'\xff\xfe\x00garbage', 'unreadable'),
+    (b'[1, 2, 3]', 'not a gear_phm.wear_state file'),
+    (b'{"format": "gear_phm.wear_state", "version": 1}', 'lacks field'),
+    (b'{"format": "gear_phm.wear_state", "version": 2, "t": 1, "u": 0.1, "rate": 0,'
+     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'version must be 1'),
+    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": NaN, "rate": 0,'
+     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'u must be a finite number'),
+    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": 0.1, "rate": 0,'
+     b' "covariance": [[1, 5], [5, 1]], "ratio": 3}', 'positive definite'),
+    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": 0.1, "rate": 0,'
+     b' "covariance": [[1, 0], [0, 1]], "ratio": 5}', 'for ratio 5'),
+    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": "x", "rate": 0,'
+     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'u must be a finite number'),
+])
+def test_corrupt_or_missing_state_file_gives_reason_not_crash(tmp_path, content: bytes | None,
+                                                              reason: str) -> None:
+    path = tmp_path / 'wear.json'
+    if content is not None:
+        path.write_bytes(content)
+    state, why = load_wear_state(path, ratio=3.0)
+    assert state is None and reason in why
+
+
+def test_truncated_real_state_file_is_refused(tmp_path) -> None:
+    path = tmp_path / 'wear.json'
+    save_wear_state(path, _state())
+    data = path.read_bytes()
+    for cut in range(0, len(data) - 1, 7):
+        path.write_bytes(data[:cut])
+        assert load_wear_state(path)[0] is None
+
+
+# --- acceptance: alpha-lambda on simulated wear through the real filter ----------------------
+def _run(kind: str, seed: int) -> dict:
+    """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s,
+    filtered by the estimator's FrictionFilter, scored from t_start = 60 s."""
+    monitor = HealthMonitor(HealthConfig(trend_window=1800.0, mc_samples=500))
+    wear = Wear.reaching(kind, 0.05, monitor.u_eol, 3600.0)
+    kf = FrictionFilter(0.05, 0.5, 1e-3, 1e-12, 10.83, 3)
+    rng = np.random.default_rng(seed)
+    times, ruls = [], []
+    for t in np.arange(0.0, 3600.0, 2.0):
+        result = kf.update(float(wear.value(t) + 0.01 * rng.standard_normal()), 1e-4,
+                           float(t))
+        x, p = kf.x, kf.P
+        status = monitor.on_estimate(Estimate(int(t * 1e9), x[0], x[1],
+                                              (p[0, 0], p[0, 1], p[1, 1]),
+                                              innovation=result.innovation,
+                                              innovation_variance=result.innovation_variance,
+                                              nis=result.nis))
+        times.append(t)
+        ruls.append(status.rul.median)
+    return evaluate(times, ruls, 3600.0, t_start=60.0)
+
+
+@pytest.mark.parametrize('kind', ['linear', 'exponential'])
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_alpha_lambda_passes_at_half_and_three_quarter_life(kind: str, seed: int) -> None:
+    result = _run(kind, seed)
+    passed = {check['lam']: check['passed'] for check in result['alpha_lambda']}
+    assert passed[0.5] and passed[0.75], result['alpha_lambda']
+    assert result['prognostic_horizon_s'] > 1000.0
