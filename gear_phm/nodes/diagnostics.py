@@ -59,7 +59,7 @@ NODE_PARAMETERS: dict[str, tuple[Any, str, Any, Any, bool]] = {
     'record_flush_period': (0.5, 'the recording is flushed at least this often [s] (data '
                                  'older than this survives kill -9)', 0.01, 60.0, True),
 }
-MAX_PENDING_STAMPS = 8
+MAX_PENDING_STAMPS = 64
 #: Stamps further back than this are a new run (replay restarted), not stragglers.
 RESTART_JUMP_NS = 10 * 10**9
 

@@ -1,0 +1,181 @@
+"""Diagnostics node as a real subprocess over DDS: keys, levels, STALE, parameter checks,
+recording closed on SIGTERM, and recovery of the recording after kill -9."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from geometry_msgs.msg import Vector3Stamped  # noqa: E402
+from mcap.reader import make_reader  # noqa: E402
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue  # noqa: E402
+from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+
+from gear_phm.bagio import BagReader, recover  # noqa: E402
+from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
+                                 stamp_to_ns)
+from gear_phm.nodes.common import OUTPUT_QOS, stamp  # noqa: E402
+
+pytestmark = pytest.mark.timeout(120)
+EXE = Path(sys.executable).parent / 'diagnostics'
+KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
+        'power_flow', 'samples_used', 'samples_rejected']
+
+
+@pytest.fixture(scope='module')
+def ros():
+    rclpy.init()
+    node = Node('diagnostics_test')
+    yield node
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def start(*params: str) -> subprocess.Popen:
+    args = [str(EXE), '--ros-args', '-p', 'stale_timeout:=0.5', '-p', 'rate:=20.0',
+            '-p', 'warn_horizon:=600.0', '-p', 'transmission_name:=left_aileron',
+            '-p', 'hardware_id:=gb-7']
+    for param in params:
+        args += ['-p', param]
+    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def wait_for(node: Node, condition, deadline_s: float, what: str) -> None:
+    end = time.monotonic() + deadline_s
+    while time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.02)
+        if condition():
+            return
+    raise AssertionError(f'timed out waiting for {what}')
+
+
+class Feeder:
+    """Publishes the five estimator topics of linear wear u = 0.05 + 1.5e-4 t."""
+
+    def __init__(self, node: Node) -> None:
+        self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS)
+                     for t in ESTIMATOR_TOPICS]
+        self.step = 0
+
+    def matched(self) -> bool:
+        return all(p.get_subscription_count() > 0 for p in self.pubs)
+
+    def publish(self, dt: float = 10.0) -> int:
+        t = self.step * dt
+        self.step += 1
+        u = 0.05 + 1.5e-4 * t
+        eta_d, eta_i = (3.0 - u) / (3.0 * (1.0 + u)), 3.0 * (1.0 - u) / (3.0 + u)
+        vectors = [(u, 1.5e-4, 1e-3), (1e-6, 0.0, 1e-12), (eta_d, eta_i, eta_d),
+                   (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0)]
+        stamp_ns = int(t * 1e9)
+        for pub, (x, y, z) in zip(self.pubs, vectors):
+            msg = Vector3Stamped()
+            msg.header.stamp = stamp(stamp_ns)
+            msg.vector.x, msg.vector.y, msg.vector.z = x, y, z
+            pub.publish(msg)
+        return stamp_ns
+
+
+def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path) -> None:
+    record = tmp_path / 'rec'
+    proc = start(f'record_path:={record}', 'record_inputs:=true')
+    try:
+        arrays: list[DiagnosticArray] = []
+        sub = ros.create_subscription(DiagnosticArray, DIAGNOSTICS, arrays.append, OUTPUT_QOS)
+        feeder = Feeder(ros)
+        wait_for(ros, lambda: feeder.matched() and arrays, 20.0, 'discovery')
+        assert arrays[-1].status[0].level == b'\x03'       # STALE before any estimate
+        # cross-field check in the on-set callback: eta_warn below eta_opposing_min
+        client = ros.create_client(SetParameters, '/diagnostics/set_parameters')
+        assert client.wait_for_service(timeout_sec=10.0)
+        request = SetParameters.Request(parameters=[Parameter(
+            name='eta_warn', value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
+                                                  double_value=0.4))])
+        future = client.call_async(request)
+        wait_for(ros, future.done, 10.0, 'set_parameters')
+        result = future.result().results[0]
+        assert not result.successful and 'eta_warn must be > eta_opposing_min' in result.reason
+        levels, last_stamp = [], 0
+        for _ in range(400):                                # 0 .. 3990 s: EOL at 3667 s
+            last_stamp = feeder.publish()
+            rclpy.spin_once(ros, timeout_sec=0.005)
+            if arrays:
+                levels.append(arrays[-1].status[0].level)
+        wait_for(ros, lambda: stamp_to_ns(arrays[-1].header.stamp) == last_stamp, 10.0,
+                 'last estimate on /diagnostics')
+        status = arrays[-1].status[0]
+        assert status.name == 'gear_phm: left_aileron' and status.hardware_id == 'gb-7'
+        assert [kv.key for kv in status.values] == KEYS
+        assert status.level == b'\x02' and 'end of life' in status.message
+        values = {kv.key: kv.value for kv in status.values}
+        assert float(values['u']) == pytest.approx(0.05 + 1.5e-4 * 3990.0)
+        assert values['rul_s'] == '0.0' and values['samples_used'] == '400'
+        seen = [lv for i, lv in enumerate(levels) if i == 0 or lv != levels[i - 1]]
+        ok_warn_error = [lv for lv in seen if lv != b'\x03']
+        assert ok_warn_error == [b'\x00', b'\x01', b'\x02'], seen
+        stopped = time.monotonic()
+        wait_for(ros, lambda: arrays[-1].status[0].level == b'\x03', 5.0, 'STALE')
+        assert time.monotonic() - stopped < 0.5 + 0.5       # timeout + 10 status periods
+        ros.destroy_subscription(sub)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert (record / 'metadata.yaml').exists()
+    with BagReader(record) as bag:
+        counts = {t: bag.message_count(t) for t in bag.topics}
+    assert counts['/gear_phm/health/rul'] == 400
+    assert counts['/gear_phm/friction'] == 400 and counts['/diagnostics'] > 10
+    with open(next(record.glob('*.mcap')), 'rb') as stream:
+        reader = make_reader(stream)
+        schemas = {s.name: s.encoding for s in reader.get_summary().schemas.values()}
+        assert schemas['diagnostic_msgs/msg/DiagnosticArray'] == 'ros2msg'
+        assert sum(1 for _ in reader.iter_messages(topics=['/gear_phm/health/rul'])) == 400
+
+
+def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path) -> None:
+    record = tmp_path / 'rec9'
+    proc = start(f'record_path:={record}', 'record_flush_period:=0.5')
+    try:
+        received: list[tuple[float, int]] = []
+        sub = ros.create_subscription(
+            Vector3Stamped, HEALTH_RUL,
+            lambda m: received.append((time.monotonic(), stamp_to_ns(m.header.stamp))),
+            OUTPUT_QOS)
+        feeder = Feeder(ros)
+        wait_for(ros, lambda: feeder.matched() and sub.get_publisher_count() > 0, 20.0,
+                 'discovery')
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end:                      # 3 s of traffic, then kill at once
+            feeder.publish()
+            rclpy.spin_once(ros, timeout_sec=0.01)
+        killed = time.monotonic()
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+        ros.destroy_subscription(sub)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert not (record / 'metadata.yaml').exists()
+    older = {s for t, s in received if t < killed - 1.0}
+    assert len(older) > 20
+    assert recover(record) > 0
+    with BagReader(record) as bag:
+        name = bag.resolve_topic(HEALTH_RUL)
+        stamps = {stamp_to_ns(m.header.stamp) for _, _, m in bag.messages([name])}
+    assert older <= stamps, f'{len(older - stamps)} messages older than 1 s lost'
+    with open(next(record.glob('*.mcap')), 'rb') as stream:
+        mcap_count = sum(1 for _ in make_reader(stream).iter_messages(topics=[name]))
+    assert mcap_count == len(stamps)
