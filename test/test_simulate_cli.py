@@ -1,0 +1,255 @@
+"""``gear-phm simulate`` and the sample bags: determinism, readability, true parameters."""
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from mcap.reader import make_reader
+
+from gear_phm.bagio import TYPESTORE, BagReader
+from gear_phm.cli.main import main as gear_phm
+from gear_phm.interfaces import decode_joint_states, stamp_to_ns
+from gear_phm.models import eta_opposing, u_from_eta_opposing
+from gear_phm.simulation import DutyCycle, SimulationConfig, Wear, sample_times, simulate
+
+REPO = Path(__file__).resolve().parents[1]
+BAGS = REPO / 'bags'
+GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+TOPICS = {'/joint_states': 'sensor_msgs/msg/JointState',
+          '/gear_phm/truth/friction': 'geometry_msgs/msg/Vector3Stamped',
+          '/gear_phm/truth/efficiency': 'geometry_msgs/msg/Vector3Stamped'}
+
+ARGS = ['--duration', '12', '--rate', '50', '--seed', '9', '--wear', 'linear',
+        '--friction-initial', '0.05', '--friction-final', '0.25']
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def simulate_cli(out: Path, *args: str) -> int:
+    return gear_phm(['simulate', '--out', str(out), *args])
+
+
+@pytest.fixture(scope='module')
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp('cli') / 'run'
+    assert simulate_cli(out, *ARGS) == 0
+    return out
+
+
+def test_byte_for_byte_deterministic(bag: Path, tmp_path: Path) -> None:
+    assert simulate_cli(tmp_path / 'run', *ARGS) == 0      # same directory name, other place
+    for name in ('metadata.yaml', 'run_0.mcap'):
+        assert sha256(tmp_path / 'run' / name) == sha256(bag / name)
+    assert simulate_cli(tmp_path / 'other', *ARGS[:-6], '--seed', '10', *ARGS[6:]) == 0
+    assert sha256(tmp_path / 'other' / 'other_0.mcap') != sha256(bag / 'run_0.mcap')
+
+
+def test_rosbags_reads_the_simulation_exactly(bag: Path) -> None:
+    config = SimulationConfig(wear=Wear.reaching('linear', 0.05, 0.25, 12.0), seed=9)
+    t = np.arange(600) * 20_000_000 * 1e-9        # the CLI's integer-nanosecond stamps
+    np.testing.assert_allclose(t, sample_times(12.0, 50.0), rtol=0, atol=1e-12)
+    expected = simulate(config, t)
+    with BagReader(bag) as reader:
+        assert reader.topics == TOPICS
+        joints = list(reader.messages(['/joint_states']))
+        truth = list(reader.messages(['/gear_phm/truth/friction']))
+        efficiency = list(reader.messages(['/gear_phm/truth/efficiency']))
+    assert len(joints) == len(truth) == len(efficiency) == 600
+    stamps = np.array([stamp_to_ns(m.header.stamp) for _, _, m in joints])
+    np.testing.assert_array_equal(stamps, np.arange(600) * 20_000_000)
+    np.testing.assert_array_equal([t for _, t, _ in joints], stamps)   # log time = stamp
+    assert all(list(m.name) == ['motor', 'load'] for _, _, m in joints)
+    effort = np.array([m.effort for _, _, m in joints])
+    velocity = np.array([m.velocity for _, _, m in joints])
+    position = np.array([m.position for _, _, m in joints])
+    np.testing.assert_array_equal(effort[:, 0], expected.effort_motor)
+    np.testing.assert_array_equal(effort[:, 1], expected.effort_load)
+    np.testing.assert_array_equal(velocity[:, 1], expected.velocity_load)
+    np.testing.assert_array_equal(position[:, 0], expected.position_motor)
+    np.testing.assert_array_equal([m.vector.x for _, _, m in truth], expected.u)
+    np.testing.assert_array_equal([m.vector.y for _, _, m in truth], expected.friction)
+    np.testing.assert_array_equal([m.vector.x for _, _, m in efficiency],
+                                  expected.eta_opposing)
+    np.testing.assert_array_equal([m.vector.y for _, _, m in efficiency],
+                                  expected.eta_aiding)
+    assert all(m.vector.z == 0.0 for _, _, m in efficiency)
+
+
+def test_mcap_reader_reads_it(bag: Path) -> None:
+    with open(bag / 'run_0.mcap', 'rb') as stream:
+        reader = make_reader(stream)
+        assert reader.get_header().profile == 'ros2'
+        summary = reader.get_summary()
+        assert summary.statistics.message_count == 1800
+        assert {c.topic: c.message_encoding for c in summary.channels.values()} == \
+            {t: 'cdr' for t in TOPICS}
+        assert {s.name: s.encoding for s in summary.schemas.values()} == \
+            {t: 'ros2msg' for t in set(TOPICS.values())}
+        count, last = 0, -1
+        for schema, channel, message in reader.iter_messages(topics=['/joint_states']):
+            msg = TYPESTORE.deserialize_cdr(message.data, schema.name)
+            assert stamp_to_ns(msg.header.stamp) == message.log_time > last
+            last = message.log_time
+            count += 1
+        assert count == 600
+        compressions = {c.compression for c in summary.chunk_indexes}
+        assert compressions == {'zstd'}
+
+
+def test_metadata_is_rosbag2_version_9(bag: Path) -> None:
+    """Structural check of metadata.yaml against rosbag2 Jazzy (ros2 bag is not installed)."""
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['version'] == 9
+    assert info['storage_identifier'] == 'mcap'
+    assert info['relative_file_paths'] == ['run_0.mcap']
+    assert info['message_count'] == 1800
+    assert info['starting_time']['nanoseconds_since_epoch'] == 0
+    assert info['duration']['nanoseconds'] == 599 * 20_000_000
+    assert info['files'][0]['path'] == 'run_0.mcap'
+    assert info['files'][0]['message_count'] == 1800
+    assert info['compression_format'] == '' and info['compression_mode'] == ''
+    topics = {t['topic_metadata']['name']: t for t in info['topics_with_message_count']}
+    assert set(topics) == set(TOPICS)
+    for name, entry in topics.items():
+        meta = entry['topic_metadata']
+        assert meta['type'] == TOPICS[name]
+        assert meta['serialization_format'] == 'cdr'
+        assert meta['type_description_hash'] == TYPESTORE.hash_rihs01(TOPICS[name])
+        assert entry['message_count'] == 600
+
+
+def test_truth_every_and_joint_names(tmp_path: Path) -> None:
+    out = tmp_path / 'sparse'
+    assert simulate_cli(out, '--duration', '2', '--rate', '100', '--truth-every', '10',
+                        '--motor-joint', 'm', '--load-joint', 'l', '--start-time', '5') == 0
+    with BagReader(out) as reader:
+        assert reader.message_count('/joint_states') == 200
+        assert reader.message_count('/gear_phm/truth/friction') == 20
+        first = next(reader.messages(['/joint_states']))[2]
+        assert list(first.name) == ['m', 'l']
+        assert stamp_to_ns(first.header.stamp) == 5_000_000_000
+
+
+@pytest.mark.parametrize('args, expected', [
+    (['--rate', '-1'], '--rate must be > 0'),
+    (['--duration', '0'], '--duration must be > 0'),
+    (['--ratio', '0'], 'ratio must be >= 1e-06'),
+    (['--friction-final', '0.3'], '--friction-final needs --wear linear or exponential'),
+    (['--wear', 'linear', '--wear-rate', '1.0', '--duration', '10'], 'gearbox jams'),
+    (['--plant', 'worm'], 'plant must be one of lever, spur'),
+    (['--noise-effort-load', '-0.1'], 'noise_effort_load must be >= 0'),
+])
+def test_cli_errors_one_line_exit_2(tmp_path: Path, args: list[str], expected: str,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), *args]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith('gear-phm simulate: error:') and expected in lines[0], lines
+    assert not (tmp_path / 'x').exists()
+
+
+def test_cli_error_as_a_process_has_no_traceback(tmp_path: Path) -> None:
+    done = subprocess.run([str(GEAR_PHM), 'simulate', '--out', str(tmp_path / 'x'),
+                           '--rate', '-1'], capture_output=True, text=True, timeout=60,
+                          env=os.environ.copy())
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        'gear-phm simulate: error: --rate must be > 0 Hz, got -1.0']
+
+
+def test_refuses_a_non_empty_out_directory(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / 'keep.txt').write_text('data')
+    assert simulate_cli(tmp_path) == 2
+    assert 'exists and is not an empty directory' in capsys.readouterr().err
+    assert (tmp_path / 'keep.txt').read_text() == 'data'
+
+
+# --- sample bags --------------------------------------------------------------------------
+
+SAMPLES = ('healthy', 'wearing', 'fault')
+
+
+def test_regenerate_sample_bags_byte_for_byte(tmp_path: Path) -> None:
+    env = dict(os.environ, PYTHON=sys.executable)
+    subprocess.run(['bash', str(BAGS / 'regenerate.sh'), str(tmp_path)], check=True,
+                   capture_output=True, env=env, timeout=120)
+    for name in SAMPLES:
+        for path in sorted((BAGS / name).iterdir()):
+            assert sha256(tmp_path / name / path.name) == sha256(path), path
+        size = sum(p.stat().st_size for p in (BAGS / name).iterdir())
+        assert size <= 5 * 1024 * 1024, (name, size)
+
+
+def read_sample(name: str) -> tuple[dict, np.ndarray, np.ndarray]:
+    """(joint batch columns, truth friction (n, 2), truth efficiency (n, 2))."""
+    with BagReader(BAGS / name) as reader:
+        raws = [raw for _, _, raw in reader.raw_messages(['/joint_states'])]
+        friction = np.array([(m.vector.x, m.vector.y) for _, _, m
+                             in reader.messages(['/gear_phm/truth/friction'])])
+        efficiency = np.array([(m.vector.x, m.vector.y) for _, _, m
+                               in reader.messages(['/gear_phm/truth/efficiency'])])
+    batch = decode_joint_states(raws, 'motor', 'load')
+    assert len(batch) == len(raws) and not batch.rejected
+    return batch, friction, efficiency
+
+
+def steady_energy_ratios(batch, efficiency: np.ndarray) -> list[tuple[int, float, float]]:
+    """(phase 1|2, measured efficiency, mean true efficiency) per constant-speed stroke."""
+    t = batch.stamp_ns * 1e-9
+    _, velocity, acceleration = DutyCycle().load_motion(t)
+    steady = (acceleration == 0.0) & (velocity != 0.0)
+    edges = np.flatnonzero(np.diff(steady.astype(int)))
+    bounds = np.r_[0, edges + 1, len(t)]
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if not steady[a]:
+            continue
+        assert (b - a) / 100.0 >= 1.0 - 1e-9          # each steady phase lasts >= 1 s
+        e_motor = np.sum(batch.motor_effort[a:b] * batch.motor_velocity[a:b])
+        e_load = np.sum(-batch.load_effort[a:b] * batch.load_velocity[a:b])
+        if velocity[a] > 0:
+            out.append((1, -e_load / e_motor, float(np.mean(efficiency[a:b, 0]))))
+        else:
+            out.append((2, -e_motor / e_load, float(np.mean(efficiency[a:b, 1]))))
+    return out
+
+
+def test_wearing_bag_reaches_end_of_life_and_power_ratio_tracks_truth() -> None:
+    batch, friction, efficiency = read_sample('wearing')
+    assert len(batch) == 30_000
+    assert friction[0, 0] == pytest.approx(0.05)
+    assert friction[-1, 0] == pytest.approx(0.30, rel=1e-3)
+    assert np.all(np.diff(friction[:, 0]) > 0)
+    assert efficiency[0, 0] == pytest.approx(eta_opposing(0.05, 3.0))
+    below = np.flatnonzero(efficiency[:, 0] < 0.75)
+    assert below.size and 200.0 < below[0] / 100.0 < 280.0     # end of life ~256 s
+    ratios = steady_energy_ratios(batch, efficiency)
+    errors = np.array([measured - true for _, measured, true in ratios])
+    assert len(ratios) >= 100
+    assert np.max(np.abs(errors)) < 0.01
+    assert abs(np.mean(errors)) < 0.001
+    # u recovered from the measured eta_D follows the truth
+    first = [m for p, m, _ in ratios if p == 1][:3]
+    last = [m for p, m, _ in ratios if p == 1][-3:]
+    assert np.mean(u_from_eta_opposing(np.array(first), 3.0)) == pytest.approx(0.05, abs=0.01)
+    assert np.mean(u_from_eta_opposing(np.array(last), 3.0)) == pytest.approx(0.29, abs=0.02)
+
+
+def test_fault_and_healthy_bags() -> None:
+    batch, friction, _ = read_sample('fault')
+    t = batch.stamp_ns * 1e-9
+    np.testing.assert_allclose(friction[t < 60.0, 0], 0.05)
+    np.testing.assert_allclose(friction[t >= 60.0, 0], 0.20)
+    batch, friction, efficiency = read_sample('healthy')
+    np.testing.assert_allclose(friction[:, 0], 0.05)
+    ratios = steady_energy_ratios(batch, efficiency)
+    assert max(abs(m - e) for _, m, e in ratios) < 0.01
