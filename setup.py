@@ -20,7 +20,6 @@ setup(
     maintainer_email='gear_phm@example.com',
     description='Gearbox friction estimation and remaining useful life for ROS 2 Jazzy.',
     license='Apache-2.0',
-    tests_require=['pytest'],
     entry_points={
         'console_scripts': [
             'publisher = gear_phm.nodes.publisher:main',
