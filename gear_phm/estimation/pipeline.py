@@ -102,19 +102,29 @@ class EstimatorPipeline:
         self.counts[key] += count
         self.samples_rejected += count
 
-    def on_joint_state(self, msg: Any) -> list[Vector3Out]:
-        """One sensor_msgs/JointState (rclpy or rosbags object); never raises on bad content."""
+    def sample_from_message(self, msg: Any) -> interfaces.JointSample | None:
+        """The sample of one JointState, or None (counted by reason) if it has none."""
         try:
-            sample = interfaces.joint_state_to_sample(msg, self.motor_joint, self.load_joint)
+            return interfaces.joint_state_to_sample(msg, self.motor_joint, self.load_joint)
         except interfaces.BadMessage as exc:
             self.reject_message(exc.reason)
-            return []
         except (AttributeError, TypeError, ValueError, OverflowError):
             self.reject_message('bad_message')
+        return None
+
+    def on_samples(self, samples: list[interfaces.JointSample]) -> list[Vector3Out]:
+        """A buffer of samples (e.g. collected by the live node between timer ticks)."""
+        if not samples:
             return []
-        return self.on_batch(np.array([sample.stamp_ns], dtype=np.int64),
-                             np.array([sample.motor_velocity]), np.array([sample.motor_effort]),
-                             np.array([sample.load_velocity]), np.array([sample.load_effort]))
+        columns = np.array([(s.motor_velocity, s.motor_effort, s.load_velocity, s.load_effort)
+                            for s in samples], dtype=float).reshape(-1, 4)
+        stamps = np.array([s.stamp_ns for s in samples], dtype=np.int64)
+        return self.on_batch(stamps, *columns.T)
+
+    def on_joint_state(self, msg: Any) -> list[Vector3Out]:
+        """One sensor_msgs/JointState (rclpy or rosbags object); never raises on bad content."""
+        sample = self.sample_from_message(msg)
+        return [] if sample is None else self.on_samples([sample])
 
     def on_batch(self, stamp_ns: np.ndarray, motor_velocity: np.ndarray,
                  motor_effort: np.ndarray, load_velocity: np.ndarray,

@@ -1,0 +1,114 @@
+"""The estimator node as a real subprocess over DDS: estimates from good messages, survives
+garbage, refuses bad parameters with a reason."""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from test_estimation_plant import lever_plant
+
+VENV_BIN = Path(sys.executable).parent
+pytestmark = pytest.mark.integration
+
+
+def _wait(condition, deadline_s: float, spin) -> bool:
+    end = time.monotonic() + deadline_s
+    while time.monotonic() < end:
+        if condition():
+            return True
+        spin()
+    return condition()
+
+
+def test_bad_parameter_is_refused_with_reason() -> None:
+    result = subprocess.run([str(VENV_BIN / 'estimator'), '--ros-args', '-p', 'window:=0.5',
+                             '-p', 'min_window:=0.8'], capture_output=True, text=True,
+                            timeout=30, env=os.environ.copy())
+    assert result.returncode == 2
+    assert 'min_window must be < window' in result.stderr
+
+
+def test_node_survives_garbage_and_keeps_estimating() -> None:
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import Vector3Stamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    proc = subprocess.Popen(
+        [str(VENV_BIN / 'estimator'), '--ros-args', '-p', 'ratio:=3.0',
+         '-p', 'motor_torque_noise:=0.05', '-p', 'load_torque_noise:=0.05',
+         '-p', 'motor_inertia:=0.01', '-p', 'backwards_policy:=skip',
+         '-p', 'sensor_timeout:=5.0', '-p', 'diagnostics_period:=0.2'],
+        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    rclpy.init()
+    node = rclpy.create_node('estimator_test_driver')
+    try:
+        friction: list[Vector3Stamped] = []
+        statuses: list = []
+        reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        node.create_subscription(Vector3Stamped, 'gear_phm/friction', friction.append,
+                                 reliable)
+        node.create_subscription(
+            DiagnosticArray, '/diagnostics',
+            lambda m: statuses.extend(s for s in m.status if 'estimator' in s.name), reliable)
+        pub = node.create_publisher(JointState, 'joint_states', qos_profile_sensor_data)
+
+        def spin() -> None:
+            rclpy.spin_once(node, timeout_sec=0.01)
+
+        assert _wait(lambda: pub.get_subscription_count() > 0 and statuses, 30.0, spin), \
+            'estimator did not come up'
+        run = lever_plant(3, 60.0, 0.1, rate=100.0)
+        base = time.time_ns()
+
+        def joint_state(stamp_ns: int, names, velocity, effort) -> JointState:
+            msg = JointState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 10 ** 9)
+            msg.name, msg.velocity, msg.effort = names, velocity, effort
+            return msg
+
+        for i in range(run.t.size):
+            stamp = base + int(run.t[i] * 1e9)
+            pub.publish(joint_state(stamp, ['motor', 'load'],
+                                    [float(run.motor_velocity[i]), float(run.load_velocity[i])],
+                                    [float(run.motor_effort[i]), float(run.load_effort[i])]))
+            if i % 50 == 25:
+                pub.publish(joint_state(stamp + 1, ['left', 'right'], [1.0, 1.0], [1.0, 1.0]))
+                pub.publish(joint_state(stamp + 2, [], [], []))
+                pub.publish(joint_state(stamp + 3, ['motor', 'load'], [math.nan, 1.0],
+                                        [1.0, math.inf]))
+                pub.publish(joint_state(stamp - 10 ** 9, ['motor', 'load'], [1.0, 1.0],
+                                        [5.0, -5.0]))
+            if i % 4 == 0:
+                spin()
+                time.sleep(0.002)
+        end_stamp = base + int(run.t[-1] * 1e9)
+
+        def done() -> bool:
+            return bool(friction) and friction[-1].header.stamp.sec * 10 ** 9 + \
+                friction[-1].header.stamp.nanosec >= end_stamp - 2 * 10 ** 9
+
+        assert _wait(done, 30.0, spin), 'no estimate near the end of the stream'
+        n = len(statuses)
+        assert _wait(lambda: len(statuses) > n + 1, 10.0, spin)
+        assert proc.poll() is None, proc.stdout.read() if proc.stdout else ''
+        u_hat, sigma = friction[-1].vector.x, friction[-1].vector.z
+        assert abs(u_hat - 0.1) <= 0.002 and 0.0 < sigma < 0.002
+        values = {kv.key: kv.value for kv in statuses[-1].values}
+        for key in ('dropped_missing_joint', 'dropped_nonfinite', 'dropped_backwards'):
+            assert int(values[key]) >= 5, (key, values)
+        assert int(values['filter_updates']) > 10
+        assert int(values['messages_received']) > run.t.size // 2
+        stamps = [m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec for m in friction]
+        assert stamps == sorted(stamps)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        proc.terminate()
+        proc.wait(timeout=10)
