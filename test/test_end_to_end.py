@@ -1,0 +1,106 @@
+"""End to end over DDS: publisher replays bags/wearing fast, the estimator runs, diagnostics
+records. The recording opens with rosbags and mcap; /diagnostics goes OK -> WARN -> ERROR as
+the bag wears; killing the publisher gives STALE within stale_timeout.
+
+Wearing bag: true u 0.05 -> 0.30 exponentially over 300 s, R = 3. With eta_opposing_min 0.7333
+(u_eol 0.25, reached at ~269 s) and eta_warn 0.8 (u 0.176, ~211 s) the levels change late in
+the bag; replayed 20x faster (15 s).
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+if importlib.util.find_spec('gear_phm.nodes.estimator') is None:
+    pytest.skip('estimator node not available yet', allow_module_level=True)
+
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from mcap.reader import make_reader  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+
+from gear_phm.bagio import BagReader  # noqa: E402
+from gear_phm.interfaces import DIAGNOSTICS  # noqa: E402
+from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
+
+pytestmark = pytest.mark.timeout(180)
+BIN = Path(sys.executable).parent
+BAG = Path(__file__).resolve().parents[1] / 'bags' / 'wearing'
+STALE_TIMEOUT = 1.0
+
+
+def _spawn(exe: str, *params: str) -> subprocess.Popen:
+    args = [str(BIN / exe), '--ros-args']
+    for param in params:
+        args += ['-p', param]
+    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            return proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    return proc.wait()
+
+
+def test_three_processes_levels_recording_and_stale(tmp_path: Path) -> None:
+    record = tmp_path / 'diag'
+    diagnostics = _spawn('diagnostics', f'record_path:={record}', 'record_inputs:=true',
+                         'ratio:=3.0', 'eta_opposing_min:=0.7333', 'eta_warn:=0.8',
+                         'warn_horizon:=0.0', 'rate:=10.0', f'stale_timeout:={STALE_TIMEOUT}',
+                         'trend_window:=60.0', 'transmission_name:=wearing')
+    estimator = _spawn('estimator', 'ratio:=3.0', 'process_noise:=1e-10')
+    procs = [diagnostics, estimator]
+    rclpy.init()
+    node = Node('end_to_end_test')
+    arrays: list[DiagnosticArray] = []
+    node.create_subscription(DiagnosticArray, DIAGNOSTICS,
+                             lambda m: arrays.append(m) if m.status and m.status[0].name
+                             == 'gear_phm: wearing' else None, OUTPUT_QOS)
+    try:
+        end = time.monotonic() + 30.0
+        while not arrays and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        assert arrays, 'diagnostics node never published'
+        publisher = _spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
+                           'rate_factor:=20.0', 'wait_for_subscribers:=1')
+        procs.append(publisher)
+        levels: list[bytes] = []
+        end = time.monotonic() + 90.0
+        while publisher.poll() is None and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            level = arrays[-1].status[0].level
+            if not levels or levels[-1] != level:
+                levels.append(level)
+        assert publisher.poll() is not None, 'replay did not finish in time'
+        finished = time.monotonic()
+        live = [lv for lv in levels if lv != b'\x03']
+        assert live[:3] == [b'\x00', b'\x01', b'\x02'], levels
+        end = finished + STALE_TIMEOUT + 3.0
+        while arrays[-1].status[0].level != b'\x03' and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        assert arrays[-1].status[0].level == b'\x03'
+        assert time.monotonic() - finished <= STALE_TIMEOUT + 1.0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        codes = [_stop(p) for p in reversed(procs)]
+    assert codes[-1] == 0 or codes[-1] == -signal.SIGINT, diagnostics.stderr.read()
+    with BagReader(record) as bag:
+        topics = bag.topics
+        assert bag.message_count('/gear_phm/health/rul') > 10
+        assert '/gear_phm/friction' in topics and '/diagnostics' in topics
+    with open(next(record.glob('*.mcap')), 'rb') as stream:
+        count = sum(1 for _ in make_reader(stream).iter_messages(topics=['/diagnostics']))
+    assert count > 10
