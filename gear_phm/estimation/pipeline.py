@@ -19,7 +19,7 @@ from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.powerflow import IMPOSSIBLE, classify
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
-from gear_phm.interfaces import Vector3Out
+from gear_phm.interfaces import OK, WARN, StatusOut, Vector3Out, format_value
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
@@ -330,3 +330,30 @@ class EstimatorPipeline:
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,
             'counts': dict(self.counts), 'timed_out': self.timed_out,
         }
+
+    def status(self, name: str, messages_received: int | None = None) -> StatusOut:
+        """DiagnosticStatus record: level, message, estimate and counters by reason."""
+        summary = self.summary()
+        if self.timed_out:
+            level, message = WARN, 'sensor timeout: predicting only'
+        elif self.filter.updates == 0:
+            level, message = WARN, 'no efficiency measurement yet'
+        elif self.filter.consecutive_gated:
+            level, message = WARN, f'{self.filter.consecutive_gated} measurement(s) gated'
+        else:
+            level, message = OK, 'estimating'
+        values: list[tuple[str, Any]] = []
+        if messages_received is not None:
+            values.append(('messages_received', messages_received))
+        values += [(key, summary[key]) for key in (
+            'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
+            'samples_rejected')]
+        for reason, count in sorted(summary['counts'].items()):
+            if reason in WINDOW_REASONS:
+                values.append((f'windows_rejected_{reason}', count))
+            elif reason in EVENTS:
+                values.append((f'events_{reason}', count))
+            else:
+                values.append((f'dropped_{reason}', count))
+        return StatusOut(level, name, message, 'gear_phm',
+                         tuple((key, format_value(value)) for key, value in values))

@@ -9,7 +9,6 @@ A bad message is dropped and counted, never fatal. Parameters: config/estimator.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -20,8 +19,7 @@ from sensor_msgs.msg import JointState
 
 from gear_phm import interfaces
 from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline
-from gear_phm.estimation.pipeline import EVENTS, WINDOW_REASONS
-from gear_phm.interfaces import OK, WARN, DiagnosticsOut, StatusOut, format_value
+from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import (OUTPUT_QOS, SENSOR_QOS, ConfigError, OutputPublisher,
                                    declare, run_node, to_rclpy)
 
@@ -112,7 +110,7 @@ class EstimatorNode(Node):
 
     def _on_diagnostics_timer(self) -> None:
         now = self.get_clock().now().nanoseconds
-        status = pipeline_status(self.pipeline, self.status_name, self.messages_received)
+        status = self.pipeline.status(self.status_name, self.messages_received)
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
 
     def _on_set_parameters(self, params: Sequence[Any]) -> SetParametersResult:
@@ -138,38 +136,6 @@ class EstimatorNode(Node):
         self.pipeline.frame_id = values['frame_id']
         self.pipeline.reconfigure(config)
         return SetParametersResult(successful=True)
-
-
-def pipeline_status(pipeline: EstimatorPipeline, name: str,
-                    messages_received: int | None = None) -> StatusOut:
-    """The estimator's DiagnosticStatus: level, message and counters by reason."""
-    summary = pipeline.summary()
-    if pipeline.timed_out:
-        level, message = WARN, 'sensor timeout: predicting only'
-    elif pipeline.filter.updates == 0:
-        level, message = WARN, 'no efficiency measurement yet'
-    elif pipeline.filter.consecutive_gated:
-        level, message = WARN, f'{pipeline.filter.consecutive_gated} measurement(s) gated'
-    else:
-        level, message = OK, 'estimating'
-    values = [('u', summary['u']), ('sigma_u', summary['sigma_u']),
-              ('eta_opposing', summary['eta_opposing']),
-              ('eta_aiding', summary['eta_aiding']),
-              ('filter_updates', summary['filter_updates']),
-              ('samples_used', summary['samples_used']),
-              ('samples_rejected', summary['samples_rejected'])]
-    if messages_received is not None:
-        values.insert(0, ('messages_received', messages_received))
-    for reason, count in sorted(summary['counts'].items()):
-        if reason in WINDOW_REASONS:
-            values.append((f'windows_rejected_{reason}', count))
-        elif reason in EVENTS:
-            values.append((f'events_{reason}', count))
-        else:
-            values.append((f'dropped_{reason}', count))
-    return StatusOut(level, name, message, 'gear_phm',
-                     tuple((k, format_value(v if not isinstance(v, float) or not math.isnan(v)
-                                            else math.nan)) for k, v in values))
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,0 +1,67 @@
+"""gear-phm analyze on the sample bags: outputs, summary, plot, bad input."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gear_phm import interfaces
+from gear_phm.bagio import BagReader
+from gear_phm.cli.main import main
+
+REPO = Path(__file__).resolve().parents[1]
+HEALTHY = REPO / 'bags' / 'healthy'
+
+
+@pytest.mark.skipif(not HEALTHY.exists(), reason='sample bags not generated')
+def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> None:
+    out = tmp_path / 'out'
+    assert main(['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out),
+                 '--no-progress']) == 0
+    summary = json.loads((out / 'summary.json').read_text())
+    assert abs(summary['u'] - 0.05) <= 0.001            # bag: lever u = 0.05
+    assert summary['samples_seen'] == summary['messages'] > 10000
+    assert summary['samples_per_second'] > 0
+    assert (out / 'analysis.png').stat().st_size > 20000
+    with BagReader(out) as bag:
+        topics = bag.topics
+        for topic in interfaces.ESTIMATOR_TOPICS:
+            assert topics['/' + topic] == interfaces.VECTOR3_STAMPED_TYPE
+        assert topics['/diagnostics'] == interfaces.DIAGNOSTIC_ARRAY_TYPE
+        stamps = [t for _, t, _ in bag.raw_messages(['/gear_phm/friction'])]
+    with BagReader(HEALTHY) as source:
+        start, end = source.start_ns, source.end_ns
+    assert stamps == sorted(stamps) and start <= stamps[0] and stamps[-1] <= end
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['--ratio', '-1', '--out', 'X'], 'ratio must be in'),
+    (['--ratio', '3', '--out', 'X', '--param', 'window=abc'], 'window needs a number'),
+    (['--ratio', '3', '--out', 'X', '--param', 'speed=1'], 'unknown estimator parameter'),
+    (['--ratio', '3', '--out', 'X', '--topic', 'nope'], "no topic 'nope'"),
+    (['--ratio', '3', '--out', 'X', '--motor-joint', 'arm'], 'no message of topic'),
+])
+def test_bad_input_one_line_error_exit_2(tmp_path: Path, argv: list[str],
+                                         message: str) -> None:
+    if not HEALTHY.exists():
+        pytest.skip('sample bags not generated')
+    argv = [str(tmp_path / a) if a == 'X' else a for a in argv]
+    result = subprocess.run([str(Path(sys.executable).parent / 'gear-phm'), 'analyze',
+                             str(HEALTHY), '--no-progress', '--no-plot'] + argv,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('gear-phm analyze: error:'), result.stderr
+    assert message in lines[0]
+
+
+def test_missing_bag_and_existing_out(tmp_path: Path) -> None:
+    (tmp_path / 'full').mkdir()
+    (tmp_path / 'full' / 'x').write_text('x')
+    assert main(['analyze', str(tmp_path / 'none'), '--ratio', '3', '--out',
+                 str(tmp_path / 'o')]) == 2
+    assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out',
+                 str(tmp_path / 'full')]) == 2
