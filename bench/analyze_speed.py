@@ -1,0 +1,49 @@
+"""Benchmark (not a test): gear-phm analyze samples/s next to rosbags raw reading/decoding of
+the same bag, measured in the same run.  Usage: .venv/bin/python bench/analyze_speed.py [BAG]"""
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+from gear_phm.cli.main import main as gear_phm
+
+
+def rosbags_rates(bag: Path, topic: str = '/joint_states') -> tuple[float, float, int]:
+    """(raw read msgs/s, read + deserialize msgs/s, count) with rosbags AnyReader."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    rates = []
+    for deserialize in (False, True):
+        with AnyReader([bag], default_typestore=store) as reader:
+            conns = [c for c in reader.connections if c.topic == topic]
+            start = time.perf_counter()
+            count = 0
+            for conn, _, raw in reader.messages(connections=conns):
+                if deserialize:
+                    reader.deserialize(raw, conn.msgtype)
+                count += 1
+            rates.append(count / (time.perf_counter() - start))
+    return rates[0], rates[1], count
+
+
+def main() -> None:
+    bag = Path(sys.argv[1] if len(sys.argv) > 1 else 'bags/wearing')
+    raw_rate, decode_rate, count = rosbags_rates(bag)
+    with tempfile.TemporaryDirectory() as tmp:
+        gear_phm(['analyze', str(bag), '--ratio', '3.0', '--out', f'{tmp}/out', '--no-plot',
+                  '--no-progress'])
+        summary = json.loads(Path(f'{tmp}/out/summary.json').read_text())
+    print(f'bag {bag}: {count} JointState messages')
+    print(f'rosbags raw read           : {raw_rate:10.0f} msg/s')
+    print(f'rosbags read + deserialize : {decode_rate:10.0f} msg/s')
+    print(f'gear-phm analyze           : {summary["samples_per_second"]:10.0f} samples/s '
+          f'({100 * summary["samples_per_second"] / decode_rate:.0f} % of deserialize)')
+
+
+if __name__ == '__main__':
+    main()
