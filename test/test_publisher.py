@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import threading
@@ -282,6 +281,26 @@ def test_replay_without_subscriber_times_out_and_starts(tmp_path: Path) -> None:
     assert elapsed >= 1.5
 
 
-def test_bag_fixture_exists() -> None:
-    assert shutil.which(str(PUBLISHER)) is not None
-    assert (HEALTHY / 'metadata.yaml').exists()
+def test_config_file_lists_every_parameter_with_its_default_and_type() -> None:
+    import yaml
+
+    from gear_phm.nodes.publisher import NODE_PARAMETERS
+    from gear_phm.simulation import PARAMETERS
+    params = yaml.safe_load((REPO / 'config' / 'publisher.yaml').read_text())
+    params = params['/**']['ros__parameters']
+    expected = {name: default for name, default, *_ in NODE_PARAMETERS}
+    expected.update({name: spec[0] for name, spec in PARAMETERS.items()})
+    assert set(params) == set(expected)
+    for name, default in expected.items():
+        assert type(params[name]) is type(default), name     # 30.0, not 30
+        assert params[name] == default, name
+
+
+@pytest.mark.integration
+def test_config_file_is_accepted_by_the_node() -> None:
+    done = subprocess.run(
+        [str(PUBLISHER), '--ros-args', '--params-file', str(REPO / 'config' / 'publisher.yaml'),
+         '-p', 'duration:=0.3', '-p', 'wait_for_subscribers:=0'],
+        capture_output=True, text=True, timeout=60, env=os.environ.copy())
+    assert done.returncode == 0, done.stderr
+    assert 'published 30 messages' in done.stderr

@@ -50,6 +50,35 @@ SIM_CHUNK_S = 0.5
 JITTER_WINDOW = 100_000
 
 
+#: Node-only parameters: (name, default, description, low, high); the simulation ones
+#: come from gear_phm.simulation.PARAMETERS.
+NODE_PARAMETERS: tuple[tuple[str, Any, str, float | None, float | None], ...] = (
+    ('mode', 'simulate', 'simulate | replay', None, None),
+    ('motor_joint', 'motor', 'name of the motor joint in JointState', None, None),
+    ('load_joint', 'load', 'name of the load joint in JointState', None, None),
+    ('rate', 100.0, 'simulate: sample rate [Hz]', 1e-3, 10000.0),
+    ('duration', 0.0, 'simulate: run length [s]; 0 runs until shut down', 0.0, None),
+    ('bag_path', '', 'replay: rosbag2 directory, .mcap/.db3 in one, or ROS1 .bag',
+     None, None),
+    ('topic', '', 'replay: JointState topic in the bag; empty = auto-detect', None,
+     None),
+    ('remap', '', 'output topic of the joint states; empty = joint_states', None, None),
+    ('rate_factor', 1.0, 'replay: speed-up of the bag time [-], > 0', 1e-3, 1000.0),
+    ('loop', False, 'replay: start again at the end', None, None),
+    ('start_offset', 0.0, 'replay: skip this much of the bag start [s]', 0.0, None),
+    ('publish_clock', False, 'replay: publish /clock with the message stamps', None,
+     None),
+    ('restamp', False, 'replay: stamp messages with the node clock (start time + '
+                       'scaled bag time) instead of the bag stamps', None, None),
+    ('replay_truth', True, 'replay: also replay gear_phm/truth/* topics if present',
+     None, None),
+    ('wait_for_subscribers', 1, 'wait for this many joint_states subscribers before '
+                                'the first message', 0, 1000),
+    ('wait_timeout', 10.0, 'give up waiting for subscribers after this long and '
+                           'start anyway [s]; 0 waits forever', 0.0, None),
+)
+
+
 class JitterStats:
     """Lateness of each publish, actual - scheduled [s], over the last JITTER_WINDOW sends."""
 
@@ -138,31 +167,7 @@ class PublisherNode(Node):
 
     # -- parameters -------------------------------------------------------------------------
     def _declare_all(self) -> dict[str, Any]:
-        specs: list[tuple[str, Any, str, float | None, float | None]] = [
-            ('mode', 'simulate', 'simulate | replay', None, None),
-            ('motor_joint', 'motor', 'name of the motor joint in JointState', None, None),
-            ('load_joint', 'load', 'name of the load joint in JointState', None, None),
-            ('rate', 100.0, 'simulate: sample rate [Hz]', 1e-3, 10000.0),
-            ('duration', 0.0, 'simulate: run length [s]; 0 runs until shut down', 0.0, None),
-            ('bag_path', '', 'replay: rosbag2 directory, .mcap/.db3 in one, or ROS1 .bag',
-             None, None),
-            ('topic', '', 'replay: JointState topic in the bag; empty = auto-detect', None,
-             None),
-            ('remap', '', 'output topic of the joint states; empty = joint_states', None, None),
-            ('rate_factor', 1.0, 'replay: speed-up of the bag time [-], > 0', 1e-3, 1000.0),
-            ('loop', False, 'replay: start again at the end', None, None),
-            ('start_offset', 0.0, 'replay: skip this much of the bag start [s]', 0.0, None),
-            ('publish_clock', False, 'replay: publish /clock with the message stamps', None,
-             None),
-            ('restamp', False, 'replay: stamp messages with the node clock (start time + '
-                               'scaled bag time) instead of the bag stamps', None, None),
-            ('replay_truth', True, 'replay: also replay gear_phm/truth/* topics if present',
-             None, None),
-            ('wait_for_subscribers', 1, 'wait for this many joint_states subscribers before '
-                                        'the first message', 0, 1000),
-            ('wait_timeout', 10.0, 'give up waiting for subscribers after this long and '
-                                   'start anyway [s]; 0 waits forever', 0.0, None),
-        ]
+        specs = list(NODE_PARAMETERS)
         for name, (default, description, low, high) in PARAMETERS.items():
             specs.append((name, default, 'simulate: ' + description, low, high))
         values: dict[str, Any] = {}
