@@ -59,4 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    # Run the imported module's main, so that CliError is the class subcommands raise
+    # (under `python -m`, this file is __main__ and would define a second CliError).
+    from gear_phm.cli.main import main as _main
+    sys.exit(_main())
