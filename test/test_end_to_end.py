@@ -83,10 +83,14 @@ def test_three_processes_levels_recording_and_stale(tmp_path: Path) -> None:
             level = arrays[-1].status[0].level
             if not levels or levels[-1] != level:
                 levels.append(level)
-        assert publisher.poll() is not None, 'replay did not finish in time'
-        finished = time.monotonic()
+            if level == b'\x02':
+                break
         live = [lv for lv in levels if lv != b'\x03']
         assert live[:3] == [b'\x00', b'\x01', b'\x02'], levels
+        if publisher.poll() is None:          # kill the publisher mid-replay
+            publisher.send_signal(signal.SIGKILL)
+            publisher.wait(timeout=10)
+        finished = time.monotonic()
         end = finished + STALE_TIMEOUT + 3.0
         while arrays[-1].status[0].level != b'\x03' and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.05)

@@ -159,21 +159,24 @@ class EstimatorPipeline:
             start = end
         return outputs
 
-    def on_clock(self, now_ns: int) -> list[Vector3Out]:
-        """Time passes without samples (live timer, node clock [ns]): on a sensor timeout close
-        the open window, predict only and flag it; returns outputs stamped ``now_ns``."""
+    def on_silence(self, silence_s: float) -> list[Vector3Out]:
+        """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
+        node clock since the last arrival). Past ``sensor_timeout``: close the open window,
+        predict only, flag the timeout and publish once, stamped with the newest sample (the
+        estimate still uses no newer data). Sample stamps and the caller's clock may be in
+        different time bases (a replayed bag without use_sim_time), so they are never mixed.
+        """
         if self._last_stamp is None or self._origin_ns is None:
             return []
-        if (now_ns - self._last_stamp) * 1e-9 <= self.config.sensor_timeout:
+        if silence_s <= self.config.sensor_timeout or self.timed_out:
             return []
+        self.timed_out = True
+        self.counts['timeout'] += 1
         outputs: list[Vector3Out] = []
-        if not self.timed_out:
-            self.timed_out = True
-            self.counts['timeout'] += 1
-            for window in self.integrator.flush():
-                outputs += self._apply_window(window)
-        x, p = self.filter.predicted(self._t(now_ns))
-        outputs += self._records(int(now_ns), x, p)
+        for window in self.integrator.flush():
+            outputs += self._apply_window(window)
+        x, p = self.filter.predicted(self._t(self._last_stamp))
+        outputs += self._records(int(self._last_stamp), x, p)
         return outputs
 
     # --- core --------------------------------------------------------------------------------
@@ -213,7 +216,7 @@ class EstimatorPipeline:
             gaps = np.diff(np.concatenate(([last], t_ok))) > c.sensor_timeout
             n_gaps = int(np.count_nonzero(gaps))
             if self.timed_out and gaps[0]:
-                n_gaps -= 1         # already counted by on_clock
+                n_gaps -= 1         # already counted by on_silence
             self.counts['timeout'] += n_gaps
             self.timed_out = False
             self._last_stamp = int(stamps[timely][-1])

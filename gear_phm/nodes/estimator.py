@@ -80,12 +80,14 @@ class EstimatorNode(Node):
         self.status_name = f'gear_phm estimator: {self.get_name()}'
         self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
         self.buffer: list[interfaces.JointSample] = []
+        self.last_arrival_ns: int | None = None   # node clock at the newest arrival [ns]
         self.max_buffer = 200
         self.create_timer(values['batch_period'], self._on_clock_timer)
 
     # --- callbacks -----------------------------------------------------------------------------
     def _on_joint_state(self, msg: JointState) -> None:
         self.messages_received += 1
+        self.last_arrival_ns = self.get_clock().now().nanoseconds
         sample = self.pipeline.sample_from_message(msg)
         if sample is not None:
             self.buffer.append(sample)
@@ -106,7 +108,9 @@ class EstimatorNode(Node):
 
     def _on_clock_timer(self) -> None:
         self._flush()
-        self.outputs.publish(self.pipeline.on_clock(self.get_clock().now().nanoseconds))
+        if self.last_arrival_ns is not None:
+            silence_s = (self.get_clock().now().nanoseconds - self.last_arrival_ns) * 1e-9
+            self.outputs.publish(self.pipeline.on_silence(silence_s))
 
     def _on_diagnostics_timer(self) -> None:
         now = self.get_clock().now().nanoseconds
