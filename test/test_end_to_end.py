@@ -8,7 +8,6 @@ the bag; replayed 20x faster (15 s).
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 import signal
 import subprocess
@@ -18,10 +17,7 @@ from pathlib import Path
 
 import pytest
 
-rclpy = pytest.importorskip('rclpy')
-if importlib.util.find_spec('gear_phm.nodes.estimator') is None:
-    pytest.skip('estimator node not available yet', allow_module_level=True)
-
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 from rclpy.node import Node  # noqa: E402

@@ -194,8 +194,7 @@ def test_seeded_and_chunk_invariant() -> None:
     ('step', [0.1, 0.1 + 0.3, 0.1 + 0.3]),
 ])
 def test_wear_trajectories(kind: str, expected: list[float]) -> None:
-    rate = 0.02 if kind == 'linear' else 0.02
-    wear = Wear(kind, 0.1, rate, t_fault=5.0, step=0.3)
+    wear = Wear(kind, 0.1, 0.02, t_fault=5.0, step=0.3)
     np.testing.assert_allclose(wear.value([0.0, 5.0, 10.0]), expected)
     if kind == 'step':
         assert wear.value(4.999) == pytest.approx(0.1)

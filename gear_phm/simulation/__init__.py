@@ -30,7 +30,8 @@ from gear_phm.simulation.simulator import (
 from gear_phm.simulation.wear import WEAR_KINDS, Wear
 
 __all__ = [
-    'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PHASE_AIDING', 'PHASE_IDLE',
-    'PARAMETERS', 'PHASE_OPPOSING', 'PHASE_SELF_LOCKING', 'Plant', 'Sensors', 'SimulationConfig',
-    'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear', 'config_from_parameters', 'sample_times', 'simulate',
+    'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PARAMETERS', 'PHASE_AIDING',
+    'PHASE_IDLE', 'PHASE_OPPOSING', 'PHASE_SELF_LOCKING', 'Plant', 'Sensors',
+    'SimulationConfig', 'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear',
+    'config_from_parameters', 'sample_times', 'simulate',
 ]
