@@ -398,3 +398,13 @@ def test_replay_loop_repeats_until_interrupted(ros) -> None:
     stamps = [s for s, _, _ in recorder.items]
     one_pass = [119_500_000_000 + i * 10_000_000 for i in range(50)]
     assert stamps[:100] == one_pass + one_pass            # original stamps, pass after pass
+
+
+@pytest.mark.integration
+def test_unbounded_simulation_that_jams_stops_with_one_line() -> None:
+    done = run_publisher(timeout=60.0, wait_for_subscribers=0, wear='linear', wear_rate=2.0,
+                         rate=50.0)
+    assert done.returncode == 2, done.stderr
+    assert 'Traceback' not in done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith('error: ')]
+    assert len(errors) == 1 and 'the gearbox jams' in errors[0], done.stderr
