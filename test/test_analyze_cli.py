@@ -16,7 +16,6 @@ REPO = Path(__file__).resolve().parents[1]
 HEALTHY = REPO / 'bags' / 'healthy'
 
 
-@pytest.mark.skipif(not HEALTHY.exists(), reason='sample bags not generated')
 def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> None:
     out = tmp_path / 'out'
     assert main(['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out),
@@ -37,6 +36,32 @@ def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> N
     assert stamps == sorted(stamps) and start <= stamps[0] and stamps[-1] <= end
 
 
+def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path) -> None:
+    """bags/wearing: eta_D falls below 0.8 then below 0.7333 (EOL): OK -> WARN -> ERROR.
+
+    The bag compresses wear into 300 s, so the filter gets the faster process noise.
+    """
+    out = tmp_path / 'out'
+    assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
+                 str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
+                 '--eta-warn', '0.8', '--warn-horizon', '0.0',
+                 '--transmission-name', 'flap', '--param', 'process_noise=1e-10']) == 0
+    health = json.loads((out / 'summary.json').read_text())['health']
+    first = health['first_seen_ns']
+    assert first['OK'] < first['WARN'] < first['ERROR'], first
+    assert health['level'] == 'ERROR'
+    with BagReader(out) as bag:
+        assert bag.topics['/gear_phm/health/rul'] == interfaces.VECTOR3_STAMPED_TYPE
+        assert bag.message_count('/gear_phm/health/efficiency') > 1000
+        statuses = [s for _, _, m in bag.messages(['/diagnostics']) for s in m.status
+                    if s.name == 'gear_phm: flap']
+    assert len(statuses) >= 290                      # 1 Hz over the 300 s bag
+    keys = [kv.key for kv in statuses[-1].values]
+    assert keys == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
+                    'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected']
+    assert [s.level for s in statuses][-1] == 2
+
+
 @pytest.mark.parametrize('argv, message', [
     (['--ratio', '-1', '--out', 'X'], 'ratio must be in'),
     (['--ratio', '3', '--out', 'X', '--param', 'window=abc'], 'window needs a number'),
@@ -46,8 +71,6 @@ def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> N
 ])
 def test_bad_input_one_line_error_exit_2(tmp_path: Path, argv: list[str],
                                          message: str) -> None:
-    if not HEALTHY.exists():
-        pytest.skip('sample bags not generated')
     argv = [str(tmp_path / a) if a == 'X' else a for a in argv]
     result = subprocess.run([str(Path(sys.executable).parent / 'gear-phm'), 'analyze',
                              str(HEALTHY), '--no-progress', '--no-plot'] + argv,

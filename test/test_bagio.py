@@ -73,6 +73,15 @@ def test_written_bag_reads_back_with_rosbags_and_mcap(tmp_path: Path) -> None:
         assert all(c.metadata['topic_type_hash'].startswith('RIHS01_') for c in channels)
 
 
+@pytest.mark.parametrize('frame_id', ['', 'a', 'abc', 'abcd', 'gear_frame_12345'])
+def test_fast_vector3_cdr_matches_rosbags(frame_id: str) -> None:
+    from gear_phm.bagio.writer import to_rosbags, vector3_stamped_cdr
+    output = Vector3Out('gear_phm/friction', 1_700_000_000_123_456_789, 0.1, -2.5, math.inf,
+                        frame_id)
+    reference = TYPESTORE.serialize_cdr(to_rosbags(output), 'geometry_msgs/msg/Vector3Stamped')
+    assert vector3_stamped_cdr(output) == bytes(reference)
+
+
 def test_writer_is_deterministic(tmp_path: Path) -> None:
     write_bag(tmp_path / 'a', 300)
     write_bag(tmp_path / 'b', 300)

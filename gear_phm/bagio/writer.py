@@ -122,10 +122,14 @@ class Rosbag2McapWriter:
 
     def write_output(self, output: Vector3Out | DiagnosticsOut, t_ns: int | None = None) -> None:
         """Append a gear_phm output record (adds its topic on first use)."""
-        msgtype = VECTOR3_STAMPED_TYPE if isinstance(output, Vector3Out) \
-            else DIAGNOSTIC_ARRAY_TYPE
-        self.add_topic(output.topic, msgtype)
-        self.write(output.topic, output.stamp_ns if t_ns is None else t_ns, to_rosbags(output))
+        t_ns = output.stamp_ns if t_ns is None else t_ns
+        if isinstance(output, Vector3Out):
+            if absolute_topic(output.topic) not in self._topics:
+                self.add_topic(output.topic, VECTOR3_STAMPED_TYPE)
+            self.write_raw(output.topic, t_ns, vector3_stamped_cdr(output))
+            return
+        self.add_topic(output.topic, DIAGNOSTIC_ARRAY_TYPE)
+        self.write(output.topic, t_ns, to_rosbags(output))
 
     def flush(self) -> None:
         """Finish the open chunk and push it to the file (and disk, with ``fsync``)."""
@@ -267,6 +271,18 @@ def _header(stamp_ns: int, frame_id: str = '') -> Any:
     return TYPESTORE.types['std_msgs/msg/Header'](
         stamp=TYPESTORE.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
         frame_id=frame_id)
+
+
+def vector3_stamped_cdr(output: Vector3Out) -> bytes:
+    """Little-endian CDR of a geometry_msgs/Vector3Stamped, packed directly (about 50 times
+    faster than the generic serializer; the tests check it is byte-identical)."""
+    sec, nanosec = ns_to_sec_nanosec(output.stamp_ns)
+    frame = output.frame_id.encode() + b'\0'
+    end = 12 + len(frame)                      # offset after frame_id, from the CDR origin
+    padding = b'\0' * ((-end) % 8)
+    return b''.join((b'\x00\x01\x00\x00', struct.pack('<iII', sec, nanosec, len(frame)),
+                     frame, padding,
+                     struct.pack('<3d', float(output.x), float(output.y), float(output.z))))
 
 
 def to_rosbags(output: Vector3Out | DiagnosticsOut) -> Any:

@@ -21,6 +21,8 @@ import numpy as np
 from gear_phm import interfaces
 from gear_phm.cli.main import CliError
 from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline, Measurement
+from gear_phm.prognostics.options import add_health_arguments, health_config_from_args
+from gear_phm.prognostics.pipeline import HealthPipeline
 
 HELP = 'estimate friction offline from a recorded bag (same code as the estimator node)'
 BATCH = 20000
@@ -37,7 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, help='output directory (must not exist)')
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
                         help='estimator parameter, as in config/estimator.yaml (repeatable)')
+    parser.add_argument('--transmission-name', default='gearbox',
+                        help='diagnostics status name "gear_phm: <name>" (default gearbox)')
+    parser.add_argument('--hardware-id', default='gearbox', help='diagnostics hardware_id')
+    parser.add_argument('--diagnostics-rate', type=float, default=1.0, metavar='HZ',
+                        help='/diagnostics rate in bag time [Hz], as the nodes (default 1.0)')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
+    add_health_arguments(parser)
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
@@ -76,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
     from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter
 
     config = _config(args)
+    if not args.diagnostics_rate > 0:
+        raise CliError(f'--diagnostics-rate must be > 0, got {args.diagnostics_rate}')
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise CliError(f'--out {out} exists and is not an empty directory')
@@ -87,7 +97,13 @@ def run(args: argparse.Namespace) -> int:
                                      on_measurement=lambda m, ok: measurements.append((m, ok)))
     except ValueError as exc:
         raise CliError(str(exc)) from None
+    try:
+        health = HealthPipeline(health_config_from_args(args, config.ratio),
+                                args.transmission_name, args.hardware_id)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
     status_name = 'gear_phm estimator: estimator'
+    levels: dict[str, int] = {}
     friction: list[tuple[int, float, float, float]] = []
     truth: dict[str, list[tuple[int, float, float, float]]] = {}
     try:
@@ -99,19 +115,30 @@ def run(args: argparse.Namespace) -> int:
             out.parent.mkdir(parents=True, exist_ok=True)
             started = time.perf_counter()
             samples = 0
+            truth_topics = {} if args.no_plot else {
+                bag.resolve_topic(name): name
+                for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY)
+                if bag.resolve_topic(name) in bag.topics}
+            diag_period_ns = int(1e9 / args.diagnostics_rate)
             with Rosbag2McapWriter(out) as writer:
                 progress = _progress(total, args.no_progress)
                 next_diag: int | None = None
                 chunk: list[bytes] = []
-                raw_iter = bag.raw_messages([topic])
-                while True:
+                raw_iter = bag.raw_messages([topic, *truth_topics])
+                exhausted = False
+                while not exhausted:
                     chunk.clear()
-                    for _, _, raw in raw_iter:
-                        chunk.append(raw)
-                        if len(chunk) >= BATCH:
-                            break
+                    for name, _, raw in raw_iter:      # one pass over the bag
+                        if name == topic:
+                            chunk.append(raw)
+                            if len(chunk) >= BATCH:
+                                break
+                        else:
+                            truth.setdefault(truth_topics[name], []).append(_vector3(raw))
+                    else:
+                        exhausted = True
                     if not chunk:
-                        break
+                        continue
                     batch = interfaces.decode_joint_states(chunk, args.motor_joint,
                                                            args.load_joint)
                     for reason, count in batch.rejected.items():
@@ -119,17 +146,21 @@ def run(args: argparse.Namespace) -> int:
                     outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
                                                 batch.motor_effort, batch.load_velocity,
                                                 batch.load_effort)
+                    samples += len(chunk)
                     for output in outputs:
                         writer.write_output(output)
                         if output.topic == interfaces.FRICTION:
                             friction.append((output.stamp_ns, output.x, output.y, output.z))
-                    samples += len(chunk)
-                    if len(batch):
-                        stamp = int(batch.stamp_ns[-1])
-                        if next_diag is None or stamp >= next_diag:
-                            status = pipeline.status(status_name, samples)
-                            writer.write_output(interfaces.DiagnosticsOut(stamp, (status,)))
-                            next_diag = stamp + 1_000_000_000
+                        # the diagnostics node's code, fed the same messages
+                        for health_output in health.on_input(output.topic, output.stamp_ns,
+                                                             output):
+                            writer.write_output(health_output)
+                        # /diagnostics at the nodes' rate, in bag time
+                        if next_diag is None or output.stamp_ns >= next_diag:
+                            writer.write_output(_diagnostics(
+                                output.stamp_ns, pipeline, status_name, samples, health,
+                                args, levels))
+                            next_diag = output.stamp_ns + diag_period_ns
                     progress.update(len(chunk))
                 progress.close()
                 elapsed = time.perf_counter() - started
@@ -137,10 +168,6 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError(f'no message of topic {topic} has joints '
                                f'{args.motor_joint!r} and {args.load_joint!r}: '
                                f'{dict(pipeline.counts)}')
-            for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY):
-                resolved = bag.resolve_topic(name)
-                if resolved in bag.topics:
-                    truth[name] = [_vector3(raw) for _, _, raw in bag.raw_messages([resolved])]
     except BagError as exc:
         raise CliError(str(exc)) from None
     summary = pipeline.summary()
@@ -148,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
         'bag': str(args.bag), 'topic': args.topic, 'messages': samples,
         'seconds': elapsed, 'samples_per_second': samples / elapsed if elapsed > 0 else math.inf,
         'windows_measured': len(measurements), 'config': config.as_dict(),
+        'health': _health_summary(health, levels),
     })
     (out / 'summary.json').write_text(json.dumps(summary, indent=2, default=_json) + '\n')
     if not args.no_plot:
@@ -158,6 +186,28 @@ def run(args: argparse.Namespace) -> int:
           f'{samples} messages in {elapsed:.2f} s ({summary["samples_per_second"]:.0f}/s) '
           f'-> {out}', file=sys.stderr)
     return 0
+
+
+def _diagnostics(stamp_ns: int, pipeline: EstimatorPipeline, status_name: str, samples: int,
+                 health: HealthPipeline, args: argparse.Namespace,
+                 levels: dict[str, int]) -> interfaces.DiagnosticsOut:
+    """The /diagnostics array the estimator and diagnostics nodes would publish at stamp_ns."""
+    statuses = [pipeline.status(status_name, samples)]
+    if health.latest is not None:
+        diagnostics, _, _ = health.latest.outputs(args.transmission_name, args.hardware_id)
+        statuses += diagnostics.statuses
+        levels.setdefault(interfaces.LEVEL_NAMES[health.latest.level], stamp_ns)
+    return interfaces.DiagnosticsOut(stamp_ns, tuple(statuses))
+
+
+def _health_summary(health: HealthPipeline, first_seen: dict[str, int]) -> dict[str, Any]:
+    """Final health status and the bag time [ns] each level was first reported."""
+    latest = health.latest
+    if latest is None:
+        return {'level': 'none', 'first_seen_ns': first_seen, 'dropped': health.dropped}
+    return {'level': interfaces.LEVEL_NAMES[latest.level], 'message': latest.message,
+            'values': dict(latest.key_values()), 'first_seen_ns': first_seen,
+            'dropped': health.dropped}
 
 
 def _json(value: Any) -> Any:

@@ -39,6 +39,7 @@ def _executor(kind: str):
 
 def run(args: argparse.Namespace) -> int:
     import rclpy
+    from rclpy._rclpy_pybind11 import RCLError
     from rclpy.executors import ExternalShutdownException
 
     from gear_phm.cli.main import CliError
@@ -84,6 +85,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0
+    except RCLError:
+        if not rclpy.ok():    # a signal shut the context down mid-callback: clean stop
+            return 0
+        raise
     finally:
         if publisher is not None:
             publisher.stop()

@@ -12,6 +12,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
@@ -142,6 +143,12 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
         return 0
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0
+    except RCLError:
+        # SIGINT/SIGTERM shut the context down while a callback was publishing: that is a
+        # clean stop, not a failure. Any other RCLError is real.
+        if not rclpy.ok():
+            return 0
+        raise
     except ConfigError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2

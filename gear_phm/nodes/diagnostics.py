@@ -33,17 +33,16 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from gear_phm.bagio import Rosbag2McapWriter
-from gear_phm.interfaces import (COUNTS, DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, EFFICIENCY,
-                                 FRICTION, FRICTION_COVARIANCE, HEALTH_EFFICIENCY, HEALTH_RUL,
-                                 INNOVATION, VECTOR3_STAMPED_TYPE, stamp_to_ns)
+from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, HEALTH_EFFICIENCY,
+                                 HEALTH_RUL, VECTOR3_STAMPED_TYPE, stamp_to_ns)
 from gear_phm.nodes.common import OUTPUT_QOS, ConfigError, declare, run_node, to_rclpy
-from gear_phm.prognostics import (PARAMETERS, Estimate, HealthConfig, HealthMonitor,
-                                  HealthStatus, cross_field_problem, waiting_status)
+from gear_phm.prognostics import (PARAMETERS, HealthConfig, HealthStatus,
+                                  cross_field_problem, waiting_status)
 from gear_phm.prognostics.config import TRENDS
+from gear_phm.prognostics.pipeline import INPUTS, HealthPipeline
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-INPUTS = (FRICTION, FRICTION_COVARIANCE, EFFICIENCY, INNOVATION, COUNTS)
 HEALTH_FIELDS = tuple(f.name for f in fields(HealthConfig))
 #: Node-only parameters: (default, description, low, high, read_only).
 NODE_PARAMETERS: dict[str, tuple[Any, str, Any, Any, bool]] = {
@@ -59,9 +58,6 @@ NODE_PARAMETERS: dict[str, tuple[Any, str, Any, Any, bool]] = {
     'record_flush_period': (0.5, 'the recording is flushed at least this often [s] (data '
                                  'older than this survives kill -9)', 0.01, 60.0, True),
 }
-MAX_PENDING_STAMPS = 64
-#: Stamps further back than this are a new run (replay restarted), not stragglers.
-RESTART_JUMP_NS = 10 * 10**9
 
 
 def _flat(exc: BaseException) -> str:
@@ -135,10 +131,9 @@ class DiagnosticsNode(Node):
             self.health_config = HealthConfig(**{k: values[k] for k in HEALTH_FIELDS})
         except ValueError as exc:
             raise ConfigError(f'invalid health parameters: {exc}') from None
-        self.monitor = HealthMonitor(self.health_config)
+        self.health = HealthPipeline(self.health_config, self.transmission_name,
+                                     self.hardware_id)
         self.last_arrival_ns: int | None = None
-        self.pending: dict[int, dict[str, Any]] = {}
-        self.dropped: dict[str, int] = {}
         self.received = 0
         self.status_count = 0
         self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, OUTPUT_QOS)
@@ -201,12 +196,13 @@ class DiagnosticsNode(Node):
         changed = {p.name: p.value for p in params if p.name in HEALTH_FIELDS}
         for param in params:
             if param.name == 'transmission_name':
-                self.transmission_name = param.value
+                self.transmission_name = self.health.transmission_name = param.value
             elif param.name == 'hardware_id':
-                self.hardware_id = param.value
+                self.hardware_id = self.health.hardware_id = param.value
         if changed:
             self.health_config = self.health_config.replace(**changed)
-            self.monitor = HealthMonitor(self.health_config)
+            self.health = HealthPipeline(self.health_config, self.transmission_name,
+                                         self.hardware_id)
             self.get_logger().info(f'health parameters changed: {changed}; monitor restarted')
 
     # -- recording --------------------------------------------------------------------------
@@ -243,54 +239,24 @@ class DiagnosticsNode(Node):
         super().destroy_node()
 
     # -- inputs -----------------------------------------------------------------------------
-    def _drop(self, reason: str) -> None:
-        self.dropped[reason] = self.dropped.get(reason, 0) + 1
-
     def _on_input(self, topic: str, msg: Vector3Stamped) -> None:
         self.received += 1
         self.last_arrival_ns = self.get_clock().now().nanoseconds
         self._record(topic, msg)
-        stamp_ns = stamp_to_ns(msg.header.stamp)
-        latest = self.monitor.latest
-        if latest is not None and stamp_ns <= latest.stamp_ns and stamp_ns not in self.pending \
-                and latest.stamp_ns - stamp_ns < RESTART_JUMP_NS:
-            self._drop('late_stamp')       # a straggler of an update already processed
-            return
-        group = self.pending.setdefault(stamp_ns, {})
-        group[topic] = msg.vector
-        if len(group) == len(INPUTS):
-            self._flush_pending(up_to=stamp_ns)
-        elif len(self.pending) > MAX_PENDING_STAMPS:
-            self._flush_pending(up_to=min(self.pending))
-
-    def _flush_pending(self, up_to: int) -> None:
-        """Process pending groups with stamps <= up_to in order; incomplete ones need at
-        least friction and covariance, else they are dropped."""
-        for stamp_ns in sorted(s for s in self.pending if s <= up_to):
-            group = self.pending.pop(stamp_ns)
-            if FRICTION not in group or FRICTION_COVARIANCE not in group:
-                self._drop('incomplete_update')
-                continue
-            estimate = Estimate.from_vectors(stamp_ns, group[FRICTION],
-                                             group[FRICTION_COVARIANCE], group.get(EFFICIENCY),
-                                             group.get(INNOVATION), group.get(COUNTS))
-            status = self.monitor.on_estimate(estimate)
-            if status is None:
-                self._drop('non_finite_estimate')
-                continue
-            _, rul, efficiency = status.outputs(self.transmission_name, self.hardware_id)
-            for output, publisher in ((rul, self.rul_pub), (efficiency, self.eff_pub)):
-                msg = to_rclpy(output)
-                publisher.publish(msg)
-                self._record(output.topic, msg)
+        outputs = self.health.on_input(topic, stamp_to_ns(msg.header.stamp), msg.vector)
+        for output in outputs:
+            publisher = self.rul_pub if output.topic == HEALTH_RUL else self.eff_pub
+            out_msg = to_rclpy(output)
+            publisher.publish(out_msg)
+            self._record(output.topic, out_msg)
 
     # -- /diagnostics -----------------------------------------------------------------------
     def current_status(self) -> HealthStatus:
         """Latest status, turned STALE when the last input is older than stale_timeout."""
         now_ns = self.get_clock().now().nanoseconds
-        latest = self.monitor.latest
+        latest = self.health.latest
         if latest is None:
-            return waiting_status(now_ns, self.monitor.u_eol)
+            return waiting_status(now_ns, self.health.monitor.u_eol)
         silence = math.inf if self.last_arrival_ns is None \
             else (now_ns - self.last_arrival_ns) * 1e-9
         if silence > self.health_config.stale_timeout:
@@ -299,8 +265,8 @@ class DiagnosticsNode(Node):
 
     def _publish_diagnostics(self) -> None:
         status = self.current_status()
-        if self.dropped:
-            drops = ', '.join(f'{k}={v}' for k, v in sorted(self.dropped.items()))
+        if self.health.dropped:
+            drops = ', '.join(f'{k}={v}' for k, v in sorted(self.health.dropped.items()))
             status = replace(status, message=f'{status.message}; dropped {drops}')
         if self.recorder is not None and self.recorder.error is not None:
             status = replace(status, message=f'{status.message}; recording failed: '
@@ -310,7 +276,7 @@ class DiagnosticsNode(Node):
         self.diag_pub.publish(msg)
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1
-        if status.level == 3 and self.monitor.latest is not None:
+        if status.level == 3 and self.health.latest is not None:
             eff_msg = to_rclpy(efficiency)       # z = 3: numeric topic shows STALE too
             self.eff_pub.publish(eff_msg)
             self._record(HEALTH_EFFICIENCY, eff_msg)
