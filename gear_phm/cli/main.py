@@ -45,9 +45,14 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args: list[str] = []
+    if '--ros-args' in argv:            # everything from --ros-args on belongs to ROS
+        ros_args = argv[argv.index('--ros-args'):]
+        argv = argv[:argv.index('--ros-args')]
     command = next((a for a in argv if not a.startswith('-')), None)
     parser = build_parser(command if command in SUBCOMMANDS else None)
     args = parser.parse_args(argv)
+    args.ros_args = ros_args
     try:
         return int(args._run(args) or 0)
     except CliError as exc:

@@ -22,9 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='rclpy executor (events = rclpy.experimental.EventsExecutor)')
     parser.add_argument('--linger', type=float, default=2.0, metavar='S',
                         help='seconds to keep spinning after the publisher finishes')
-    parser.add_argument('ros_args', nargs=argparse.REMAINDER,
-                        help='extra ROS arguments after --ros-args, e.g. '
-                             '--ros-args -p publisher.mode:=replay')
+    parser.epilog = ('ROS arguments follow --ros-args, e.g. --ros-args -p '
+                     'publisher:mode:=replay -p publisher:bag_path:=bags/wearing '
+                     '(node:parameter targets one node)')
 
 
 def _executor(kind: str):

@@ -1,0 +1,50 @@
+"""gear-phm monitor: the three nodes in one process replay, estimate, diagnose and record."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gear_phm.bagio import BagReader
+
+REPO = Path(__file__).resolve().parents[1]
+GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+CONFIGS = [arg for name in ('publisher', 'estimator', 'diagnostics')
+           for arg in ('--params-file', str(REPO / 'config' / f'{name}.yaml'))]
+
+
+@pytest.mark.integration
+def test_monitor_replays_estimates_and_records_in_one_process(tmp_path: Path) -> None:
+    record = tmp_path / 'record'
+    result = subprocess.run(
+        [str(GEAR_PHM), 'monitor', *CONFIGS, '--linger', '3.0', '--ros-args',
+         '-p', 'publisher:mode:=replay', '-p', f'publisher:bag_path:={REPO / "bags/healthy"}',
+         '-p', 'publisher:rate_factor:=20.0', '-p', f'diagnostics:record_path:={record}',
+         '-p', 'diagnostics:transmission_name:=flap'],
+        capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    with BagReader(record) as bag:
+        assert bag.message_count('/gear_phm/health/rul') > 100
+        statuses = [s for _, _, m in bag.messages(['/diagnostics']) for s in m.status
+                    if s.name == 'gear_phm: flap']
+    live = [s for s in statuses if s.level != 3]
+    values = {kv.key: kv.value for kv in live[-1].values}
+    assert float(values['u']) == pytest.approx(0.05, abs=0.002)     # bags/healthy: u = 0.05
+    assert live[-1].level == 0
+    assert statuses[-1].level == 3       # the replay ended 3 s ago > stale_timeout (2 s)
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['--linger', '-1'], '--linger must be >= 0'),
+    (['--ros-args', '-p', 'publisher:mode:=replay', '-p', 'publisher:bag_path:=/no/bag'],
+     'bag not found: /no/bag'),
+])
+def test_monitor_bad_input_one_line_exit_2(argv: list[str], message: str) -> None:
+    result = subprocess.run([str(GEAR_PHM), 'monitor', *CONFIGS, *argv], capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2
+    errors = [line for line in result.stderr.splitlines() if 'error' in line]
+    assert len(errors) == 1 and message in errors[0], result.stderr
+    assert 'Traceback' not in result.stderr
