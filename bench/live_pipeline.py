@@ -99,6 +99,9 @@ def run_trial(observer: Observer, target: str, rate: float,
             stdout=subprocess.PIPE, text=True)
         while flood.poll() is None:
             observer.spin_for(0.2)
+        # estimates after the stream ended (the sensor-timeout notice, stamped with the last
+        # sample) are not the processing latency of a sample: keep only those seen until now
+        latencies = list(observer.latencies)
         out = flood.stdout.read()
         sent = int(out.split('sent=')[1].split()[0])
         last = -1
@@ -110,7 +113,7 @@ def run_trial(observer: Observer, target: str, rate: float,
             if now >= sent or now == last:
                 break
             last = now
-        return sent, observer.received(prefix) or 0, list(observer.latencies)
+        return sent, observer.received(prefix) or 0, latencies
     finally:
         for proc in procs:
             proc.terminate()
