@@ -48,6 +48,7 @@ class Observer:
         self.node = rclpy.create_node('bench_observer')
         self.counts: dict[str, int] = {}
         self.latencies: list[float] = []
+        self.stream_end_ns: int | None = None   # wall time the flood publisher finished
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
         self.node.create_subscription(Vector3Stamped, 'gear_phm/friction', self._on_estimate,
                                       100)
@@ -60,7 +61,9 @@ class Observer:
 
     def _on_estimate(self, msg) -> None:
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.latencies.append((time.time_ns() - stamp_ns) * 1e-9)
+        now = time.time_ns()
+        if self.stream_end_ns is None or now <= self.stream_end_ns:
+            self.latencies.append((now - stamp_ns) * 1e-9)
 
     def received(self, prefix: str) -> int | None:
         hits = [v for k, v in self.counts.items() if k.startswith(prefix)]
@@ -89,6 +92,7 @@ def run_trial(observer: Observer, target: str, rate: float,
              for cmd in TARGETS[target]]
     observer.counts.clear()
     observer.latencies.clear()
+    observer.stream_end_ns = None
     prefix = RECEIVER_PREFIX[target]
     try:
         if not observer.spin_until(lambda: observer.received(prefix) is not None, 30.0):
@@ -97,12 +101,23 @@ def run_trial(observer: Observer, target: str, rate: float,
             [sys.executable, str(ROOT / 'bench' / 'flood_publisher.py'), '--rate', str(rate),
              '--duration', str(duration), '--subscribers', str(1)],
             stdout=subprocess.PIPE, text=True)
+        # estimates after the stream ended (the sensor-timeout notice, stamped with the last
+        # sample) are not the processing latency of a sample: stop collecting at 'sent='
+        import threading
+        lines: list[str] = []
+
+        def read_stdout() -> None:
+            for line in flood.stdout:
+                if line.startswith('sent='):
+                    observer.stream_end_ns = time.time_ns() + 50_000_000
+                lines.append(line)
+        reader = threading.Thread(target=read_stdout, daemon=True)
+        reader.start()
         while flood.poll() is None:
             observer.spin_for(0.2)
-        # estimates after the stream ended (the sensor-timeout notice, stamped with the last
-        # sample) are not the processing latency of a sample: keep only those seen until now
+        reader.join(timeout=5)
         latencies = list(observer.latencies)
-        out = flood.stdout.read()
+        out = ''.join(lines)
         sent = int(out.split('sent=')[1].split()[0])
         last = -1
         # drain: wait until the count stops moving (2 s) or reaches `sent`
@@ -127,7 +142,7 @@ def run_trial(observer: Observer, target: str, rate: float,
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--duration', type=float, default=30.0, help='seconds per trial')
-    parser.add_argument('--rates', default='1000,2000,3000,4000,5000,6000,8000,10000')
+    parser.add_argument('--rates', default='500,1000,1500,2000,3000,4000,6000,8000')
     parser.add_argument('--latency-rates', default='1000,5000')
     parser.add_argument('--targets', default=','.join(TARGETS))
     parser.add_argument('--no-append', action='store_true')

@@ -62,6 +62,20 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     assert [s.level for s in statuses][-1] == 2
 
 
+def test_overwrite_replaces_only_a_previous_analysis(tmp_path: Path) -> None:
+    out = tmp_path / 'out'
+    argv = ['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out), '--no-progress',
+            '--no-plot']
+    assert main(argv) == 0
+    assert main(argv) == 2                                   # exists: refused
+    assert main(argv + ['--overwrite']) == 0
+    other = tmp_path / 'other'
+    other.mkdir()
+    (other / 'precious.txt').write_text('keep')
+    assert main(argv[:5] + [str(other), '--no-progress', '--overwrite']) == 2
+    assert (other / 'precious.txt').read_text() == 'keep'
+
+
 @pytest.mark.parametrize('argv, message', [
     (['--ratio', '-1', '--out', 'X'], 'ratio must be in'),
     (['--ratio', '3', '--out', 'X', '--param', 'window=abc'], 'window needs a number'),

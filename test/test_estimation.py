@@ -244,6 +244,15 @@ def test_sensor_timeout_predicts_only_and_is_flagged() -> None:
     assert not pipeline.timed_out and pipeline.counts['timeout'] == 1
 
 
+def test_one_output_group_per_stamp() -> None:
+    """A window closing on a publish-grid sample gives one group, not two with one stamp."""
+    run = lever_plant(4, 120.0, 0.1)
+    pipeline = EstimatorPipeline(CONFIG)
+    out = _feed(pipeline, run)
+    stamps = [o.stamp_ns for o in out if o.topic == interfaces.FRICTION]
+    assert len(stamps) > 100 and stamps == sorted(set(stamps))
+
+
 class _Msg:
     """Duck-typed JointState."""
 

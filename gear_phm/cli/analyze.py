@@ -44,6 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--hardware-id', default='gearbox', help='diagnostics hardware_id')
     parser.add_argument('--diagnostics-rate', type=float, default=1.0, metavar='HZ',
                         help='/diagnostics rate in bag time [Hz], as the nodes (default 1.0)')
+    parser.add_argument('--overwrite', action='store_true',
+                        help='replace --out if it holds a previous analysis (summary.json)')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
     add_health_arguments(parser)
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
@@ -87,6 +89,9 @@ def run(args: argparse.Namespace) -> int:
     if not args.diagnostics_rate > 0:
         raise CliError(f'--diagnostics-rate must be > 0, got {args.diagnostics_rate}')
     out = Path(args.out)
+    if args.overwrite and out.is_dir() and (out / 'summary.json').is_file():
+        import shutil
+        shutil.rmtree(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise CliError(f'--out {out} exists and is not an empty directory')
     if not Path(args.bag).exists():

@@ -64,6 +64,8 @@ class EstimatorPipeline:
         self.samples_rejected = 0
         self.windows_used = 0
         self._max_stamp: int | None = None
+        self._last_group_stamp: int | None = None     # stamp of the newest output group [ns]
+        self._group_topics: set[str] = set()
         self._reset_estimator()
 
     # --- state -------------------------------------------------------------------------------
@@ -259,7 +261,21 @@ class EstimatorPipeline:
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
-        return outputs
+        return self._one_group_per_stamp(outputs)
+
+    def _one_group_per_stamp(self, outputs: list[Vector3Out]) -> list[Vector3Out]:
+        """At most one output group per stamp, whatever the batch split: a group whose stamp
+        equals the previous group's is dropped (the filter state it carries is in the next)."""
+        kept = []
+        for output in outputs:
+            if output.stamp_ns == self._last_group_stamp and output.topic in self._group_topics:
+                continue
+            if output.stamp_ns != self._last_group_stamp:
+                self._last_group_stamp = output.stamp_ns
+                self._group_topics = set()
+            self._group_topics.add(output.topic)
+            kept.append(output)
+        return kept
 
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,

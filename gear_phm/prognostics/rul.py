@@ -81,6 +81,7 @@ class TrendDetector:
     def reset(self) -> None:
         """Forget the history (e.g. after the filter re-initialised)."""
         self._history.clear()
+        self._fitted: Trend | None = None
 
     def __len__(self) -> int:
         return len(self._history)
@@ -97,9 +98,18 @@ class TrendDetector:
         self._history.append((t, u, u_variance))
         while self._history and self._history[0][0] < t - self.window:
             self._history.popleft()
+        self._fitted = None
 
     def fit(self) -> Trend:
-        """Decide the trend from the history; linear when too short or not accelerating."""
+        """Decide the trend from the history; linear when too short or not accelerating.
+
+        The result depends on the history only, so it is cached until the history changes.
+        """
+        if getattr(self, '_fitted', None) is None:
+            self._fitted = self._fit()
+        return self._fitted
+
+    def _fit(self) -> Trend:
         if len(self._history) < self.min_points:
             return Trend()
         data = np.asarray(self._history)
