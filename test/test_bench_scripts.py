@@ -1,0 +1,40 @@
+"""Each benchmark script runs on a tiny input (the benchmarks themselves are not tests)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / 'bench'
+
+
+def run(script: str, *args: str, timeout: float = 240.0) -> str:
+    result = subprocess.run([sys.executable, str(BENCH / script), *args, '--no-append'],
+                            capture_output=True, text=True, timeout=timeout)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return result.stdout
+
+
+def test_bench_models_tiny() -> None:
+    out = run('bench_models.py', '--size', '1000', '--repeat', '1')
+    assert '| `eta_opposing(u, R)` |' in out and 'ratio to bare numpy' in out
+
+
+def test_bench_offline_analyze_tiny() -> None:
+    out = run('offline_analyze.py', '--samples', '3000')
+    assert 'rosbags read + deserialize_cdr (baseline)' in out
+    assert '`gear-phm analyze` end to end' in out
+
+
+def test_bench_memory_logic_tiny() -> None:
+    out = run('memory.py', '--mode', 'logic', '--samples', '36000')
+    assert '36,000 (1 h)' in out and '6,000 (10 min)' in out
+
+
+@pytest.mark.integration
+def test_bench_live_pipeline_tiny() -> None:
+    out = run('live_pipeline.py', '--duration', '1', '--rates', '200',
+              '--latency-rates', '200', '--targets', 'bare subscriber (baseline),estimator')
+    assert '| estimator | 200 |' in out and 'p99 [ms]' in out
