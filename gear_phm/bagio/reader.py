@@ -137,9 +137,10 @@ class BagReader:
         wanted = None if topics is None else {self.resolve_topic(t) for t in topics}
         return [c for c in self.reader.connections if wanted is None or c.topic in wanted]
 
-    def raw_messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
-                     stop_ns: int | None = None) -> Iterator[tuple[str, int, bytes]]:
-        """Yield (topic, log time [ns], serialized CDR bytes)."""
+    def _records(self, topics: Iterable[str] | None, start_ns: int | None,
+                 stop_ns: int | None, decode: bool) -> Iterator[tuple[Any, int, Any]]:
+        """(connection, log time [ns], raw bytes or decoded message); a read or decode error
+        becomes one BagError naming the bag."""
         connections = self._connections(topics)
         if not connections:
             return
@@ -147,30 +148,25 @@ class BagReader:
         while True:
             try:
                 connection, t_ns, raw = next(iterator)
+                payload = self.reader.deserialize(raw, connection.msgtype) if decode else raw
             except StopIteration:
                 return
             except Exception as exc:
                 raise BagError(f'bag {self.path} is truncated or corrupt: '
                                f'{_one_line(exc)}') from exc
+            yield connection, int(t_ns), payload
+
+    def raw_messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
+                     stop_ns: int | None = None) -> Iterator[tuple[str, int, bytes]]:
+        """Yield (topic, log time [ns], serialized CDR bytes)."""
+        for connection, t_ns, raw in self._records(topics, start_ns, stop_ns, decode=False):
             if not self.reader.is2:   # ROS1 bag: re-encode as ROS 2 Jazzy CDR
                 msg = _to_jazzy(self.reader.deserialize(raw, connection.msgtype))
                 raw = _JAZZY.serialize_cdr(msg, connection.msgtype)
-            yield connection.topic, int(t_ns), bytes(raw)
+            yield connection.topic, t_ns, bytes(raw)
 
     def messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
                  stop_ns: int | None = None) -> Iterator[tuple[str, int, Any]]:
         """Yield (topic, log time [ns], deserialized rosbags message)."""
-        connections = self._connections(topics)
-        if not connections:
-            return
-        iterator = self.reader.messages(connections=connections, start=start_ns, stop=stop_ns)
-        while True:
-            try:
-                connection, t_ns, raw = next(iterator)
-                msg = self.reader.deserialize(raw, connection.msgtype)
-            except StopIteration:
-                return
-            except Exception as exc:
-                raise BagError(f'bag {self.path} is truncated or corrupt: '
-                               f'{_one_line(exc)}') from exc
-            yield connection.topic, int(t_ns), msg
+        for connection, t_ns, msg in self._records(topics, start_ns, stop_ns, decode=True):
+            yield connection.topic, t_ns, msg
