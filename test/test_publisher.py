@@ -317,7 +317,7 @@ def test_config_file_lists_every_parameter_with_its_default_and_type() -> None:
     from gear_phm.nodes.publisher import NODE_PARAMETERS
     from gear_phm.simulation import PARAMETERS
     params = yaml.safe_load((REPO / 'config' / 'publisher.yaml').read_text())
-    params = params['/**']['ros__parameters']
+    params = params['publisher']['ros__parameters']        # keyed by node name
     expected = {name: default for name, default, *_ in NODE_PARAMETERS}
     expected.update({name: spec[0] for name, spec in PARAMETERS.items()})
     assert set(params) == set(expected)
