@@ -38,3 +38,10 @@ def test_bench_live_pipeline_tiny() -> None:
     out = run('live_pipeline.py', '--duration', '1', '--rates', '200',
               '--latency-rates', '200', '--targets', 'bare subscriber (baseline),estimator')
     assert '| estimator | 200 |' in out and 'p99 [ms]' in out
+
+
+@pytest.mark.integration
+def test_bench_monitor_vs_processes_tiny() -> None:
+    out = run('monitor_vs_processes.py', '--bag', str(BENCH.parent / 'bags' / 'healthy'),
+              '--rate-factor', '40')
+    assert '| three processes (baseline) |' in out and '`gear-phm monitor`' in out
