@@ -77,11 +77,12 @@ class TrendDetector:
         self.min_span = float(min_span)
         self._period = self.window / max_points
         self._history: deque[tuple[float, float, float]] = deque()
+        self._fitted: Trend | None = None          # fit() of the current history
 
     def reset(self) -> None:
         """Forget the history (e.g. after the filter re-initialised)."""
         self._history.clear()
-        self._fitted: Trend | None = None
+        self._fitted = None
 
     def __len__(self) -> int:
         return len(self._history)
@@ -105,7 +106,7 @@ class TrendDetector:
 
         The result depends on the history only, so it is cached until the history changes.
         """
-        if getattr(self, '_fitted', None) is None:
+        if self._fitted is None:
             self._fitted = self._fit()
         return self._fitted
 
