@@ -137,6 +137,14 @@ class DropCounter:
                          values=tuple(values))
 
 
+def stopped_by_signal(exc: BaseException) -> bool:
+    """True for a clean stop: Ctrl-C/SIGTERM, or an RCLError raised because a signal shut the
+    context down while a callback was publishing. Any other error is real."""
+    if isinstance(exc, (KeyboardInterrupt, ExternalShutdownException)):
+        return True
+    return isinstance(exc, RCLError) and not rclpy.ok()
+
+
 def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
              spin: Callable[[Node], None] | None = None) -> int:
     """Jazzy main(): init, build, spin, clean shutdown. ConfigError at start -> one line, exit 2.
@@ -152,17 +160,13 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
         else:
             spin(node)
         return 0
-    except (KeyboardInterrupt, ExternalShutdownException):
-        return 0
-    except RCLError:
-        # SIGINT/SIGTERM shut the context down while a callback was publishing: that is a
-        # clean stop, not a failure. Any other RCLError is real.
-        if not rclpy.ok():
-            return 0
-        raise
     except ConfigError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2
+    except BaseException as exc:
+        if stopped_by_signal(exc):
+            return 0
+        raise
     finally:
         if node is not None:
             node.destroy_node()

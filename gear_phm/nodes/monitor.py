@@ -1,0 +1,73 @@
+"""Publisher, estimator and diagnostics in one process on one executor (``gear-phm monitor``).
+
+For small targets: one Python interpreter and one DDS participant instead of three. Each node
+reads its own section of the parameter files (keyed by node name: ``publisher``,
+``estimator``, ``diagnostics``). With a finite replay or simulation, :func:`run_monitor`
+returns once the publisher has finished and ``linger`` seconds have passed for the others.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import rclpy
+from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
+
+from gear_phm.nodes.common import ConfigError, stopped_by_signal
+from gear_phm.nodes.diagnostics import DiagnosticsNode
+from gear_phm.nodes.estimator import EstimatorNode
+from gear_phm.nodes.publisher import PublisherNode
+
+
+def make_executor(kind: str) -> Executor:
+    """'single', 'multi' (3 threads) or 'events' (rclpy.experimental.EventsExecutor)."""
+    if kind == 'multi':
+        return MultiThreadedExecutor(num_threads=3)
+    if kind == 'events':
+        from rclpy.experimental import EventsExecutor
+        return EventsExecutor()
+    return SingleThreadedExecutor()
+
+
+def run_monitor(ros_args: Sequence[str], with_publisher: bool = True, executor: str = 'single',
+                linger: float = 2.0) -> int:
+    """Run the nodes until shutdown, or until the publisher finished ``linger`` [s] ago.
+
+    ``ros_args`` are the arguments after ``--ros-args`` (parameter files, ``-p node:name:=v``).
+    Start-up problems and a publisher that stopped on an error raise ConfigError (one line).
+    """
+    rclpy.init(args=['gear-phm-monitor', '--ros-args', *ros_args])
+    nodes: list = []
+    publisher = None
+    try:
+        if with_publisher:
+            publisher = PublisherNode()
+            nodes.append(publisher)
+        nodes += [EstimatorNode(), DiagnosticsNode()]
+        spinner = make_executor(executor)
+        for node in nodes:
+            spinner.add_node(node)
+        if publisher is not None:
+            publisher.start()
+        finished_at = None
+        while rclpy.ok():
+            spinner.spin_once(timeout_sec=0.1)
+            if publisher is not None and publisher.finished.is_set():
+                finished_at = finished_at or time.monotonic()
+                if time.monotonic() - finished_at >= linger:
+                    break
+        if publisher is not None and publisher.error is not None:
+            raise ConfigError(f'publisher stopped: {publisher.error}')
+        return 0
+    except ConfigError:
+        raise
+    except BaseException as exc:
+        if stopped_by_signal(exc):
+            return 0
+        raise
+    finally:
+        if publisher is not None:
+            publisher.stop()
+        for node in reversed(nodes):
+            node.destroy_node()
+        rclpy.try_shutdown()
