@@ -2,42 +2,37 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from gear_phm.cli.main import CliError
 
 HELP = 'reproduce the paper figures (simplified vs spur-gear model) with statistics'
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a whole number, got {text!r}') from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f'must be >= 1, got {value}')
-    return value
+def _bounded(convert: type, low: float, high: float | None = None) -> Callable[[str], Any]:
+    """argparse type: ``convert(text)`` (int or float) within [low, high] (no upper bound if
+    ``high`` is None), with a one-line reason otherwise."""
+    kind = 'a whole number' if convert is int else 'a number'
+
+    def parse(text: str) -> Any:
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'expected {kind}, got {text!r}') from None
+        if high is None and value < low:
+            raise argparse.ArgumentTypeError(f'must be >= {low}, got {value}')
+        if high is not None and not low <= value <= high:
+            raise argparse.ArgumentTypeError(f'must be in [{low:g}, {high:g}], got {value:g}')
+        return value
+    return parse
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a whole number, got {text!r}') from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f'must be >= 0, got {value}')
-    return value
-
-
-def _bearing_fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a number, got {text!r}') from None
-    if not 0.0 <= value <= 10.0:
-        raise argparse.ArgumentTypeError(f'must be in [0, 10], got {value:g}')
-    return value
+_positive_int = _bounded(int, 1)
+_seed = _bounded(int, 0)
+_bearing_fraction = _bounded(float, 0.0, 10.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
