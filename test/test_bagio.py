@@ -75,11 +75,12 @@ def test_written_bag_reads_back_with_rosbags_and_mcap(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize('frame_id', ['', 'a', 'abc', 'abcd', 'gear_frame_12345'])
 def test_fast_vector3_cdr_matches_rosbags(frame_id: str) -> None:
-    from gear_phm.bagio.writer import to_rosbags, vector3_stamped_cdr
+    from gear_phm.bagio.writer import to_rosbags, vector3_stamped_cdr, vector3_stamped_from_cdr
     output = Vector3Out('gear_phm/friction', 1_700_000_000_123_456_789, 0.1, -2.5, math.inf,
                         frame_id)
     reference = TYPESTORE.serialize_cdr(to_rosbags(output), 'geometry_msgs/msg/Vector3Stamped')
     assert vector3_stamped_cdr(output) == bytes(reference)
+    assert vector3_stamped_from_cdr(bytes(reference)) == (output.stamp_ns, 0.1, -2.5, math.inf)
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:
@@ -95,7 +96,8 @@ def test_reader_accepts_sqlite3_and_ros1(tmp_path: Path) -> None:
     with Ros2Writer(sqlite_bag, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
         connection = writer.add_connection('/joint_states', JOINT_STATE, typestore=TYPESTORE)
         for i in range(20):
-            writer.write(connection, 10**9 + i, TYPESTORE.serialize_cdr(joint_state(i), JOINT_STATE))
+            cdr = TYPESTORE.serialize_cdr(joint_state(i), JOINT_STATE)
+            writer.write(connection, 10**9 + i, cdr)
     ros1_store = get_typestore(Stores.ROS1_NOETIC)
     ros1_bag = tmp_path / 'old.bag'
     with Ros1Writer(ros1_bag) as writer:

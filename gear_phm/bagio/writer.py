@@ -285,6 +285,16 @@ def vector3_stamped_cdr(output: Vector3Out) -> bytes:
                      struct.pack('<3d', float(output.x), float(output.y), float(output.z))))
 
 
+def vector3_stamped_from_cdr(raw: bytes) -> tuple[int, float, float, float]:
+    """(stamp [ns], x, y, z) of a little-endian CDR geometry_msgs/Vector3Stamped; the inverse
+    of :func:`vector3_stamped_cdr`."""
+    sec, nanosec, length = struct.unpack_from('<iII', raw, 4)
+    offset = 12 + length                         # after frame_id, from the CDR origin
+    offset = (offset + 7) // 8 * 8
+    x, y, z = struct.unpack_from('<3d', raw, 4 + offset)
+    return sec * 1_000_000_000 + nanosec, x, y, z
+
+
 def to_rosbags(output: Vector3Out | DiagnosticsOut) -> Any:
     """Build the rosbags message object of an output record."""
     types = TYPESTORE.types

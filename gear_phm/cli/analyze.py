@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import struct
 import sys
 import time
 from pathlib import Path
@@ -73,17 +72,9 @@ def _config(args: argparse.Namespace) -> EstimatorConfig:
         raise CliError(str(exc)) from None
 
 
-def _vector3(raw: bytes) -> tuple[int, float, float, float]:
-    """(stamp [ns], x, y, z) of a little-endian CDR geometry_msgs/Vector3Stamped."""
-    sec, nanosec, length = struct.unpack_from('<iII', raw, 4)
-    offset = 12 + length                       # body offset after frame_id
-    offset = (offset + 7) // 8 * 8
-    x, y, z = struct.unpack_from('<3d', raw, 4 + offset)
-    return sec * 1_000_000_000 + nanosec, x, y, z
-
-
 def run(args: argparse.Namespace) -> int:
     from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter
+    from gear_phm.bagio.writer import vector3_stamped_from_cdr
 
     config = _config(args)
     if not args.diagnostics_rate > 0:
@@ -139,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
                             if len(chunk) >= BATCH:
                                 break
                         else:
-                            truth.setdefault(truth_topics[name], []).append(_vector3(raw))
+                            truth.setdefault(truth_topics[name], []).append(
+                                vector3_stamped_from_cdr(raw))
                     else:
                         exhausted = True
                     if not chunk:
