@@ -127,7 +127,7 @@ def eta_opposing_from_aiding(eta_aiding: ArrayLike, ratio: ArrayLike) -> np.ndar
 
 
 def d_u_d_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
-    """Sensitivity du/deta_D [-] of eq 13: -R (R + 1) / (R eta_D + 1)^2 (for variance propagation)."""
+    """Sensitivity du/deta_D [-] of eq 13: -R (R + 1) / (R eta_D + 1)^2 (variance propagation)."""
     eta = finite('eta', eta)
     ratio = positive('ratio', ratio)
     return _where_valid(ratio * eta + 1.0 > 0.0, -ratio * (ratio + 1.0), (ratio * eta + 1.0) ** 2)
