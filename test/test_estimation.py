@@ -127,6 +127,18 @@ def test_filter_predict_covariance_grows_with_process_noise() -> None:
     assert np.allclose(kf.P, p) and np.allclose(kf.x, x)
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.floats(1e-6, 1e3), st.floats(1e-15, 1e2))
+def test_process_covariance_is_filterpys_continuous_white_noise(dt: float, q: float) -> None:
+    from filterpy.common import Q_continuous_white_noise
+
+    from gear_phm.estimation.kalman import process_covariance
+    np.testing.assert_allclose(process_covariance(dt, q),
+                               Q_continuous_white_noise(dim=2, dt=dt, spectral_density=q),
+                               rtol=1e-12, atol=0.0)
+    assert not process_covariance(0.0, q).any() and not process_covariance(dt, 0.0).any()
+
+
 # --- acceptance: simplified-model plant ----------------------------------------------------
 
 def test_simplified_plant_accuracy_coverage_and_consistency() -> None:
