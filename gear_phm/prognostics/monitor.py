@@ -114,8 +114,12 @@ class HealthStatus:
         """/diagnostics array, gear_phm/health/rul and gear_phm/health/efficiency records."""
         status = StatusOut(self.level, f'gear_phm: {transmission_name}', self.message,
                            hardware_id, self.key_values())
-        return (DiagnosticsOut(self.stamp_ns, (status,)),
-                Vector3Out(HEALTH_RUL, self.stamp_ns, self.rul.median, self.rul.p5,
+        return (DiagnosticsOut(self.stamp_ns, (status,)), *self.vectors())
+
+    def vectors(self) -> tuple[Vector3Out, Vector3Out]:
+        """gear_phm/health/rul and gear_phm/health/efficiency records alone (no text
+        formatting: the per-update path; /diagnostics is built at its own rate)."""
+        return (Vector3Out(HEALTH_RUL, self.stamp_ns, self.rul.median, self.rul.p5,
                            self.rul.p95),
                 Vector3Out(HEALTH_EFFICIENCY, self.stamp_ns, self.eta_opposing,
                            self.eta_aiding, float(self.level)))

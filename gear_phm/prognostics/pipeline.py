@@ -65,8 +65,7 @@ class HealthPipeline:
             if status is None:
                 self._drop('non_finite_estimate')
                 continue
-            _, rul, efficiency = status.outputs(self.transmission_name, self.hardware_id)
-            outputs += [rul, efficiency]
+            outputs += status.vectors()
         return outputs
 
     @property
