@@ -166,14 +166,22 @@ def _read_string(raw: bytes, offset: int) -> tuple[str, int]:
 
 @dataclass(frozen=True)
 class _Layout:
-    """Byte offsets of the fields of one JointState CDR layout (little-endian, after 4-byte
-    encapsulation header; CDR alignment counts from the end of that header)."""
+    """Byte offsets of the fields of one JointState CDR layout, from the start of the payload
+    (the 4-byte encapsulation header included; CDR alignment counts from the end of it)."""
 
     size: int
     names_start: int
     names_end: int
-    array_offsets: tuple[int, int, int]   # start of position, velocity, effort float64 data
+    length_words: tuple[int, int, int]    # uint32 element counts of position, velocity, effort
+    array_offsets: tuple[int, int, int]   # start of their float64 data
     array_lengths: tuple[int, int, int]
+
+    def signature(self) -> np.ndarray:
+        """Offsets of the bytes that fix this layout: encapsulation, frame_id length, names,
+        array lengths. Two payloads of equal size that agree there share every offset."""
+        spans = [(0, 4), (12, 16), (self.names_start, self.names_end)]
+        spans += [(w, w + 4) for w in self.length_words]
+        return np.concatenate([np.arange(a, b) for a, b in spans])
 
 
 def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]]:
@@ -190,10 +198,11 @@ def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]]:
         name, offset = _read_string(body, offset)
         names.append(name)
     names_end = offset
-    offsets, lengths = [], []
+    words, offsets, lengths = [], [], []
     for _ in range(3):
         offset = _align(offset, 4)
         (length,) = struct.unpack_from('<I', body, offset)
+        words.append(4 + offset)
         offset += 4
         if length:
             offset = _align(offset, 8)
@@ -202,70 +211,114 @@ def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]]:
         offset += 8 * length
     if 4 + offset > len(raw):
         raise BadMessage('truncated', f'JointState CDR needs {4 + offset} bytes, has {len(raw)}')
-    layout = _Layout(len(raw), 4 + names_start, 4 + names_end, tuple(offsets), tuple(lengths))
+    layout = _Layout(len(raw), 4 + names_start, 4 + names_end, tuple(words), tuple(offsets),
+                     tuple(lengths))
     return layout, names
 
 
-def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str) -> JointBatch:
-    """Decode many JointState CDR payloads into columns, vectorised where layouts repeat.
+def _joint_layout(raw: bytes, motor_joint: str, load_joint: str
+                  ) -> tuple[_Layout, int, int] | str:
+    """(layout, motor index, load index) of one payload, or the reason it is unusable."""
+    try:
+        layout, names = _parse_layout(raw)
+    except BadMessage as exc:
+        return exc.reason
+    except (struct.error, UnicodeDecodeError, IndexError):
+        return 'truncated'
+    if motor_joint not in names or load_joint not in names:
+        return 'missing_joint'
+    mi, li = names.index(motor_joint), names.index(load_joint)
+    if min(layout.array_lengths[1:]) <= max(mi, li):
+        return 'short_arrays'
+    return layout, mi, li
 
-    Messages that share the byte size and the name list of the previous layout are decoded
-    with one numpy gather; others are parsed one by one. Unusable messages are left out and
+
+#: After this many distinct layouts in one batch the rest is decoded message by message.
+_MAX_LAYOUT_GROUPS = 16
+
+
+def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str) -> JointBatch:
+    """Decode a list of JointState CDR payloads; see :func:`decode_joint_state_buffer`."""
+    lengths = np.fromiter((len(r) for r in raws), dtype=np.int64, count=len(raws))
+    offsets = np.zeros(len(raws), dtype=np.int64)
+    np.cumsum(lengths[:-1], out=offsets[1:])
+    return decode_joint_state_buffer(b''.join(raws), offsets, lengths, motor_joint, load_joint)
+
+
+def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
+                              lengths: np.ndarray, motor_joint: str,
+                              load_joint: str) -> JointBatch:
+    """Decode the JointState CDR payloads ``buffer[offsets[i]:offsets[i] + lengths[i]]`` into
+    columns, in order: stamps [ns], positions [rad], speeds [rad/s], torques [N m].
+
+    Payloads that share a layout (size, frame_id length, joint names, array lengths; a
+    recording from one driver has one) are decoded together by numpy gathers straight from
+    ``buffer``; there is no Python work per message. Unusable messages are left out and
     counted in ``rejected`` by reason (``missing_joint``, ``short_arrays``, ``truncated``,
     ``bad_encoding``).
     """
-    n = len(raws)
-    out = {name: np.empty(n, dtype=np.int64 if name == 'stamp_ns' else float)
+    offsets = np.asarray(offsets, dtype=np.int64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    n = offsets.size
+    data = np.frombuffer(buffer, dtype=np.uint8)
+    out = {name: np.zeros(n, dtype=np.int64 if name == 'stamp_ns' else float)
            for name in _COLUMNS}
     keep = np.zeros(n, dtype=bool)
+    pending = np.ones(n, dtype=bool)
     rejected: dict[str, int] = {}
-    groups: dict[tuple[int, bytes], list[int]] = {}
-    layouts: dict[tuple[int, bytes], tuple[_Layout, int, int]] = {}
-    for i, raw in enumerate(raws):
-        size = len(raw)
-        matched = None
-        for key, (layout, _, _) in layouts.items():
-            if key[0] == size and raw[layout.names_start:layout.names_end] == key[1]:
-                matched = key
-                break
-        if matched is None:
-            try:
-                layout, names = _parse_layout(raw)
-                if motor_joint not in names or load_joint not in names:
-                    raise BadMessage('missing_joint', f'{motor_joint!r}/{load_joint!r} not in '
-                                                      f'{names}')
-                mi, li = names.index(motor_joint), names.index(load_joint)
-                for kind, length in zip(('velocity', 'effort'), layout.array_lengths[1:]):
-                    if length <= max(mi, li):
-                        raise BadMessage('short_arrays', f'{kind} has {length} element(s)')
-            except BadMessage as exc:
-                rejected[exc.reason] = rejected.get(exc.reason, 0) + 1
-                continue
-            except (struct.error, UnicodeDecodeError, IndexError):
-                rejected['truncated'] = rejected.get('truncated', 0) + 1
-                continue
-            matched = (size, raw[layout.names_start:layout.names_end])
-            layouts[matched] = (layout, mi, li)
-        groups.setdefault(matched, []).append(i)
-    for key, indices in groups.items():
-        layout, mi, li = layouts[key]
-        index = np.asarray(indices)
-        block = np.frombuffer(b''.join(raws[i] for i in indices), dtype=np.uint8)
-        block = block.reshape(len(indices), layout.size)
-        sec = block[:, 4:8].copy().view('<i4')[:, 0].astype(np.int64)
-        nanosec = block[:, 8:12].copy().view('<u4')[:, 0].astype(np.int64)
-        out['stamp_ns'][index] = sec * 1_000_000_000 + nanosec
-        for (kind, start, length) in zip(('position', 'velocity', 'effort'),
-                                         layout.array_offsets, layout.array_lengths):
-            for joint, j in (('motor', mi), ('load', li)):
-                column = out[f'{joint}_{kind}']
-                if j < length:
-                    pos = start + 8 * j
-                    column[index] = block[:, pos:pos + 8].copy().view('<f8')[:, 0]
-                else:
-                    column[index] = 0.0
-        keep[index] = True
+    groups = 0
+    while groups < _MAX_LAYOUT_GROUPS:
+        remaining = np.flatnonzero(pending)
+        if remaining.size == 0:
+            break
+        first = int(remaining[0])
+        parsed = _joint_layout(_payload(buffer, offsets, lengths, first), motor_joint,
+                               load_joint)
+        if isinstance(parsed, str):
+            rejected[parsed] = rejected.get(parsed, 0) + 1
+            pending[first] = False
+            continue
+        layout, mi, li = parsed
+        groups += 1
+        same = remaining[lengths[remaining] == layout.size]
+        signature = layout.signature()
+        rows = data[offsets[same, None] + signature]
+        members = same[(rows == rows[0]).all(axis=1)]
+        pending[members] = False
+        keep[members] = True
+        _gather(data, offsets[members], layout, mi, li, out, members)
+    for i in np.flatnonzero(pending).tolist():          # many layouts: one by one
+        parsed = _joint_layout(_payload(buffer, offsets, lengths, i), motor_joint, load_joint)
+        if isinstance(parsed, str):
+            rejected[parsed] = rejected.get(parsed, 0) + 1
+            continue
+        layout, mi, li = parsed
+        keep[i] = True
+        _gather(data, offsets[i:i + 1], layout, mi, li, out, np.array([i]))
     return JointBatch(**{name: out[name][keep] for name in _COLUMNS}, rejected=rejected)
+
+
+def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,
+             i: int) -> bytes:
+    start = int(offsets[i])
+    return bytes(buffer[start:start + int(lengths[i])])
+
+
+def _gather(data: np.ndarray, starts: np.ndarray, layout: _Layout, mi: int, li: int,
+            out: dict[str, np.ndarray], rows: np.ndarray) -> None:
+    """Copy the stamp and both joints' fields of payloads at ``starts`` (one layout)."""
+    def field_at(offset: int, dtype: str) -> np.ndarray:
+        size = np.dtype(dtype).itemsize
+        raw = data[starts[:, None] + np.arange(offset, offset + size)]
+        return raw.view(dtype)[:, 0]
+
+    sec = field_at(4, '<i4').astype(np.int64)
+    out['stamp_ns'][rows] = sec * 1_000_000_000 + field_at(8, '<u4')
+    for kind, start, length in zip(('position', 'velocity', 'effort'), layout.array_offsets,
+                                   layout.array_lengths):
+        for joint, j in (('motor', mi), ('load', li)):
+            if j < length:          # position may be empty (stays 0.0)
+                out[f'{joint}_{kind}'][rows] = field_at(start + 8 * j, '<f8')
 
 
 # --- output records --------------------------------------------------------------------------
