@@ -8,7 +8,10 @@ from types import TracebackType
 from typing import Any
 
 from rosbags.highlevel import AnyReader
+from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import Stores, get_typestore
+
+from gear_phm.bagio.chunks import CorruptChunk, McapChunkReader, NotIndexed, RawBatch
 
 
 _JAZZY = get_typestore(Stores.ROS2_JAZZY)
@@ -62,6 +65,8 @@ class BagReader:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self._reader: AnyReader | None = None
+        #: How :meth:`raw_batches` read the bag: 'mcap-chunks' or 'rosbags'.
+        self.reader_kind = ''
 
     def __enter__(self) -> BagReader:
         paths = _bag_paths(self.path)
@@ -164,6 +169,58 @@ class BagReader:
                 msg = _to_jazzy(self.reader.deserialize(raw, connection.msgtype))
                 raw = _JAZZY.serialize_cdr(msg, connection.msgtype)
             yield connection.topic, t_ns, bytes(raw)
+
+    def raw_batches(self, topics: Iterable[str],
+                    batch_size: int = 20000) -> Iterator[RawBatch]:
+        """Yield :class:`RawBatch` es of ``topics``, each in log-time order within its topic.
+
+        rosbag2 MCAP bags with chunk and message indexes (what rosbag2 and gear_phm write)
+        are read chunk by chunk without per-message Python work (:mod:`.chunks`); everything
+        else (sqlite3, ROS1, unindexed MCAP) goes through rosbags, ``batch_size`` messages per
+        batch. :attr:`reader_kind` says which was used.
+        """
+        names = {self.resolve_topic(t) for t in topics}
+        files = self._indexed_mcap_files()
+        chunks = None
+        if files is not None:
+            try:
+                chunks = McapChunkReader(files)
+            except NotIndexed:
+                chunks = None
+        if chunks is not None:
+            self.reader_kind = 'mcap-chunks'
+            with chunks:
+                try:
+                    yield from chunks.batches(names)
+                except CorruptChunk as exc:
+                    raise BagError(f'bag {self.path} is truncated or corrupt: '
+                                   f'{_one_line(exc)}') from exc
+            return
+        self.reader_kind = 'rosbags'
+        pending: dict[str, list[tuple[int, bytes]]] = {}
+        for topic, t_ns, raw in self.raw_messages(names):
+            messages = pending.setdefault(topic, [])
+            messages.append((t_ns, raw))
+            if len(messages) >= batch_size:
+                yield RawBatch.from_messages(topic, pending.pop(topic))
+        for topic, messages in pending.items():
+            yield RawBatch.from_messages(topic, messages)
+
+    def _indexed_mcap_files(self) -> list[Path] | None:
+        """The .mcap files of a rosbag2 bag stored as plain MCAP (no file/message compression),
+        else None."""
+        reader = self.reader
+        if not reader.is2:
+            return None
+        files: list[Path] = []
+        for bag in reader.readers:
+            storage = bag.storage               # a DirectoryReader, or one storage file
+            parts = getattr(storage, 'storages', [storage])
+            if storage.metadata.compression_mode or not all(
+                    isinstance(part, McapReader) for part in parts):
+                return None
+            files += [Path(part.path) for part in parts]
+        return files
 
     def messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
                  stop_ns: int | None = None) -> Iterator[tuple[str, int, Any]]:
