@@ -119,48 +119,38 @@ def run(args: argparse.Namespace) -> int:
             with Rosbag2McapWriter(out) as writer:
                 progress = _progress(total, args.no_progress)
                 next_diag: int | None = None
-                chunk: list[bytes] = []
-                raw_iter = bag.raw_messages([topic, *truth_topics])
-                exhausted = False
-                while not exhausted:
-                    chunk.clear()
-                    for name, _, raw in raw_iter:      # one pass over the bag
-                        if name == topic:
-                            chunk.append(raw)
-                            if len(chunk) >= BATCH:
-                                break
-                        else:
-                            truth.setdefault(truth_topics[name], []).append(
-                                vector3_stamped_from_cdr(raw))
-                    else:
-                        exhausted = True
-                    if not chunk:
+                for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+                    if raw.topic != topic:           # ground truth, for the plot only
+                        truth.setdefault(truth_topics[raw.topic], []).extend(
+                            vector3_stamped_from_cdr(payload) for payload in raw.payloads())
                         continue
-                    batch = interfaces.decode_joint_states(chunk, args.motor_joint,
-                                                           args.load_joint)
+                    batch = interfaces.decode_joint_state_buffer(
+                        raw.buffer, raw.offsets, raw.lengths, args.motor_joint,
+                        args.load_joint)
                     for reason, count in batch.rejected.items():
                         pipeline.reject_message(reason, count)
                     outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
                                                 batch.motor_effort, batch.load_velocity,
                                                 batch.load_effort)
-                    samples += len(chunk)
+                    samples += len(raw)
+                    records: list[Any] = []         # in the order the nodes publish them
                     for output in outputs:
-                        writer.write_output(output)
+                        records.append(output)
                         if output.topic == interfaces.FRICTION:
                             friction.append((output.stamp_ns, output.x, output.y, output.z))
                         # the diagnostics node's code, fed the same messages
-                        for health_output in health.on_input(output.topic, output.stamp_ns,
-                                                             output):
-                            writer.write_output(health_output)
+                        records += health.on_input(output.topic, output.stamp_ns, output)
                         # /diagnostics at the nodes' rate, in bag time
                         if next_diag is None or output.stamp_ns >= next_diag:
-                            writer.write_output(_diagnostics(
+                            records.append(_diagnostics(
                                 output.stamp_ns, pipeline, status_name, samples, health,
                                 args, levels))
                             next_diag = output.stamp_ns + diag_period_ns
-                    progress.update(len(chunk))
+                    writer.write_outputs(records)
+                    progress.update(len(raw))
                 progress.close()
                 elapsed = time.perf_counter() - started
+                reader_kind = bag.reader_kind
             if pipeline.samples_seen == 0:
                 raise CliError(f'no message of topic {topic} has joints '
                                f'{args.motor_joint!r} and {args.load_joint!r}: '
@@ -169,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     summary = pipeline.summary()
     summary.update({
-        'bag': str(args.bag), 'topic': args.topic, 'messages': samples,
+        'bag': str(args.bag), 'topic': args.topic, 'messages': samples, 'reader': reader_kind,
         'seconds': elapsed, 'samples_per_second': samples / elapsed if elapsed > 0 else math.inf,
         'windows_measured': len(measurements), 'config': config.as_dict(),
         'health': _health_summary(health, levels),
