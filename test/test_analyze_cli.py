@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gear_phm import interfaces
@@ -102,3 +103,26 @@ def test_missing_bag_and_existing_out(tmp_path: Path) -> None:
                  str(tmp_path / 'o')]) == 2
     assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out',
                  str(tmp_path / 'full')]) == 2
+
+
+def test_diagnostics_report_the_state_at_their_own_bag_time(tmp_path: Path) -> None:
+    """Each /diagnostics message of the estimator counts exactly the JointState messages
+    logged before its stamp (ticks every second of bag time, then one at the last message),
+    whatever batches the bag was read in: no state from later samples leaks into it."""
+    out = tmp_path / 'out'
+    assert main(['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out),
+                 '--no-progress', '--no-plot']) == 0
+    with BagReader(HEALTHY) as bag:
+        logged = np.array([t for _, t, _ in bag.raw_messages(['/joint_states'])])
+    with BagReader(out) as bag:
+        reports = [(t, dict((kv.key, kv.value) for kv in s.values))
+                   for _, t, m in bag.messages(['/diagnostics']) for s in m.status
+                   if s.name == 'gear_phm estimator: estimator']
+    stamps = np.array([t for t, _ in reports])
+    assert np.all(np.diff(stamps[:-1]) == 10**9)                     # 1 Hz in bag time
+    assert stamps[0] == logged[0] + 10**9 and stamps[-1] == logged[-1]
+    received = [int(values['messages_received']) for _, values in reports]
+    expected = [int(np.searchsorted(logged, t)) for t in stamps[:-1]] + [logged.size]
+    assert received == expected
+    used = [int(values['samples_used']) for _, values in reports]
+    assert used == sorted(used) and 0 < used[0] < used[-1]

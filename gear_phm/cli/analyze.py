@@ -74,6 +74,7 @@ def _config(args: argparse.Namespace) -> EstimatorConfig:
 
 def run(args: argparse.Namespace) -> int:
     from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter
+    from gear_phm.bagio.chunks import RawBatch
     from gear_phm.bagio.writer import vector3_stamped_from_cdr
 
     config = _config(args)
@@ -118,21 +119,23 @@ def run(args: argparse.Namespace) -> int:
             diag_period_ns = int(1e9 / args.diagnostics_rate)
             with Rosbag2McapWriter(out) as writer:
                 progress = _progress(total, args.no_progress)
-                next_diag: int | None = None
-                for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
-                    if raw.topic != topic:           # ground truth, for the plot only
-                        truth.setdefault(truth_topics[raw.topic], []).extend(
-                            vector3_stamped_from_cdr(payload) for payload in raw.payloads())
-                        continue
+                next_diag: int | None = None       # next /diagnostics tick, bag time [ns]
+                last_log_ns = 0
+
+                def process(raw: RawBatch, begin: int, end: int) -> None:
+                    """Messages begin..end-1 of ``raw``: estimator, then diagnostics code."""
+                    nonlocal samples
+                    if end <= begin:
+                        return
                     batch = interfaces.decode_joint_state_buffer(
-                        raw.buffer, raw.offsets, raw.lengths, args.motor_joint,
-                        args.load_joint)
+                        raw.buffer, raw.offsets[begin:end], raw.lengths[begin:end],
+                        args.motor_joint, args.load_joint)
                     for reason, count in batch.rejected.items():
                         pipeline.reject_message(reason, count)
                     outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
                                                 batch.motor_effort, batch.load_velocity,
                                                 batch.load_effort)
-                    samples += len(raw)
+                    samples += end - begin
                     records: list[Any] = []         # in the order the nodes publish them
                     for output in outputs:
                         records.append(output)
@@ -140,14 +143,32 @@ def run(args: argparse.Namespace) -> int:
                             friction.append((output.stamp_ns, output.x, output.y, output.z))
                         # the diagnostics node's code, fed the same messages
                         records += health.on_input(output.topic, output.stamp_ns, output)
-                        # /diagnostics at the nodes' rate, in bag time
-                        if next_diag is None or output.stamp_ns >= next_diag:
-                            records.append(_diagnostics(
-                                output.stamp_ns, pipeline, status_name, samples, health,
-                                args, levels))
-                            next_diag = output.stamp_ns + diag_period_ns
                     writer.write_outputs(records)
+
+                for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+                    if raw.topic != topic:           # ground truth, for the plot only
+                        truth.setdefault(truth_topics[raw.topic], []).extend(
+                            vector3_stamped_from_cdr(payload) for payload in raw.payloads())
+                        continue
+                    # /diagnostics as the nodes publish it at diagnostics_rate, in bag time:
+                    # at each tick, the state after the messages logged before the tick
+                    times = raw.log_time_ns
+                    if next_diag is None:
+                        next_diag = int(times[0]) + diag_period_ns
+                    begin = 0
+                    while next_diag <= int(times[-1]):
+                        cut = int(np.searchsorted(times, next_diag, side='left'))
+                        process(raw, begin, cut)
+                        begin = cut
+                        writer.write_output(_diagnostics(next_diag, pipeline, status_name,
+                                                         samples, health, args, levels))
+                        next_diag += diag_period_ns
+                    process(raw, begin, len(raw))
+                    last_log_ns = int(times[-1])
                     progress.update(len(raw))
+                if next_diag is not None:            # the final state, at the last message
+                    writer.write_output(_diagnostics(last_log_ns, pipeline, status_name,
+                                                     samples, health, args, levels))
                 progress.close()
                 elapsed = time.perf_counter() - started
                 reader_kind = bag.reader_kind
