@@ -131,15 +131,15 @@ class McapChunkReader:
                     raise NotIndexed(f'{path}: no chunk index')
                 self.topics[number] = {cid: ch.topic for cid, ch in summary.channels.items()}
                 for index in summary.chunk_indexes:
-                    if not index.message_index_offsets and index.chunk_length > 0:
-                        raise NotIndexed(f'{path}: a chunk has no message index')
                     if index.compression not in _COMPRESSIONS:
                         raise NotIndexed(f'{path}: chunk compression {index.compression!r}')
-                    self._chunks.append((number, _Chunk(
-                        stream, index.chunk_start_offset, index.chunk_length,
-                        index.message_index_length, index.compression,
-                        index.uncompressed_size, index.message_start_time,
-                        dict(index.message_index_offsets))))
+                    chunk = _Chunk(stream, index.chunk_start_offset, index.chunk_length,
+                                   index.message_index_length, index.compression,
+                                   index.uncompressed_size, index.message_start_time,
+                                   dict(index.message_index_offsets))
+                    if not chunk.index_offsets:     # unindexed (or definitions only)
+                        raise NotIndexed(f'{path}: a chunk has no message index')
+                    self._chunks.append((number, chunk))
         except BaseException:
             self.close()
             raise
@@ -186,23 +186,7 @@ class McapChunkReader:
 
     def _read(self, chunk: _Chunk, channels: dict[int, str]) -> list[RawBatch]:
         """Batches of ``channels`` in one chunk, each sorted by log time."""
-        stream = chunk.stream
-        stream.seek(chunk.start_offset)
-        block = stream.read(chunk.length + chunk.index_length)
-        if len(block) < chunk.length + chunk.index_length or block[0] != _CHUNK_OP:
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset} is truncated or not a '
-                               f'chunk record')
-        # chunk: op, u64 len, u64 start, u64 end, u64 uncompressed size, u32 crc,
-        # string compression, u64 records length, records
-        crc = int.from_bytes(block[33:37], 'little')
-        name_length = int.from_bytes(block[37:41], 'little')
-        body = 41 + name_length + 8
-        size = int.from_bytes(block[body - 8:body], 'little')
-        if body + size > chunk.length:
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: records overrun the chunk')
-        data = _decompress(block[body:body + size], chunk.compression, chunk.uncompressed_size)
-        if len(data) != chunk.uncompressed_size or (crc and zlib.crc32(data) != crc):
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: checksum or size mismatch')
+        block, data = self._decompressed(chunk)
         raw = np.frombuffer(data, dtype=np.uint8)
         batches = []
         for cid, topic in channels.items():
@@ -231,8 +215,30 @@ class McapChunkReader:
             batches.append(RawBatch(topic, times, data, offsets, lengths))
         return batches
 
+    def _decompressed(self, chunk: _Chunk) -> tuple[bytes, bytes]:
+        """(chunk record + its message indexes as read, decompressed records)."""
+        stream = chunk.stream
+        stream.seek(chunk.start_offset)
+        block = stream.read(chunk.length + chunk.index_length)
+        if len(block) < chunk.length + chunk.index_length or block[0] != _CHUNK_OP:
+            raise CorruptChunk(f'chunk at byte {chunk.start_offset} is truncated or not a '
+                               f'chunk record')
+        # chunk: op, u64 len, u64 start, u64 end, u64 uncompressed size, u32 crc,
+        # string compression, u64 records length, records
+        crc = int.from_bytes(block[33:37], 'little')
+        name_length = int.from_bytes(block[37:41], 'little')
+        body = 41 + name_length + 8
+        size = int.from_bytes(block[body - 8:body], 'little')
+        if body + size > chunk.length:
+            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: records overrun the chunk')
+        data = _decompress(block[body:body + size], chunk.compression, chunk.uncompressed_size)
+        if len(data) != chunk.uncompressed_size or (crc and zlib.crc32(data) != crc):
+            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: checksum or size mismatch')
+        return block, data
+
 
 def _gather(raw: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
     """Little-endian integers of type ``dtype`` at byte offsets ``starts`` (int64 out)."""
     size = np.dtype(dtype).itemsize
     return raw[starts[:, None] + np.arange(size)].view(dtype)[:, 0].astype(np.int64)
+

@@ -15,9 +15,9 @@ from typing import Any
 import yaml
 from mcap.reader import StreamReader
 from mcap.records import Channel, Message, Schema
-from mcap.writer import CompressionType, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from gear_phm.bagio.mcap_file import McapFileWriter
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, VECTOR3_STAMPED_TYPE, DiagnosticsOut,
                                  Vector3Out, ns_to_sec_nanosec)
 
@@ -25,8 +25,7 @@ from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, VECTOR3_STAMPED_TYPE, Di
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
 ROSBAG2_VERSION = 9
-_COMPRESSION = {None: CompressionType.NONE, '': CompressionType.NONE,
-                'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4}
+_COMPRESSION = {None: '', '': '', 'zstd': 'zstd', 'lz4': 'lz4'}
 
 
 def absolute_topic(topic: str) -> str:
@@ -66,9 +65,8 @@ class Rosbag2McapWriter:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.mcap_path = self.directory / f'{self.directory.name}_0.mcap'
         self._file = open(self.mcap_path, 'wb')  # noqa: SIM115 (closed in close())
-        self._writer = Writer(self._file, chunk_size=chunk_size,
-                              compression=_COMPRESSION[compression])
-        self._writer.start(profile='ros2', library='gear_phm')
+        self._writer = McapFileWriter(self._file, chunk_size=chunk_size,
+                                      compression=_COMPRESSION[compression])
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
         self._start_ns: int | None = None
@@ -259,16 +257,17 @@ def recover(directory: str | Path) -> int:
             pass
         tmp = source.with_suffix('.mcap.recovering')
         with open(tmp, 'wb') as stream:
-            writer = Writer(stream, compression=CompressionType.ZSTD)
-            writer.start(profile='ros2', library='gear_phm')
-            for schema in schemas.values():
-                writer.register_schema(schema.name, schema.encoding, schema.data)
-            for channel in channels.values():
-                writer.register_channel(channel.topic, channel.message_encoding,
-                                        channel.schema_id, channel.metadata)
+            writer = McapFileWriter(stream, compression='zstd')
+            schema_ids = {old: writer.register_schema(schema.name, schema.encoding, schema.data)
+                          for old, schema in sorted(schemas.items())}
+            channel_ids = {old: writer.register_channel(
+                channel.topic, channel.message_encoding,
+                schema_ids.get(channel.schema_id, 0), channel.metadata)
+                for old, channel in sorted(channels.items())}
             for message in sorted(messages, key=lambda m: m.log_time):
-                writer.add_message(message.channel_id, message.log_time, message.data,
-                                   message.publish_time, message.sequence)
+                if message.channel_id in channel_ids:
+                    writer.add_message(channel_ids[message.channel_id], message.log_time,
+                                       message.data, message.publish_time, message.sequence)
             writer.finish()
         os.replace(tmp, source)
         total += len(messages)
