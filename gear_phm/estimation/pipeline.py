@@ -77,7 +77,7 @@ class EstimatorPipeline:
         self.integrator = EnergyIntegrator(
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
-             c.load_speed_noise))
+             c.load_speed_noise), min_duration=c.min_window)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
@@ -225,6 +225,8 @@ class EstimatorPipeline:
         self._max_stamp = int(max(stamps.max(), self._max_stamp or stamps.max()))
         with np.errstate(invalid='ignore', over='ignore'):
             windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, code, usable)
+        self.counts['short_window'] += self.integrator.dropped_short
+        self.integrator.dropped_short = 0
         rejected = self._count_samples(n, duplicate, backwards, nonfinite, zero_speed,
                                        deadband, impossible)
         used_cum = self.samples_used + np.cumsum(usable)

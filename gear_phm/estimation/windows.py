@@ -81,9 +81,14 @@ class EnergyIntegrator:
 
     def __init__(self, window: float, max_gap: float, motor_inertia: float = 0.0,
                  load_inertia: float = 0.0, noise: tuple[float, float, float, float] = (
-                     0.0, 0.0, 0.0, 0.0)) -> None:
+                     0.0, 0.0, 0.0, 0.0), min_duration: float = 0.0) -> None:
         self.window = float(window)
         self.max_gap = float(max_gap)
+        #: Windows that open and close inside one batch, shorter than this [s] or of one
+        #: sample, are not built: they are only counted in ``dropped_short`` (the estimator
+        #: would reject them as ``short_window``; noisy phase edges make thousands of them).
+        self.min_duration = float(min_duration)
+        self.dropped_short = 0
         self.motor_inertia = float(motor_inertia)
         self.load_inertia = float(load_inertia)
         # sigma of motor torque, motor speed, load torque, load speed
@@ -154,11 +159,19 @@ class EnergyIntegrator:
             (wl_c * wl_c * s_tl * s_tl + tl_c * tl_c * s_wl * s_wl) * dt2)))
         break_at = np.flatnonzero(breaks)
         n = idx.size
+        skippable, resume = self._short_segments(t_c, break_at, n, bool(usable[-1]))
         pos = 0
         while pos < n:
             if self._open is not None and breaks[pos]:
                 closed.append(self._finish(self._open, int(idx[pos - 1]) + 1 if pos else 0))
                 self._open = None
+            if breaks[pos] and skippable.size:
+                k = int(np.searchsorted(break_at, pos))
+                if skippable[k]:             # a run of short one-window segments
+                    nxt = int(resume[k])
+                    self.dropped_short += nxt - k
+                    pos = int(break_at[nxt]) if nxt < break_at.size else n
+                    continue
             if self._open is None:
                 self._open = _Open(int(code_c[pos]), float(t_c[pos]), float(t_c[pos]), 1,
                                    float(wm_c[pos]), float(wl_c[pos]), float(wm_c[pos]),
@@ -189,6 +202,24 @@ class EnergyIntegrator:
             closed.append(self._finish(self._open, int(idx[-1]) + 1))
             self._open = None
         return closed
+
+
+    def _short_segments(self, t_c: np.ndarray, break_at: np.ndarray, n: int,
+                        last_usable: bool) -> tuple[np.ndarray, np.ndarray]:
+        """For each segment starting at ``break_at[k]``: whether it is one whole window that
+        is too short (and closes in this batch), and the index of the next segment that is
+        not. Empty arrays when ``min_duration`` is 0."""
+        if self.min_duration <= 0.0 or break_at.size == 0:
+            return np.empty(0, dtype=bool), np.empty(0, dtype=np.int64)
+        ends = np.append(break_at[1:], n)
+        first, last = t_c[break_at], t_c[ends - 1]
+        skippable = (last < first + self.window) \
+            & ((last - first < self.min_duration) | (ends - break_at < 2))
+        if last_usable:
+            skippable[-1] = False           # the last segment stays open for the next batch
+        keep = np.append(np.flatnonzero(~skippable), skippable.size)
+        resume = keep[np.searchsorted(keep, np.arange(skippable.size))]
+        return skippable, resume
 
 
 def to_measurement(window: Window, ratio: float, min_window: float, min_energy: float,
