@@ -23,7 +23,7 @@ def test_bench_models_tiny() -> None:
 
 
 def test_bench_offline_analyze_tiny() -> None:
-    out = run('offline_analyze.py', '--samples', '3000')
+    out = run('offline_analyze.py', '--samples', '3000', '--repeat', '1')
     assert 'rosbags read + deserialize_cdr (baseline)' in out
     assert '`gear-phm analyze` end to end' in out
 
