@@ -306,3 +306,15 @@ def test_alpha_lambda_passes_at_half_and_three_quarter_life(kind: str, seed: int
     passed = {check['lam']: check['passed'] for check in result['alpha_lambda']}
     assert passed[0.5] and passed[0.75], result['alpha_lambda']
     assert result['prognostic_horizon_s'] > 1000.0
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.floats(-1e9, 1e9), st.just(math.inf), st.just(0.0)), min_size=1,
+                max_size=300),
+       st.lists(st.floats(0.0, 1.0), min_size=1, max_size=4))
+def test_rul_quantiles_equal_numpys_inverted_cdf(values: list[float],
+                                                 probabilities: list[float]) -> None:
+    from gear_phm.prognostics.rul import inverted_cdf_quantiles
+    array = np.array(values)
+    assert inverted_cdf_quantiles(array, tuple(probabilities)) == \
+        np.quantile(array, probabilities, method='inverted_cdf').tolist()
