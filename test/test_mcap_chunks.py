@@ -104,18 +104,21 @@ def test_gear_phm_writer_bag_matches_rosbags(tmp_path: Path, compression: str | 
     assert result == expected
 
 
-def test_rosbags_writer_bag_matches_rosbags(tmp_path: Path) -> None:
-    """A bag from an independent writer (rosbags' rosbag2 MCAP storage)."""
+@pytest.mark.parametrize('storage, kind', [(StoragePlugin.MCAP, 'mcap-chunks'),
+                                           (StoragePlugin.SQLITE3, 'rosbags')])
+def test_rosbags_writer_bags_match_rosbags(tmp_path: Path, storage: StoragePlugin,
+                                           kind: str) -> None:
+    """Bags from an independent writer (rosbags): its MCAP takes the chunk path, sqlite3
+    goes through rosbags; both give what rosbags' reader gives."""
     bag = tmp_path / 'bag'
-    with Ros2Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+    with Ros2Writer(bag, version=9, storage_plugin=storage) as writer:
         connections = {topic: writer.add_connection(topic, msgtype, typestore=TYPESTORE)
                        for topic, msgtype in zip(TOPICS, (JOINT_STATE, VECTOR))}
         for topic, t_ns, data in interleaved(2000):
             writer.write(connections[topic], t_ns, data)
-    result, kind = fast(bag)
-    assert result == reference(bag)
-    assert len(result['/joint_states']) == 2000
-    assert kind == 'mcap-chunks'
+    result, used = fast(bag)
+    assert used == kind
+    assert result == reference(bag) and len(result['/joint_states']) == 2000
 
 
 def test_out_of_order_and_overlapping_chunks_come_out_in_log_time_order(tmp_path: Path) -> None:
@@ -143,18 +146,6 @@ def test_mcap_without_message_index_goes_through_rosbags(tmp_path: Path) -> None
     result, kind = fast(bag)
     assert kind == 'rosbags'
     assert result == reference(bag)
-
-
-def test_sqlite3_bag_goes_through_rosbags(tmp_path: Path) -> None:
-    bag = tmp_path / 'bag'
-    with Ros2Writer(bag, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        connections = {topic: writer.add_connection(topic, msgtype, typestore=TYPESTORE)
-                       for topic, msgtype in zip(TOPICS, (JOINT_STATE, VECTOR))}
-        for topic, t_ns, data in interleaved(300):
-            writer.write(connections[topic], t_ns, data)
-    result, kind = fast(bag)
-    assert kind == 'rosbags'
-    assert result == reference(bag) and len(result['/joint_states']) == 300
 
 
 def test_corrupt_chunk_is_a_one_line_bag_error(tmp_path: Path) -> None:

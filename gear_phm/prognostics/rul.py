@@ -182,7 +182,8 @@ class RulPredictor:
             raise ValueError(f'samples must be >= 2, got {samples!r}')
         self.u_eol = float(u_eol)
         self.detect_z = float(detect_z)
-        self._normals = np.random.default_rng(seed).standard_normal((int(samples), 3))
+        normals = np.random.default_rng(seed).standard_normal((int(samples), 3))
+        self._n0, self._n1, self._n2 = (np.ascontiguousarray(normals[:, i]) for i in range(3))
 
     def predict(self, u: float, rate: float, covariance: np.ndarray,
                 trend: Trend = Trend()) -> RulEstimate:
@@ -197,17 +198,19 @@ class RulPredictor:
         if not rate > self.detect_z * rate_sigma or rate <= 0.0:
             return RulEstimate(math.inf, math.inf, math.inf, NONE)
         root = _psd_sqrt(0.5 * (cov + cov.T))
-        draws = np.array([u, rate]) + self._normals[:, :2] @ root.T
-        u_i, r_i = draws[:, 0], draws[:, 1]
-        gap = self.u_eol - u_i
-        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-            tau = np.where(r_i > 0.0, gap / r_i, np.inf)
-            if trend.model == EXPONENTIAL and trend.k > 0.0:
-                k_i = np.maximum(trend.k + trend.k_sigma * self._normals[:, 2], 0.0)
-                growth = np.where(r_i > 0.0, k_i * gap / r_i, np.inf)
+        n0, n1 = self._n0, self._n1               # draws: [u, rate] + root @ [n0, n1]
+        gap = (self.u_eol - u) - (root[0, 0] * n0 + root[0, 1] * n1)
+        r_i = rate + (root[1, 0] * n0 + root[1, 1] * n1)
+        rising = r_i > 0.0
+        tau = np.full(n0.size, np.inf)
+        np.divide(gap, r_i, out=tau, where=rising)
+        if trend.model == EXPONENTIAL and trend.k > 0.0:
+            with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+                k_i = np.maximum(trend.k + trend.k_sigma * self._n2, 0.0)
+                growth = np.where(rising, k_i * tau, np.inf)
                 tau_exp = np.log1p(growth) / np.where(k_i > 0.0, k_i, 1.0)
                 tau = np.where(k_i > 0.0, tau_exp, tau)
-        tau = np.where(gap <= 0.0, 0.0, tau)
+        tau[gap <= 0.0] = 0.0
         p5, median, p95 = inverted_cdf_quantiles(tau, (0.05, 0.5, 0.95))
         return RulEstimate(median, p5, p95, trend.model)
 
