@@ -304,21 +304,24 @@ def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarra
     return bytes(buffer[start:start + int(lengths[i])])
 
 
+def gather_values(data: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
+    """One value of ``dtype`` (e.g. '<f8') at each byte offset ``starts`` of the uint8 array
+    ``data``, unaligned reads allowed (a numpy gather, no Python loop)."""
+    size = np.dtype(dtype).itemsize
+    return data[starts[:, None] + np.arange(size)].view(dtype)[:, 0]
+
+
 def _gather(data: np.ndarray, starts: np.ndarray, layout: _Layout, mi: int, li: int,
             out: dict[str, np.ndarray], rows: np.ndarray) -> None:
     """Copy the stamp and both joints' fields of payloads at ``starts`` (one layout)."""
-    def field_at(offset: int, dtype: str) -> np.ndarray:
-        size = np.dtype(dtype).itemsize
-        raw = data[starts[:, None] + np.arange(offset, offset + size)]
-        return raw.view(dtype)[:, 0]
-
-    sec = field_at(4, '<i4').astype(np.int64)
-    out['stamp_ns'][rows] = sec * 1_000_000_000 + field_at(8, '<u4')
+    sec = gather_values(data, starts + 4, '<i4').astype(np.int64)
+    out['stamp_ns'][rows] = sec * 1_000_000_000 + gather_values(data, starts + 8, '<u4')
     for kind, start, length in zip(('position', 'velocity', 'effort'), layout.array_offsets,
                                    layout.array_lengths):
         for joint, j in (('motor', mi), ('load', li)):
             if j < length:          # position may be empty (stays 0.0)
-                out[f'{joint}_{kind}'][rows] = field_at(start + 8 * j, '<f8')
+                out[f'{joint}_{kind}'][rows] = gather_values(data, starts + start + 8 * j,
+                                                             '<f8')
 
 
 # --- output records --------------------------------------------------------------------------

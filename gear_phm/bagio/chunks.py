@@ -22,6 +22,8 @@ from typing import BinaryIO
 
 import numpy as np
 
+from gear_phm.interfaces import gather_values
+
 _CHUNK_OP, _MESSAGE_OP, _MESSAGE_INDEX_OP = 0x06, 0x05, 0x07
 _COMPRESSIONS = ('', 'zstd', 'lz4')
 _MESSAGE_HEADER = 22               # channel id u16, sequence u32, log time u64, publish u64
@@ -201,11 +203,11 @@ class McapChunkReader:
             records = entries[:, 1].astype(np.int64)
             if count and (records.max() + 9 + _MESSAGE_HEADER > len(data)):
                 raise CorruptChunk(f'chunk at byte {chunk.start_offset}: index out of bounds')
-            lengths = _gather(raw, records + 1, '<u8') - _MESSAGE_HEADER
+            lengths = _integers(raw, records + 1, '<u8') - _MESSAGE_HEADER
             offsets = records + 9 + _MESSAGE_HEADER
             if count and ((raw[records] != _MESSAGE_OP).any()
-                          or (_gather(raw, records + 9, '<u2') != cid).any()
-                          or (_gather(raw, records + 15, '<u8') != times).any()
+                          or (_integers(raw, records + 9, '<u2') != cid).any()
+                          or (_integers(raw, records + 15, '<u8') != times).any()
                           or (lengths < 0).any() or (offsets + lengths > len(data)).any()):
                 raise CorruptChunk(f'chunk at byte {chunk.start_offset}: message index does '
                                    f'not match the messages')
@@ -237,8 +239,6 @@ class McapChunkReader:
         return block, data
 
 
-def _gather(raw: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
+def _integers(raw: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
     """Little-endian integers of type ``dtype`` at byte offsets ``starts`` (int64 out)."""
-    size = np.dtype(dtype).itemsize
-    return raw[starts[:, None] + np.arange(size)].view(dtype)[:, 0].astype(np.int64)
-
+    return gather_values(raw, starts, dtype).astype(np.int64)
