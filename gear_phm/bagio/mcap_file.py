@@ -68,13 +68,10 @@ class McapFileWriter:
         self._channels: list[bytes] = []
         self._chunk_indexes: list[bytes] = []
         self._channel_counts: dict[int, int] = {}
-        self._message_count = 0
         self._start = _U64_MAX
         self._end = 0
         self._chunk = bytearray()
         self._index: dict[int, array] = {}       # channel -> [log time, offset, ...] of chunk
-        self._chunk_start = _U64_MAX
-        self._chunk_end = 0
         self._finished = False
 
     def _write(self, data: bytes) -> None:
@@ -121,10 +118,6 @@ class McapFileWriter:
                                publish_time)
         chunk += data
         self._channel_counts[channel_id] += 1
-        if log_time < self._chunk_start:
-            self._chunk_start = log_time
-        if log_time > self._chunk_end:
-            self._chunk_end = log_time
         if len(chunk) >= self._chunk_size:
             self._write_chunk()
 
@@ -140,7 +133,8 @@ class McapFileWriter:
         if not self._index:
             return
         records = bytes(self._chunk)
-        start, end = self._chunk_start, self._chunk_end
+        start = min(min(entries[0::2]) for entries in self._index.values())
+        end = max(max(entries[0::2]) for entries in self._index.values())
         payload = self._compress(records) if self._compress else records
         body = struct.pack('<QQQI', start, end, len(records), zlib.crc32(records)) \
             + _string(self._compression) + struct.pack('<Q', len(payload))
@@ -159,12 +153,10 @@ class McapFileWriter:
             '<QQQQI', start, end, chunk_offset, chunk_length, len(offsets)) + offsets
             + struct.pack('<Q', self._position - index_start) + _string(self._compression)
             + struct.pack('<QQ', len(payload), len(records))))
-        self._message_count += sum(len(entries) // 2 for entries in self._index.values())
         self._start = min(self._start, start)
         self._end = max(self._end, end)
         self._chunk = bytearray()
         self._index = {}
-        self._chunk_start, self._chunk_end = _U64_MAX, 0
 
     @property
     def message_count(self) -> int:
@@ -183,8 +175,8 @@ class McapFileWriter:
         counts = b''.join(struct.pack('<HQ', c, n) for c, n in sorted(
             self._channel_counts.items()))
         statistics = _record(_OP_STATISTICS, struct.pack(
-            '<QHIIIIQQI', self._message_count, len(self._schemas), len(self._channels), 0, 0,
-            len(self._chunk_indexes), self._start if self._message_count else 0,
+            '<QHIIIIQQI', self.message_count, len(self._schemas), len(self._channels), 0, 0,
+            len(self._chunk_indexes), self._start if self.message_count else 0,
             self._end, len(counts)) + counts)
         summary = bytearray()
         for opcode, records in ((_OP_SCHEMA, self._schemas), (_OP_CHANNEL, self._channels),

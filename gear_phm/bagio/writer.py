@@ -1,4 +1,5 @@
-"""Write rosbag2 (version 9, Jazzy) MCAP directories with mcap's writer, crash-safely."""
+"""Write rosbag2 (version 9, Jazzy) MCAP directories with gear_phm's MCAP writer
+(:mod:`gear_phm.bagio.mcap_file`), crash-safely."""
 from __future__ import annotations
 
 import functools
@@ -6,9 +7,9 @@ import io
 import os
 import struct
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from collections.abc import Callable, Iterable
 from types import TracebackType
 from typing import Any
 
@@ -109,11 +110,8 @@ class Rosbag2McapWriter:
         self._writer.add_message(channel_id=entry.channel_id, log_time=t_ns, data=bytes(data),
                                  publish_time=t_ns, sequence=entry.count)
         entry.count += 1
-        self._start_ns = t_ns if self._start_ns is None else min(self._start_ns, t_ns)
-        self._end_ns = max(self._end_ns, t_ns)
-        if self._flush_period_s is not None \
-                and time.monotonic() - self._last_flush >= self._flush_period_s:
-            self.flush()
+        self._note_times(t_ns, t_ns)
+        self._maybe_flush()
 
     def write(self, topic: str, t_ns: int, msg: Any) -> None:
         """Serialize a rosbags message object with CDR and append it."""
@@ -155,8 +153,16 @@ class Rosbag2McapWriter:
             if last is None or t_ns > last:
                 last = t_ns
         if first is not None:
-            self._start_ns = first if self._start_ns is None else min(self._start_ns, first)
-            self._end_ns = max(self._end_ns, last)
+            self._note_times(first, last)
+        self._maybe_flush()
+
+    def _note_times(self, first_ns: int, last_ns: int) -> None:
+        """Widen the bag's time range [ns] (metadata.yaml) to hold first..last."""
+        self._start_ns = first_ns if self._start_ns is None else min(self._start_ns, first_ns)
+        self._end_ns = max(self._end_ns, last_ns)
+
+    def _maybe_flush(self) -> None:
+        """Flush once ``flush_period_s`` has passed since the last flush."""
         if self._flush_period_s is not None \
                 and time.monotonic() - self._last_flush >= self._flush_period_s:
             self.flush()
@@ -270,7 +276,7 @@ def recover(directory: str | Path) -> int:
                                        message.data, message.publish_time, message.sequence)
             writer.finish()
         os.replace(tmp, source)
-        total += len(messages)
+        total += writer.message_count
     _rebuild_metadata(directory, sources)
     return total
 
