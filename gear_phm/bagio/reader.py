@@ -73,7 +73,7 @@ class BagReader:
         try:
             ros2 = paths[0].suffix != '.bag'   # ROS1 bags carry their own definitions
             self._reader = AnyReader(
-                paths, default_typestore=get_typestore(Stores.ROS2_JAZZY) if ros2 else None)
+                paths, default_typestore=_JAZZY if ros2 else None)
             self._reader.open()
         except Exception as exc:  # rosbags raises many types for corrupt input
             raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}') from exc
@@ -186,7 +186,7 @@ class BagReader:
             try:
                 chunks = McapChunkReader(files)
             except NotIndexed:
-                chunks = None
+                pass                            # read through rosbags below
         if chunks is not None:
             self.reader_kind = 'mcap-chunks'
             with chunks:
