@@ -202,8 +202,8 @@ def _diagnostics(stamp_ns: int, pipeline: EstimatorPipeline, status_name: str, s
     """The /diagnostics array the estimator and diagnostics nodes would publish at stamp_ns."""
     statuses = [pipeline.status(status_name, samples)]
     if health.latest is not None:
-        diagnostics, _, _ = health.latest.outputs(args.transmission_name, args.hardware_id)
-        statuses += diagnostics.statuses
+        statuses += health.latest.diagnostics(args.transmission_name,
+                                              args.hardware_id).statuses
         levels.setdefault(interfaces.LEVEL_NAMES[health.latest.level], stamp_ns)
     return interfaces.DiagnosticsOut(stamp_ns, tuple(statuses))
 

@@ -112,9 +112,13 @@ class HealthStatus:
     def outputs(self, transmission_name: str, hardware_id: str
                 ) -> tuple[DiagnosticsOut, Vector3Out, Vector3Out]:
         """/diagnostics array, gear_phm/health/rul and gear_phm/health/efficiency records."""
+        return (self.diagnostics(transmission_name, hardware_id), *self.vectors())
+
+    def diagnostics(self, transmission_name: str, hardware_id: str) -> DiagnosticsOut:
+        """The /diagnostics array of this status alone."""
         status = StatusOut(self.level, f'gear_phm: {transmission_name}', self.message,
                            hardware_id, self.key_values())
-        return (DiagnosticsOut(self.stamp_ns, (status,)), *self.vectors())
+        return DiagnosticsOut(self.stamp_ns, (status,))
 
     def vectors(self) -> tuple[Vector3Out, Vector3Out]:
         """gear_phm/health/rul and gear_phm/health/efficiency records alone (no text
