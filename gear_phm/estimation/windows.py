@@ -203,7 +203,6 @@ class EnergyIntegrator:
             self._open = None
         return closed
 
-
     def _short_segments(self, t_c: np.ndarray, break_at: np.ndarray, n: int,
                         last_usable: bool) -> tuple[np.ndarray, np.ndarray]:
         """For each segment starting at ``break_at[k]``: whether it is one whole window that
