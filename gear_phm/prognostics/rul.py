@@ -197,35 +197,42 @@ class RulPredictor:
         rate_sigma = math.sqrt(max(cov[1, 1], 0.0))
         if not rate > self.detect_z * rate_sigma or rate <= 0.0:
             return RulEstimate(math.inf, math.inf, math.inf, NONE)
-        root = _psd_sqrt(0.5 * (cov + cov.T))
-        n0, n1 = self._n0, self._n1               # draws: [u, rate] + root @ [n0, n1]
-        gap = (self.u_eol - u) - (root[0, 0] * n0 + root[0, 1] * n1)
-        r_i = rate + (root[1, 0] * n0 + root[1, 1] * n1)
-        rising = r_i > 0.0
-        tau = np.full(n0.size, np.inf)
-        np.divide(gap, r_i, out=tau, where=rising)
-        if trend.model == EXPONENTIAL and trend.k > 0.0:
-            with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        l_uu, l_ru, l_rr = _psd_cholesky(cov[0, 0], 0.5 * (cov[0, 1] + cov[1, 0]), cov[1, 1])
+        n0, n1 = self._n0, self._n1           # draws: [u, rate] + L @ [n0, n1], L lower
+        gap = (self.u_eol - u) - l_uu * n0
+        r_i = l_ru * n0
+        r_i += l_rr * n1
+        r_i += rate
+        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+            tau = gap / r_i
+            if trend.model == EXPONENTIAL and trend.k > 0.0:
                 k_i = np.maximum(trend.k + trend.k_sigma * self._n2, 0.0)
-                growth = np.where(rising, k_i * tau, np.inf)
+                growth = np.where(r_i > 0.0, k_i * tau, np.inf)
                 tau_exp = np.log1p(growth) / np.where(k_i > 0.0, k_i, 1.0)
                 tau = np.where(k_i > 0.0, tau_exp, tau)
-        tau[gap <= 0.0] = 0.0
+        if not r_i.min() > 0.0:
+            tau[r_i <= 0.0] = np.inf                  # never reaches u_eol
+        if not gap.min() > 0.0:
+            tau[gap <= 0.0] = 0.0                     # already past u_eol
         p5, median, p95 = inverted_cdf_quantiles(tau, (0.05, 0.5, 0.95))
         return RulEstimate(median, p5, p95, trend.model)
 
 
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
                            ) -> list[float]:
-    """``np.quantile(values, probabilities, method='inverted_cdf')`` by one partial sort
-    (about 4 times faster for 2000 draws; the tests check they agree)."""
+    """``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort (numpy's
+    vectorised sort beats ``np.quantile``, and ``np.partition`` with several ranks, for a few
+    thousand draws; the tests check they agree). NaN-free input."""
     n = values.size
-    ranks = [max(math.ceil(p * n) - 1, 0) for p in probabilities]
-    picked = np.partition(values, ranks)
-    return [float(picked[r]) for r in ranks]
+    ordered = np.sort(values)
+    return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
-def _psd_sqrt(cov: np.ndarray) -> np.ndarray:
-    """A matrix square root L (L L^T = cov) that tolerates semi-definite covariances."""
-    values, vectors = np.linalg.eigh(cov)
-    return vectors * np.sqrt(np.clip(values, 0.0, None))
+def _psd_cholesky(p_uu: float, p_ur: float, p_rr: float) -> tuple[float, float, float]:
+    """Lower factor (l_uu, l_ru, l_rr) of a 2x2 covariance, L L^T = P, in closed form;
+    tolerates semi-definite P (a zero or negative variance gives a zero column)."""
+    if p_uu > 0.0:
+        l_uu = math.sqrt(p_uu)
+        l_ru = p_ur / l_uu
+        return l_uu, l_ru, math.sqrt(max(p_rr - l_ru * l_ru, 0.0))
+    return 0.0, 0.0, math.sqrt(max(p_rr, 0.0))
