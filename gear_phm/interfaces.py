@@ -135,9 +135,28 @@ class JointBatch:
     load_velocity: np.ndarray
     load_effort: np.ndarray
     rejected: dict[str, int] = field(default_factory=dict)
+    #: Position of each sample's message in the decoded input (batch decoders only).
+    message_index: np.ndarray | None = None
+    #: (position, reason) of each rejected message, in input order (batch decoders only).
+    rejected_at: list[tuple[int, str]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return int(self.stamp_ns.shape[0])
+
+    def messages(self, begin: int, end: int) -> JointBatch:
+        """The part of this batch that came from input messages ``begin..end-1``: the same
+        samples and rejection counts as decoding those messages alone (decode once, cut
+        many times)."""
+        if self.message_index is None:
+            raise ValueError('messages() needs a batch from decode_joint_state_buffer')
+        lo, hi = np.searchsorted(self.message_index, (begin, end), side='left')
+        rejected: dict[str, int] = {}
+        kept_rejects = [(i, reason) for i, reason in self.rejected_at if begin <= i < end]
+        for _, reason in kept_rejects:
+            rejected[reason] = rejected.get(reason, 0) + 1
+        return JointBatch(**{name: getattr(self, name)[lo:hi] for name in _COLUMNS},
+                          rejected=rejected, message_index=self.message_index[lo:hi],
+                          rejected_at=kept_rejects)
 
     @classmethod
     def from_samples(cls, samples: Sequence[JointSample],
@@ -265,7 +284,7 @@ def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
            for name in _COLUMNS}
     keep = np.zeros(n, dtype=bool)
     pending = np.ones(n, dtype=bool)
-    rejected: dict[str, int] = {}
+    rejected_at: list[tuple[int, str]] = []
     groups = 0
     while groups < _MAX_LAYOUT_GROUPS:
         remaining = np.flatnonzero(pending)
@@ -275,7 +294,7 @@ def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
         parsed = _joint_layout(_payload(buffer, offsets, lengths, first), motor_joint,
                                load_joint)
         if isinstance(parsed, str):
-            rejected[parsed] = rejected.get(parsed, 0) + 1
+            rejected_at.append((first, parsed))
             pending[first] = False
             continue
         layout, mi, li = parsed
@@ -290,12 +309,17 @@ def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
     for i in np.flatnonzero(pending).tolist():          # many layouts: one by one
         parsed = _joint_layout(_payload(buffer, offsets, lengths, i), motor_joint, load_joint)
         if isinstance(parsed, str):
-            rejected[parsed] = rejected.get(parsed, 0) + 1
+            rejected_at.append((i, parsed))
             continue
         layout, mi, li = parsed
         keep[i] = True
         _gather(data, offsets[i:i + 1], layout, mi, li, out, np.array([i]))
-    return JointBatch(**{name: out[name][keep] for name in _COLUMNS}, rejected=rejected)
+    rejected_at.sort()
+    rejected: dict[str, int] = {}
+    for _, reason in rejected_at:
+        rejected[reason] = rejected.get(reason, 0) + 1
+    return JointBatch(**{name: out[name][keep] for name in _COLUMNS}, rejected=rejected,
+                      message_index=np.flatnonzero(keep), rejected_at=rejected_at)
 
 
 def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,

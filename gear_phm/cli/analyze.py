@@ -74,7 +74,6 @@ def _config(args: argparse.Namespace) -> EstimatorConfig:
 
 def run(args: argparse.Namespace) -> int:
     from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter
-    from gear_phm.bagio.chunks import RawBatch
     from gear_phm.bagio.writer import vector3_stamped_from_cdr
 
     config = _config(args)
@@ -122,14 +121,13 @@ def run(args: argparse.Namespace) -> int:
                 next_diag: int | None = None       # next /diagnostics tick, bag time [ns]
                 last_log_ns = 0
 
-                def process(raw: RawBatch, begin: int, end: int) -> None:
-                    """Messages begin..end-1 of ``raw``: estimator, then diagnostics code."""
+                def process(decoded: interfaces.JointBatch, begin: int, end: int) -> None:
+                    """Messages begin..end-1 of a decoded raw batch: estimator, then
+                    diagnostics code."""
                     nonlocal samples
                     if end <= begin:
                         return
-                    batch = interfaces.decode_joint_state_buffer(
-                        raw.buffer, raw.offsets[begin:end], raw.lengths[begin:end],
-                        args.motor_joint, args.load_joint)
+                    batch = decoded.messages(begin, end)
                     for reason, count in batch.rejected.items():
                         pipeline.reject_message(reason, count)
                     outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
@@ -155,15 +153,18 @@ def run(args: argparse.Namespace) -> int:
                     times = raw.log_time_ns
                     if next_diag is None:
                         next_diag = int(times[0]) + diag_period_ns
+                    decoded = interfaces.decode_joint_state_buffer(
+                        raw.buffer, raw.offsets, raw.lengths, args.motor_joint,
+                        args.load_joint)
                     begin = 0
                     while next_diag <= int(times[-1]):
                         cut = int(np.searchsorted(times, next_diag, side='left'))
-                        process(raw, begin, cut)
+                        process(decoded, begin, cut)
                         begin = cut
                         writer.write_output(_diagnostics(next_diag, pipeline, status_name,
                                                          samples, health, args, levels))
                         next_diag += diag_period_ns
-                    process(raw, begin, len(raw))
+                    process(decoded, begin, len(raw))
                     last_log_ns = int(times[-1])
                     progress.update(len(raw))
                 if next_diag is not None:            # the final state, at the last message
