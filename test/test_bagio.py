@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag1 import Writer as Ros1Writer
@@ -81,6 +83,23 @@ def test_fast_vector3_cdr_matches_rosbags(frame_id: str) -> None:
     reference = TYPESTORE.serialize_cdr(to_rosbags(output), 'geometry_msgs/msg/Vector3Stamped')
     assert vector3_stamped_cdr(output) == bytes(reference)
     assert vector3_stamped_from_cdr(bytes(reference)) == (output.stamp_ns, 0.1, -2.5, math.inf)
+
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(st.integers(-2**31 * 10**9, (2**31 - 1) * 10**9 + 999_999_999),
+       st.lists(st.tuples(st.integers(0, 3), st.text(max_size=9), st.text(max_size=9),
+                          st.text(max_size=9),
+                          st.lists(st.tuples(st.text(max_size=7), st.text(max_size=7)),
+                                   max_size=4)), max_size=3))
+def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list) -> None:
+    """Every string length mod 4 (alignment), unicode, empty arrays and lists."""
+    from gear_phm.bagio.writer import diagnostic_array_cdr, to_rosbags
+    output = DiagnosticsOut(stamp_ns, tuple(StatusOut(level, name, message, hardware_id,
+                                                      tuple(values))
+                                            for level, name, message, hardware_id, values
+                                            in statuses))
+    reference = TYPESTORE.serialize_cdr(to_rosbags(output), 'diagnostic_msgs/msg/DiagnosticArray')
+    assert diagnostic_array_cdr(output) == bytes(reference)
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:

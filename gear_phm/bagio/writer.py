@@ -7,7 +7,7 @@ import io
 import os
 import struct
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -127,7 +127,7 @@ class Rosbag2McapWriter:
             self.write_raw(output.topic, t_ns, vector3_stamped_cdr(output))
             return
         self.add_topic(output.topic, DIAGNOSTIC_ARRAY_TYPE)
-        self.write(output.topic, t_ns, to_rosbags(output))
+        self.write_raw(output.topic, t_ns, diagnostic_array_cdr(output))
 
     def write_outputs(self, outputs: Iterable[Vector3Out | DiagnosticsOut]) -> None:
         """Append many output records in order, each at its own stamp (the batch path of
@@ -325,6 +325,47 @@ def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
     frame = frame_id.encode() + b'\0'
     padding = (-(12 + len(frame))) % 8          # float64 alignment, from the CDR origin
     return frame, struct.Struct(f'<4siII{len(frame)}s{padding}x3d').pack
+
+
+def diagnostic_array_cdr(output: DiagnosticsOut) -> bytes:
+    """Little-endian CDR of a diagnostic_msgs/DiagnosticArray, packed directly (about twice
+    as fast as building the rosbags message and serializing it; the tests check the bytes
+    are identical for any strings and list lengths). Offsets count from the end of the
+    4-byte encapsulation header, as CDR alignment does."""
+    sec, nanosec = divmod(int(output.stamp_ns), 1_000_000_000)
+    parts = [b'\x00\x01\x00\x00', _STAMP.pack(sec, nanosec)]
+    size = _cdr_strings(parts, 8, ('',))                         # header.frame_id
+    size = _cdr_uint32(parts, size, len(output.statuses))
+    for status in output.statuses:
+        parts.append(bytes((int(status.level),)))
+        size = _cdr_strings(parts, size + 1, (status.name, status.message, status.hardware_id))
+        size = _cdr_uint32(parts, size, len(status.values))
+        for pair in status.values:
+            size = _cdr_strings(parts, size, pair)
+    return b''.join(parts)
+
+
+def _cdr_uint32(parts: list[bytes], size: int, value: int) -> int:
+    """Append a 4-aligned uint32 at offset ``size``; returns the new offset."""
+    pad = _PADS[-size % 4]
+    parts.append(pad + _UINT32.pack(value))
+    return size + len(pad) + 4
+
+
+def _cdr_strings(parts: list[bytes], size: int, texts: Sequence[str]) -> int:
+    """Append CDR strings (4-aligned uint32 length with the NUL, UTF-8, NUL) at offset
+    ``size``; returns the new offset."""
+    for text in texts:
+        data = text.encode()
+        pad = _PADS[-size % 4]
+        parts.append(pad + _UINT32.pack(len(data) + 1) + data + b'\x00')
+        size += len(pad) + len(data) + 5
+    return size
+
+
+_UINT32 = struct.Struct('<I')
+_STAMP = struct.Struct('<iI')
+_PADS = (b'', b'\x00', b'\x00\x00', b'\x00\x00\x00')
 
 
 def vector3_stamped_from_cdr(raw: bytes) -> tuple[int, float, float, float]:
