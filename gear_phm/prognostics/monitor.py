@@ -11,7 +11,6 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
 
 from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, LEVEL_NAMES, STALE,
                                  DiagnosticsOut, StatusOut, Vector3Out, format_value)
@@ -51,11 +50,6 @@ class Estimate:
     def t(self) -> float:
         """Time of the newest sample the estimate used [s]."""
         return self.stamp_ns * 1e-9
-
-    @property
-    def covariance_matrix(self) -> np.ndarray:
-        p_uu, p_ur, p_rr = self.covariance
-        return np.array([[p_uu, p_ur], [p_ur, p_rr]])
 
     @classmethod
     def from_vectors(cls, stamp_ns: int, friction: Any, covariance: Any,
@@ -185,8 +179,8 @@ class HealthMonitor:
         divergence = self.divergence.update(estimate.innovation, estimate.innovation_variance,
                                             estimate.nis, u_sigma)
         trend = self._trend()
-        rul = self.predictor.predict(estimate.u, estimate.rate, estimate.covariance_matrix,
-                                     trend)
+        rul = self.predictor.predict_from(estimate.u, estimate.rate, *estimate.covariance,
+                                          trend)
         level, message = health_level(estimate.u, self.u_eol, self.eol_reason,
                                       estimate.eta_opposing, self.config.eta_warn, rul.p5,
                                       self.config.warn_horizon, divergence)

@@ -189,15 +189,23 @@ class RulPredictor:
                 trend: Trend = Trend()) -> RulEstimate:
         """RUL [s] from posterior mean (u [-], rate [1/s]) and 2x2 covariance."""
         cov = np.asarray(covariance, dtype=float).reshape(2, 2)
-        if not (math.isfinite(u) and math.isfinite(rate) and np.isfinite(cov).all()):
+        return self.predict_from(u, rate, float(cov[0, 0]), 0.5 * float(cov[0, 1] + cov[1, 0]),
+                                 float(cov[1, 1]), trend)
+
+    def predict_from(self, u: float, rate: float, p_uu: float, p_ur: float, p_rr: float,
+                     trend: Trend = Trend()) -> RulEstimate:
+        """:meth:`predict` with the covariance as its three entries P_uu [-], P_ur [1/s],
+        P_rr [1/s^2] (the per-update path: no matrix is built)."""
+        if not (math.isfinite(u) and math.isfinite(rate) and math.isfinite(p_uu)
+                and math.isfinite(p_ur) and math.isfinite(p_rr)):
             raise ValueError(f'posterior must be finite, got u={u!r}, rate={rate!r}, '
-                             f'P={cov.tolist()!r}')
+                             f'P=[[{p_uu!r}, {p_ur!r}], [{p_ur!r}, {p_rr!r}]]')
         if u >= self.u_eol:
             return RulEstimate(0.0, 0.0, 0.0, trend.model)
-        rate_sigma = math.sqrt(max(cov[1, 1], 0.0))
+        rate_sigma = math.sqrt(max(p_rr, 0.0))
         if not rate > self.detect_z * rate_sigma or rate <= 0.0:
             return RulEstimate(math.inf, math.inf, math.inf, NONE)
-        l_uu, l_ru, l_rr = _psd_cholesky(cov[0, 0], 0.5 * (cov[0, 1] + cov[1, 0]), cov[1, 1])
+        l_uu, l_ru, l_rr = _psd_cholesky(p_uu, p_ur, p_rr)
         n0, n1 = self._n0, self._n1           # draws: [u, rate] + L @ [n0, n1], L lower
         gap = (self.u_eol - u) - l_uu * n0
         r_i = l_ru * n0
