@@ -11,7 +11,6 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-
 from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, LEVEL_NAMES, STALE,
                                  DiagnosticsOut, StatusOut, Vector3Out, format_value)
 from gear_phm.models import eta_aiding, eta_opposing
