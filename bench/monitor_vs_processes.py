@@ -66,6 +66,12 @@ def run_mode(mode: str, bag: Path, rate_factor: float, workdir: Path,
                  subprocess.Popen([str(BIN / 'diagnostics'), '--ros-args', '-p',
                                    f'record_path:={record}'], env=env,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+        # The publisher waits for the estimator's subscription only; start it once the
+        # diagnostics node exists too (it opens its recording just before subscribing), or
+        # a fast replay can end before diagnostics hears anything.
+        deadline = time.monotonic() + 60.0
+        while not list(record.glob('*.mcap')) and time.monotonic() < deadline:
+            time.sleep(0.05)
         main_proc = subprocess.Popen(
             [str(BIN / 'publisher'), '--ros-args', '-p', 'mode:=replay', '-p',
              f'bag_path:={bag}', '-p', f'rate_factor:={rate_factor}'], env=env,
