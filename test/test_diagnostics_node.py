@@ -39,13 +39,13 @@ def ros():
     rclpy.try_shutdown()
 
 
-def start(*params: str) -> subprocess.Popen:
+def start(*params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
     args = [str(EXE), '--ros-args', '-p', 'stale_timeout:=0.5', '-p', 'rate:=20.0',
             '-p', 'warn_horizon:=600.0', '-p', 'transmission_name:=left_aileron',
             '-p', 'hardware_id:=gb-7']
     for param in params:
         args += ['-p', param]
-    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.PIPE,
+    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
 
 
@@ -144,9 +144,10 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         assert sum(1 for _ in reader.iter_messages(topics=['/gear_phm/health/rul'])) == 400
 
 
-def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path) -> None:
+def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
+                                         sigkill_safe_env: dict[str, str]) -> None:
     record = tmp_path / 'rec9'
-    proc = start(f'record_path:={record}', 'record_flush_period:=0.5')
+    proc = start(f'record_path:={record}', 'record_flush_period:=0.5', env=sigkill_safe_env)
     try:
         received: list[tuple[float, int]] = []
         sub = ros.create_subscription(

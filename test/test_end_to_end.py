@@ -40,11 +40,11 @@ STALE_TIMEOUT = 1.0
 DIAGNOSTICS_RATE = 10.0
 
 
-def _spawn(exe: str, *params: str) -> subprocess.Popen:
+def _spawn(exe: str, *params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
     args = [str(BIN / exe), '--ros-args']
     for param in params:
         args += ['-p', param]
-    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.DEVNULL,
+    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)
 
 
@@ -58,7 +58,8 @@ def _stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
     return proc.wait()
 
 
-def test_three_processes_levels_recording_and_stale(tmp_path: Path) -> None:
+def test_three_processes_levels_recording_and_stale(tmp_path: Path,
+                                                    sigkill_safe_env: dict[str, str]) -> None:
     record = tmp_path / 'diag'
     diagnostics = _spawn('diagnostics', f'record_path:={record}', 'record_inputs:=true',
                          'ratio:=3.0', 'eta_opposing_min:=0.7333', 'eta_warn:=0.8',
@@ -84,7 +85,8 @@ def test_three_processes_levels_recording_and_stale(tmp_path: Path) -> None:
             rclpy.spin_once(node, timeout_sec=0.05)
         assert arrays, 'diagnostics node never published'
         publisher = _spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
-                           'rate_factor:=20.0', 'wait_for_subscribers:=1')
+                           'rate_factor:=20.0', 'wait_for_subscribers:=1',
+                           env=sigkill_safe_env)                 # killed with -9 below
         procs.append(publisher)
         levels: list[bytes] = []
         end = time.monotonic() + 90.0
