@@ -84,7 +84,7 @@ def test_exponential_rul_formula() -> None:
     assert rul.median == pytest.approx(math.log1p(k * 0.5 / 1e-4) / k, rel=1e-3)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40, deadline=None, derandomize=True)
 @given(u=st.floats(0.0, 0.5), rate=st.floats(1e-6, 1e-2), rel_sigma=st.floats(0.0, 0.4),
        k=st.floats(0.0, 1e-2))
 def test_rul_quantiles_ordered_and_deterministic(u: float, rate: float, rel_sigma: float,
@@ -115,6 +115,24 @@ def test_trend_detector_chooses_linear_and_exponential() -> None:
     trend = exponential.fit()
     assert trend.model == 'exponential'
     assert trend.k == pytest.approx(wear.rate, rel=0.1)
+    t_now = 1795.0                                    # newest point of the history
+    true_slope = (wear.value(t_now + 1.0) - wear.value(t_now - 1.0)) / 2.0
+    assert trend.slope == pytest.approx(true_slope, rel=0.05)
+    assert linear.fit().slope == 0.0                   # only the exponential fit has one
+
+
+def test_exponential_rul_takes_the_rate_from_the_fitted_slope() -> None:
+    """The filter's constant-rate model lags accelerating wear; the exponential branch uses
+    the trend fit's slope at the newest point instead (docs/prognostics.md)."""
+    k, lagging_rate, slope = 1e-3, 1e-4, 1.5e-4
+    predictor = RulPredictor(0.6)
+    fitted = predictor.predict(0.1, lagging_rate, TINY, Trend('exponential', k, 0.0,
+                                                              slope=slope))
+    assert fitted.median == pytest.approx(math.log1p(k * 0.5 / slope) / k, rel=1e-3)
+    unfitted = predictor.predict(0.1, lagging_rate, TINY, Trend('exponential', k, 0.0))
+    assert unfitted.median == pytest.approx(math.log1p(k * 0.5 / lagging_rate) / k, rel=1e-3)
+    linear = predictor.predict(0.1, lagging_rate, TINY, Trend('linear', slope=slope))
+    assert linear.median == pytest.approx(0.5 / lagging_rate, rel=1e-3)
 
 
 # --- health levels -------------------------------------------------------------------------

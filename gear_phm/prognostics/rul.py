@@ -10,16 +10,23 @@ The exponential form is ``u = c + a exp(k t)`` for any offset c, so k = u'' / u'
 to know the offset (the spur plant's u has one from the bearings).
 
 Choice (``trend='auto'``): :class:`TrendDetector` keeps a history of (t, u, P_uu) posteriors
-over the last ``trend_window`` seconds and fits u(s) = a + b s + c s^2 (s = t - t_now) by
-least squares weighted with 1/P_uu. The trend is exponential when both
+over the last ``trend_window`` seconds and fits, by least squares weighted with 1/P_uu
+(s = t - t_now), a line u = a + b s and an exponential u = c + a exp(k s) (k on a log grid,
+c and a in closed form). The trend is exponential when both
 
-1. the curvature is significant: c > accel_z * se(c), se from the weighted residual scatter, and
-2. the rate grows materially: 2 c * span / b > min_growth (relative growth of du/dt across the
-   window span) with b > 0,
+1. the exponential lowers the weighted residual sum of squares by more than accel_z^2
+   residual variances, and
+2. the rate grows materially over the span: exp(k span) - 1 > min_growth,
 
-and linear otherwise. Then k = 2 c / b with standard error from se(c) (first order).
+and linear otherwise. k's standard error comes from the curvature of the RSS at its minimum.
 
-Uncertainty: Monte Carlo. (u, r) is drawn from N(x, P) and k from N(k, se_k) (clipped at 0),
+Rate of the exponential branch: the fitted slope a k at s = 0, not the filter's r. The filter
+models a constant rate, so under accelerating wear its r lags (16 % low at half-life on the
+seed-12 bag of docs/prognostics.md, while u_hat lags by ~2.5 s only), and a lagging r makes
+the RUL too long. The spread of the rate draws stays the filter's P.
+
+Uncertainty: Monte Carlo. (u, r) is drawn from N(x, P) (r centred on the fitted slope in the
+exponential branch) and k from N(k, se_k) (clipped at 0),
 tau is computed per draw (inf where the draw never reaches u_eol, 0 where it already has), and
 the 5 %, 50 % and 95 % quantiles are taken (inverted-CDF, so inf quantiles stay inf). Monte
 Carlo rather than the analytic first-passage formula because the exponential model and draws
@@ -50,6 +57,8 @@ class Trend:
     k_sigma: float = 0.0
     curvature_z: float = 0.0
     growth: float = 0.0
+    #: Slope du/dt [1/s] of the fitted exponential at the newest point (0: not fitted).
+    slope: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -144,7 +153,7 @@ class TrendDetector:
                         and growth > self.min_growth)
         if accelerating:
             return Trend(EXPONENTIAL, k, float(k_sigma), float(math.sqrt(improvement_z)),
-                         float(growth))
+                         float(growth), _exponential_slope(k, s, u, weights))
         return Trend(LINEAR, 0.0, 0.0, float(math.sqrt(max(improvement_z, 0.0))),
                      float(growth))
 
@@ -159,6 +168,15 @@ def _exponential_rss(ks: np.ndarray, s: np.ndarray, u: np.ndarray,
     with np.errstate(divide='ignore', invalid='ignore'):
         explained = (see * su * su - 2.0 * se * su * seu + sw * seu * seu) / det
     return np.where(det > 1e-12 * sw * see, suu - explained, np.inf)
+
+
+def _exponential_slope(k: float, s: np.ndarray, u: np.ndarray, weights: np.ndarray) -> float:
+    """du/ds at s = 0 of the weighted least-squares fit u ~ c + a exp(k s): a k [1/s]."""
+    e = np.exp(k * s)
+    sw, se, see = weights.sum(), weights @ e, weights @ (e * e)
+    su, seu = weights @ u, weights @ (e * u)
+    det = sw * see - se * se
+    return float(k * (sw * seu - se * su) / det) if det > 0.0 else 0.0
 
 
 def _wls_rss(design: np.ndarray, values: np.ndarray, weights: np.ndarray) -> float:
@@ -205,15 +223,12 @@ class RulPredictor:
         rate_sigma = math.sqrt(max(p_rr, 0.0))
         if not rate > self.detect_z * rate_sigma or rate <= 0.0:
             return RulEstimate(math.inf, math.inf, math.inf, NONE)
-        root = _psd_sqrt(np.array([[p_uu, p_ur], [p_ur, p_rr]]))
-        (a, b), (c, d) = root.tolist()
-        n0, n1 = self._n0, self._n1           # draws: [u, rate] + root @ [n0, n1]
-        gap = a * n0
-        gap += b * n1
-        gap = (self.u_eol - u) - gap
-        r_i = c * n0
-        r_i += d * n1
-        r_i += rate
+        l_uu, l_ru, l_rr = _psd_cholesky(p_uu, p_ur, p_rr)
+        n0, n1 = self._n0, self._n1           # draws: [u, rate] + L @ [n0, n1], L lower
+        gap = (self.u_eol - u) - l_uu * n0
+        r_i = l_ru * n0
+        r_i += l_rr * n1
+        r_i += trend.slope if trend.model == EXPONENTIAL and trend.slope > 0.0 else rate
         with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
             tau = gap / r_i
             if trend.model == EXPONENTIAL and trend.k > 0.0:
@@ -239,13 +254,11 @@ def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
     return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
-def _psd_sqrt(cov: np.ndarray) -> np.ndarray:
-    """A matrix square root L (L L^T = cov) that tolerates semi-definite covariances.
-
-    Symmetric (eigen-decomposition) rather than Cholesky: any root gives the same
-    distribution, but the root fixes which draws the seeded normals become, and the
-    alpha-lambda acceptance of exponential wear (test_prognostics_pipeline, seed 12, lambda
-    0.5) sits at 19.99 % error against alpha = 20 %, so a Cholesky root (20.04 %) fails it.
-    """
-    values, vectors = np.linalg.eigh(cov)
-    return vectors * np.sqrt(np.clip(values, 0.0, None))
+def _psd_cholesky(p_uu: float, p_ur: float, p_rr: float) -> tuple[float, float, float]:
+    """Lower factor (l_uu, l_ru, l_rr) of a 2x2 covariance, L L^T = P, in closed form;
+    tolerates semi-definite P (a zero or negative variance gives a zero column)."""
+    if p_uu > 0.0:
+        l_uu = math.sqrt(p_uu)
+        l_ru = p_ur / l_uu
+        return l_uu, l_ru, math.sqrt(max(p_rr - l_ru * l_ru, 0.0))
+    return 0.0, 0.0, math.sqrt(max(p_rr, 0.0))
