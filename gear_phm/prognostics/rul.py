@@ -133,7 +133,7 @@ class TrendDetector:
         u = data[:, 1]
         rss_linear = _wls_rss(np.column_stack([np.ones_like(s), s]), u, weights)
         ks = np.geomspace(0.01, 20.0, 120) / span
-        rss = _exponential_rss(ks, s, u, weights)
+        rss, amplitude = _exponential_fits(ks, s, u, weights)
         best = int(np.argmin(rss))
         k = float(ks[best])
         dof = len(s) - 3
@@ -153,30 +153,24 @@ class TrendDetector:
                         and growth > self.min_growth)
         if accelerating:
             return Trend(EXPONENTIAL, k, float(k_sigma), float(math.sqrt(improvement_z)),
-                         float(growth), _exponential_slope(k, s, u, weights))
+                         float(growth), float(k * amplitude[best]))   # du/ds at s = 0
         return Trend(LINEAR, 0.0, 0.0, float(math.sqrt(max(improvement_z, 0.0))),
                      float(growth))
 
 
-def _exponential_rss(ks: np.ndarray, s: np.ndarray, u: np.ndarray,
-                     weights: np.ndarray) -> np.ndarray:
-    """Weighted RSS of u ~ c + a exp(k s) for every k in ``ks`` (closed-form 2x2 WLS)."""
+def _exponential_fits(ks: np.ndarray, s: np.ndarray, u: np.ndarray,
+                      weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted RSS and amplitude a of u ~ c + a exp(k s) for every k in ``ks`` (closed-form
+    2x2 WLS); RSS inf and a 0 where the fit is degenerate."""
     e = np.exp(np.outer(ks, s))                              # (k, n)
     sw, su, suu = weights.sum(), weights @ u, weights @ (u * u)
     se, see, seu = e @ weights, (e * e) @ weights, e @ (weights * u)
     det = sw * see - se * se
+    valid = det > 1e-12 * sw * see
     with np.errstate(divide='ignore', invalid='ignore'):
         explained = (see * su * su - 2.0 * se * su * seu + sw * seu * seu) / det
-    return np.where(det > 1e-12 * sw * see, suu - explained, np.inf)
-
-
-def _exponential_slope(k: float, s: np.ndarray, u: np.ndarray, weights: np.ndarray) -> float:
-    """du/ds at s = 0 of the weighted least-squares fit u ~ c + a exp(k s): a k [1/s]."""
-    e = np.exp(k * s)
-    sw, se, see = weights.sum(), weights @ e, weights @ (e * e)
-    su, seu = weights @ u, weights @ (e * u)
-    det = sw * see - se * se
-    return float(k * (sw * seu - se * su) / det) if det > 0.0 else 0.0
+        amplitude = (sw * seu - se * su) / det
+    return np.where(valid, suu - explained, np.inf), np.where(valid, amplitude, 0.0)
 
 
 def _wls_rss(design: np.ndarray, values: np.ndarray, weights: np.ndarray) -> float:
