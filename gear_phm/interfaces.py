@@ -150,13 +150,10 @@ class JointBatch:
         if self.message_index is None:
             raise ValueError('messages() needs a batch from decode_joint_state_buffer')
         lo, hi = np.searchsorted(self.message_index, (begin, end), side='left')
-        rejected: dict[str, int] = {}
         kept_rejects = [(i, reason) for i, reason in self.rejected_at if begin <= i < end]
-        for _, reason in kept_rejects:
-            rejected[reason] = rejected.get(reason, 0) + 1
         return JointBatch(**{name: getattr(self, name)[lo:hi] for name in _COLUMNS},
-                          rejected=rejected, message_index=self.message_index[lo:hi],
-                          rejected_at=kept_rejects)
+                          rejected=_count_reasons(kept_rejects),
+                          message_index=self.message_index[lo:hi], rejected_at=kept_rejects)
 
     @classmethod
     def from_samples(cls, samples: Sequence[JointSample],
@@ -315,11 +312,17 @@ def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
         keep[i] = True
         _gather(data, offsets[i:i + 1], layout, mi, li, out, np.array([i]))
     rejected_at.sort()
-    rejected: dict[str, int] = {}
-    for _, reason in rejected_at:
-        rejected[reason] = rejected.get(reason, 0) + 1
-    return JointBatch(**{name: out[name][keep] for name in _COLUMNS}, rejected=rejected,
+    return JointBatch(**{name: out[name][keep] for name in _COLUMNS},
+                      rejected=_count_reasons(rejected_at),
                       message_index=np.flatnonzero(keep), rejected_at=rejected_at)
+
+
+def _count_reasons(rejected_at: list[tuple[int, str]]) -> dict[str, int]:
+    """{reason: count} of (position, reason) rejections, in first-seen order."""
+    counts: dict[str, int] = {}
+    for _, reason in rejected_at:
+        counts[reason] = counts.get(reason, 0) + 1
+    return counts
 
 
 def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,
