@@ -2,7 +2,7 @@
 
 Two measurements, each against its own start:
 - ``--mode logic`` (default part 1): the code of both nodes (EstimatorPipeline, then
-  HealthPipeline on its outputs, exactly what the nodes and ``gear-phm analyze`` run) fed
+  HealthAssessor on its estimates, exactly what the nodes and ``gear-phm analyze`` run) fed
   3,600,000 simulated samples (one hour at 1 kHz) as fast as it goes, in this process; RSS at
   the start, at the 10-minute mark and at the 1-hour mark.
 - ``--mode nodes`` (part 2): the estimator and diagnostics nodes as processes over DDS, fed by
@@ -39,13 +39,12 @@ def rss_mib(pid: int | str = 'self') -> float:
 
 def logic(samples: int, rate: float) -> list[list[str]]:
     from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
-    from gear_phm.prognostics import HealthConfig
-    from gear_phm.prognostics.pipeline import HealthPipeline
+    from gear_phm.prognostics import HealthAssessor, HealthConfig
     from gear_phm.simulation import SimulationConfig, simulate
     config = SimulationConfig()
     ratio = config.plant.ratio
     estimator = EstimatorPipeline(EstimatorConfig(ratio=ratio))
-    health = HealthPipeline(HealthConfig(ratio=ratio), "bench", "bench")
+    health = HealthAssessor(HealthConfig(ratio=ratio))
     block = min(60_000, max(samples // 60, 1))  # one minute of 1 kHz samples per batch
     ten_minutes = samples // 6                  # the 10-minute mark of the hour
     marks = {0: rss_mib()}
@@ -56,8 +55,8 @@ def logic(samples: int, rate: float) -> list[list[str]]:
         outputs = estimator.on_batch((t * 1e9).astype(np.int64) + 10**9, result.velocity_motor,
                                      result.effort_motor, result.velocity_load,
                                      result.effort_load)
-        for output in outputs:
-            health.on_input(output.topic, output.stamp_ns, output)
+        for estimate in outputs:
+            health.on_estimate(estimate)
         done = first + len(t)
         if done >= ten_minutes and 'ten' not in marks:
             marks['ten'] = rss_mib()

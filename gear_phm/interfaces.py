@@ -1,10 +1,12 @@
-"""Topic names, message layouts and message <-> sample conversion, free of ROS imports.
+"""The bag-side transport, and the message layouts both transports share (no ROS imports).
 
-Conversions are duck-typed: they read attributes (``msg.header.stamp.sec``, ``msg.name``, ...)
-so they work on rclpy messages and on rosbags-deserialized messages alike. Outputs are plain
-records (:class:`Vector3Out`, :class:`StatusOut`) that a node turns into rclpy messages
-(``gear_phm.nodes.common``) and ``gear-phm analyze`` into rosbags messages (``gear_phm.bagio``),
-so the live nodes and the offline analysis publish exactly the same topics.
+This is one of the two modules that know topic names and which message field holds what (the
+other is :mod:`gear_phm.nodes.transport`, the live side, which takes its names from here).
+The pure logic returns domain records (:class:`~gear_phm.estimation.FrictionEstimate`,
+:class:`~gear_phm.prognostics.HealthState`, :class:`~gear_phm.status.StatusOut`); this
+module maps them to and from layout records (:class:`Vector3Out`, :class:`DiagnosticsOut`),
+which the live node turns into rclpy messages and ``gear_phm.bagio`` into bag records. It also
+decodes JointState, duck-typed (rclpy and rosbags objects) and straight from CDR buffers.
 """
 from __future__ import annotations
 
@@ -12,9 +14,15 @@ import math
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.status import StatusOut, format_value
+
+if TYPE_CHECKING:
+    from gear_phm.prognostics.assessor import HealthState
 
 # --- topic names (relative, so namespaces and remaps apply) ---------------------------------
 JOINT_STATES = 'joint_states'
@@ -38,15 +46,6 @@ CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
 #: Estimator outputs, all geometry_msgs/Vector3Stamped with identical stamps per update.
 ESTIMATOR_TOPICS = (FRICTION, FRICTION_COVARIANCE, EFFICIENCY, INNOVATION, COUNTS)
 
-# --- power-flow codes (docs/architecture.md) ---------------------------------------------------
-IMPOSSIBLE, IDLE, OPPOSING, AIDING, SELF_LOCKING = -1, 0, 1, 2, 3
-POWER_FLOW_NAMES = {IMPOSSIBLE: 'impossible', IDLE: 'idle', OPPOSING: 'opposing',
-                    AIDING: 'aiding', SELF_LOCKING: 'self_locking'}
-
-# --- diagnostic levels (diagnostic_msgs/DiagnosticStatus, sent as bytes) -------------------
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
-LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
-
 
 def stamp_to_ns(stamp: Any) -> int:
     """builtin_interfaces/Time (sec, nanosec) -> integer nanoseconds."""
@@ -66,24 +65,6 @@ class BadMessage(ValueError):
         super().__init__(f'{reason}: {detail}')
         self.reason = reason
         self.detail = detail
-
-
-@dataclass(frozen=True, slots=True)
-class JointSample:
-    """One synchronised sample of both shafts. Angles [rad], speeds [rad/s], torques [N m]."""
-
-    stamp_ns: int
-    motor_position: float
-    motor_velocity: float
-    motor_effort: float
-    load_position: float
-    load_velocity: float
-    load_effort: float
-
-    @property
-    def t(self) -> float:
-        """Sample time [s]."""
-        return self.stamp_ns * 1e-9
 
 
 def _pick(values: Sequence[float], index: int, field_name: str, joint: str) -> float:
@@ -119,6 +100,17 @@ def joint_state_to_sample(msg: Any, motor_joint: str, load_joint: str) -> JointS
         load_velocity=_pick(msg.velocity, load_index, 'velocity', load_joint),
         load_effort=_pick(msg.effort, load_index, 'effort', load_joint),
     )
+
+
+def sample_or_reason(msg: Any, motor_joint: str, load_joint: str) -> JointSample | str:
+    """The sample of one JointState, or the reason it has none (a drop-counter key): the
+    :class:`BadMessage` reasons, or ``bad_message`` for an object that is no JointState."""
+    try:
+        return joint_state_to_sample(msg, motor_joint, load_joint)
+    except BadMessage as exc:
+        return exc.reason
+    except (AttributeError, TypeError, ValueError, OverflowError):
+        return 'bad_message'
 
 
 # --- batch decoding of JointState CDR (offline analysis fast path) --------------------------
@@ -366,17 +358,6 @@ class Vector3Out:
 
 
 @dataclass(frozen=True)
-class StatusOut:
-    """A diagnostic_msgs/DiagnosticStatus (level is one of OK/WARN/ERROR/STALE)."""
-
-    level: int
-    name: str
-    message: str
-    hardware_id: str
-    values: tuple[tuple[str, str], ...] = ()
-
-
-@dataclass(frozen=True)
 class DiagnosticsOut:
     """A diagnostic_msgs/DiagnosticArray on /diagnostics."""
 
@@ -385,15 +366,71 @@ class DiagnosticsOut:
     topic: str = DIAGNOSTICS
 
 
-def format_value(value: float | int | str) -> str:
-    """KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
-    if isinstance(value, str):
-        return value
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-        return str(int(value))
-    value = float(value)
-    if math.isnan(value):
-        return 'nan'
-    if math.isinf(value):
-        return 'inf' if value > 0 else '-inf'
-    return repr(value)
+# --- domain records <-> layouts ----------------------------------------------------------------
+
+def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vector3Out]:
+    """The five estimator topics of one update, in publishing order (docs/architecture.md)."""
+    e = estimate
+    stamp = e.stamp_ns
+    p_uu, p_ur, p_rr = e.covariance
+    return [
+        Vector3Out(FRICTION, stamp, e.u, e.rate, e.u_sigma, frame_id),
+        Vector3Out(FRICTION_COVARIANCE, stamp, p_uu, p_ur, p_rr, frame_id),
+        Vector3Out(EFFICIENCY, stamp, e.eta_opposing, e.eta_aiding, e.measured_efficiency,
+                   frame_id),
+        Vector3Out(INNOVATION, stamp, e.innovation, e.innovation_variance, e.nis, frame_id),
+        Vector3Out(COUNTS, stamp, float(e.samples_used), float(e.samples_rejected),
+                   float(e.power_flow), frame_id),
+    ]
+
+
+def _xyz(vector: Any, default: float = math.nan) -> tuple[float, float, float]:
+    if vector is None:
+        return default, default, default
+    return float(vector.x), float(vector.y), float(vector.z)
+
+
+def _count(value: float) -> int:
+    return int(value) if math.isfinite(value) else 0
+
+
+def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEstimate:
+    """Rebuild an update from its estimator topics (``{topic: object with .x .y .z}``).
+
+    Friction and covariance are required (KeyError otherwise); a missing efficiency or
+    innovation gives NaN fields, missing counts give zeros."""
+    u, rate, _ = _xyz(vectors[FRICTION])
+    eta_d, eta_i, measured = _xyz(vectors.get(EFFICIENCY))
+    innovation, variance, nis = _xyz(vectors.get(INNOVATION))
+    used, rejected, code = _xyz(vectors.get(COUNTS), 0.0)
+    return FrictionEstimate(int(stamp_ns), u, rate, _xyz(vectors[FRICTION_COVARIANCE]), eta_d,
+                            eta_i, measured, innovation, variance, nis, _count(used),
+                            _count(rejected), _count(code))
+
+
+def health_outputs(state: HealthState) -> tuple[Vector3Out, Vector3Out]:
+    """gear_phm/health/rul and gear_phm/health/efficiency of one health state."""
+    rul = state.rul
+    return (Vector3Out(HEALTH_RUL, state.stamp_ns, rul.median, rul.p5, rul.p95),
+            Vector3Out(HEALTH_EFFICIENCY, state.stamp_ns, state.eta_opposing,
+                       state.eta_aiding, float(state.level)))
+
+
+#: KeyValue keys of the diagnostics node's /diagnostics status, in this order (benches rely
+#: on them).
+STATUS_KEYS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
+               'power_flow', 'samples_used', 'samples_rejected')
+
+
+def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
+    """KeyValue pairs with exactly :data:`STATUS_KEYS` (decimal strings, ``inf``)."""
+    values = (state.u, state.u_sigma, state.eta_opposing, state.eta_aiding, state.rul.median,
+              state.rul.p5, state.rul.p95, state.power_flow, state.samples_used,
+              state.samples_rejected)
+    return tuple((key, format_value(value)) for key, value in zip(STATUS_KEYS, values))
+
+
+def health_status(state: HealthState, transmission_name: str, hardware_id: str) -> StatusOut:
+    """The diagnostics node's DiagnosticStatus ``gear_phm: <transmission_name>``."""
+    return StatusOut(state.level, f'gear_phm: {transmission_name}', state.message,
+                     hardware_id, health_key_values(state))

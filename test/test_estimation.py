@@ -20,10 +20,25 @@ NOISE = dict(motor_torque_noise=0.05, motor_speed_noise=0.01, load_torque_noise=
 CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
 
 
+def _topics(estimates: list) -> list:
+    """The estimator topics' records of each estimate, as the transports publish them."""
+    return [o for e in estimates for o in interfaces.estimate_outputs(e)]
+
+
 def _feed(pipeline: EstimatorPipeline, run, start: int = 0, stop: int | None = None) -> list:
     s = slice(start, stop)
-    return pipeline.on_batch(run.stamp_ns[s], run.motor_velocity[s], run.motor_effort[s],
-                             run.load_velocity[s], run.load_effort[s])
+    return _topics(pipeline.on_batch(run.stamp_ns[s], run.motor_velocity[s],
+                                     run.motor_effort[s], run.load_velocity[s],
+                                     run.load_effort[s]))
+
+
+def _on_message(pipeline: EstimatorPipeline, msg) -> list:
+    """One JointState through the transport's decoding, then the pipeline (as the node)."""
+    sample = interfaces.sample_or_reason(msg, 'motor', 'load')
+    if isinstance(sample, str):
+        pipeline.reject_message(sample)
+        return []
+    return _topics(pipeline.on_samples([sample]))
 
 
 def _track(config: EstimatorConfig, run) -> tuple[np.ndarray, ...]:
@@ -280,7 +295,7 @@ def test_sensor_timeout_predicts_only_and_is_flagged() -> None:
     pipeline = EstimatorPipeline(CONFIG)
     _feed(pipeline, run, 0, 10000)
     assert pipeline.on_silence(0.1) == []
-    out = pipeline.on_silence(2.0)
+    out = _topics(pipeline.on_silence(2.0))
     assert pipeline.timed_out and pipeline.counts['timeout'] == 1
     assert {o.topic for o in out} >= set(interfaces.ESTIMATOR_TOPICS)
     # predict only up to the newest sample: stamped with it, the variance stays bounded
@@ -312,19 +327,19 @@ class _Msg:
         self.name, self.position, self.velocity, self.effort = names, [], velocity, effort
 
 
-def test_on_joint_state_counts_bad_messages_and_matches_batch_path() -> None:
+def test_single_messages_count_bad_ones_and_match_batch_path() -> None:
     run = lever_plant(8, 12.0, 0.1)
     single = EstimatorPipeline(CONFIG)
     out = []
     for i in range(run.t.size):
-        out += single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['load', 'motor'],
+        out += _on_message(single, _Msg(int(run.stamp_ns[i]), ['load', 'motor'],
                                           [run.load_velocity[i], run.motor_velocity[i]],
                                           [run.load_effort[i], run.motor_effort[i]]))
         if i % 1000 == 0:
-            single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['a', 'b'], [1.0, 1.0], [1, 1]))
-            single.on_joint_state(_Msg(int(run.stamp_ns[i]), [], [], []))
-            single.on_joint_state(_Msg(int(run.stamp_ns[i]), ['motor', 'load'], [1.0], []))
-            single.on_joint_state(object())
+            _on_message(single, _Msg(int(run.stamp_ns[i]), ['a', 'b'], [1.0, 1.0], [1, 1]))
+            _on_message(single, _Msg(int(run.stamp_ns[i]), [], [], []))
+            _on_message(single, _Msg(int(run.stamp_ns[i]), ['motor', 'load'], [1.0], []))
+            _on_message(single, object())
     batch = EstimatorPipeline(CONFIG)
     expected = _feed(batch, run)
     assert [(o.topic, o.stamp_ns) for o in out] == [(o.topic, o.stamp_ns) for o in expected]

@@ -12,15 +12,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
 
+from gear_phm import interfaces
+from gear_phm.estimation import FrictionEstimate
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.interfaces import ERROR, OK, WARN
-from gear_phm.prognostics import (Estimate, HealthConfig, HealthMonitor, RulPredictor, Trend,
-                                  TrendDetector, WearState, WearStateSaver, end_of_life_u,
-                                  health_level, load_wear_state, save_wear_state)
-from gear_phm.prognostics.health import DivergenceMonitor, chi_square_mean_bound, is_stale
+from gear_phm.prognostics import (HealthAssessor, HealthConfig, RulPredictor, Trend,
+                                  TrendDetector, end_of_life_u, health_level)
+from gear_phm.prognostics.health import DivergenceDetector, chi_square_mean_bound
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
+from gear_phm.prognostics.state import (WearState, WearStateSaver, load_wear_state,
+                                        save_wear_state)
 from gear_phm.simulation.wear import Wear
+from gear_phm.status import ERROR, OK, WARN
 
 TINY = np.diag([1e-12, 1e-16])
 
@@ -151,29 +154,33 @@ def test_health_level_rules(u: float, eta: float, p5: float, divergence: str, le
     assert got == level and text in message
 
 
-def test_stale_rule() -> None:
-    assert is_stale(10.0, None, 2.0)
-    assert not is_stale(10.0, 8.5, 2.0)
-    assert is_stale(10.0, 7.9, 2.0)
-
-
 @pytest.mark.parametrize('window', [3, 20, 100])
 def test_chi_square_bound_close_to_exact(window: int) -> None:
     exact = chi2.ppf(0.999, window) / window
     assert chi_square_mean_bound(window, 0.999) == pytest.approx(exact, rel=0.02)
 
 
-def test_divergence_monitor() -> None:
-    monitor = DivergenceMonitor(window=10, probability=0.999, max_u_sigma=0.5)
+def test_divergence_detector() -> None:
+    detector = DivergenceDetector(window=10, probability=0.999, max_u_sigma=0.5)
+    exact = chi2.ppf(0.999, 10) / 10                       # the bound the detector approximates
     rng = np.random.default_rng(1)
+    fed: list[float] = []
     for _ in range(200):                                   # consistent filter: NIS ~ chi2(1)
         y = rng.standard_normal()
-        assert monitor.update(y, 1.0, y * y, 0.01) == ''
+        fed.append(y * y)
+        assert detector.update(y, 1.0, y * y, 0.01) == ''
+    flagged = []
     for i in range(9):                                     # inflated innovations
-        assert monitor.update(10.0 + i, 1.0, 25.0, 0.01) in ('', monitor.update(10.0 + i, 1.0,
-                                                                                25.0, 0.01))
-    assert 'mean NIS' in monitor.update(99.0, 1.0, 25.0, 0.01)
-    fresh = DivergenceMonitor(window=3)
+        fed.append(25.0)
+        mean = sum(fed[-10:]) / 10
+        reason = detector.update(10.0 + i, 1.0, 25.0, 0.01)
+        assert detector.nis_mean == pytest.approx(mean)
+        if abs(mean - exact) > 0.03 * exact:               # away from the approximation error
+            assert bool(reason) == (mean > exact), (i, mean, reason)
+        flagged.append(bool(reason))
+    assert all(flagged[1:])                                # two of 25 in 10: mean > 5 > 2.96
+    assert 'mean NIS' in detector.update(99.0, 1.0, 25.0, 0.01)
+    fresh = DivergenceDetector(window=3)
     for _ in range(5):                                     # republished, counted once
         fresh.update(3.0, 1.0, 9.0, 0.01)
     assert fresh.nis_mean == 9.0 and len(fresh._nis) == 1
@@ -181,34 +188,35 @@ def test_divergence_monitor() -> None:
 
 
 def test_monitor_reports_levels_along_linear_wear() -> None:
-    monitor = HealthMonitor(HealthConfig(warn_horizon=600.0))
+    monitor = HealthAssessor(HealthConfig(warn_horizon=600.0))
     levels = []
     for t in np.arange(0.0, 4000.0, 10.0):
         u = 0.05 + 1.5e-4 * t
-        estimate = Estimate(int(t * 1e9), u, 1.5e-4, (1e-6, 0.0, 1e-12))
+        estimate = FrictionEstimate(int(t * 1e9), u, 1.5e-4, (1e-6, 0.0, 1e-12))
         levels.append(monitor.on_estimate(estimate).level)
     first = {level: levels.index(level) for level in (OK, WARN, ERROR)}
     assert first[OK] < first[WARN] < first[ERROR]
     # eta_D < 0.6 at u > 0.4286 (t > 2524 s); RUL p5 < 600 s at t > 3067 s; EOL at 3667 s
     assert first[WARN] * 10.0 == pytest.approx(2530.0, abs=10.0)
     assert first[ERROR] * 10.0 == pytest.approx(3670.0, abs=10.0)
-    assert monitor.on_estimate(Estimate(0, math.nan, 0.0, (1.0, 0.0, 1.0))) is None
+    assert monitor.on_estimate(FrictionEstimate(0, math.nan, 0.0, (1.0, 0.0, 1.0))) is None
     assert monitor.rejected == {'non_finite_estimate': 1}
 
 
 def test_status_key_values_exact_keys_and_inf() -> None:
-    monitor = HealthMonitor(HealthConfig())
-    status = monitor.on_estimate(Estimate(5_000_000_000, 0.1, 0.0, (1e-4, 0.0, 1e-10),
+    monitor = HealthAssessor(HealthConfig())
+    status = monitor.on_estimate(FrictionEstimate(5_000_000_000, 0.1, 0.0, (1e-4, 0.0, 1e-10),
                                           samples_used=7, samples_rejected=2, power_flow=1))
-    values = dict(status.key_values())
+    values = dict(interfaces.health_key_values(status))
     assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                             'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected']
     assert values['rul_s'] == 'inf' and values['samples_used'] == '7'
     assert float(values['u_sigma']) == pytest.approx(0.01)
     assert float(values['eta_opposing']) == pytest.approx((3.0 - 0.1) / (3.0 * 1.1))
-    diagnostics, rul, efficiency = status.outputs('left_aileron', 'hw1')
-    assert diagnostics.statuses[0].name == 'gear_phm: left_aileron'
-    assert diagnostics.stamp_ns == 5_000_000_000 and efficiency.z == float(OK)
+    diagnostic = interfaces.health_status(status, 'left_aileron', 'hw1')
+    rul, efficiency = interfaces.health_outputs(status)
+    assert diagnostic.name == 'gear_phm: left_aileron' and diagnostic.hardware_id == 'hw1'
+    assert rul.stamp_ns == efficiency.stamp_ns == 5_000_000_000 and efficiency.z == float(OK)
 
 
 # --- Saxena metrics ------------------------------------------------------------------------
@@ -298,7 +306,7 @@ def test_truncated_real_state_file_is_refused(tmp_path) -> None:
 def _run(kind: str, seed: int) -> dict:
     """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s,
     filtered by the estimator's FrictionFilter, scored from t_start = 60 s."""
-    monitor = HealthMonitor(HealthConfig(trend_window=1800.0, mc_samples=500))
+    monitor = HealthAssessor(HealthConfig(trend_window=1800.0, mc_samples=500))
     wear = Wear.reaching(kind, 0.05, monitor.u_eol, 3600.0)
     kf = FrictionFilter(0.05, 0.5, 1e-3, 1e-12, 10.83, 3)
     rng = np.random.default_rng(seed)
@@ -307,7 +315,7 @@ def _run(kind: str, seed: int) -> dict:
         result = kf.update(float(wear.value(t) + 0.01 * rng.standard_normal()), 1e-4,
                            float(t))
         x, p = kf.x, kf.P
-        status = monitor.on_estimate(Estimate(int(t * 1e9), x[0], x[1],
+        status = monitor.on_estimate(FrictionEstimate(int(t * 1e9), x[0], x[1],
                                               (p[0, 0], p[0, 1], p[1, 1]),
                                               innovation=result.innovation,
                                               innovation_variance=result.innovation_variance,

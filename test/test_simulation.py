@@ -7,11 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
 from gear_phm.simulation import (
-    PHASE_AIDING,
-    PHASE_IDLE,
-    PHASE_OPPOSING,
-    PHASE_SELF_LOCKING,
     Channel,
     DutyCycle,
     Plant,
@@ -45,7 +42,7 @@ def segment_efficiency(result, index: np.ndarray, sensors: Sensors) -> tuple[flo
     var_load = np.sum(wl ** 2 * sensors.effort_load.sigma ** 2
                       + tl ** 2 * sensors.velocity_load.sigma ** 2)
     phase = int(np.bincount(result.phase[index]).argmax())
-    if phase == PHASE_OPPOSING:
+    if phase == OPPOSING:
         eta = -energy_load / energy_motor
     else:
         eta = -energy_motor / energy_load
@@ -58,7 +55,7 @@ def check_power_ratio(config: SimulationConfig, duration: float, z_max: float = 
     checked = 0
     for index in steady_segments(result):
         eta, sigma, phase = segment_efficiency(result, index, config.sensors)
-        truth = result.eta_opposing if phase == PHASE_OPPOSING else result.eta_aiding
+        truth = result.eta_opposing if phase == OPPOSING else result.eta_aiding
         expected = float(np.mean(truth[index]))
         assert abs(eta - expected) <= z_max * sigma + 1e-9, (phase, eta, expected, sigma)
         checked += 1
@@ -80,15 +77,15 @@ def test_noiseless_power_ratio_is_exact_in_each_phase() -> None:
     p_motor = result.effort_motor * result.velocity_motor
     p_load = -result.effort_load * result.velocity_load
     steady = (result.acceleration_motor == 0.0)
-    opposing = steady & (result.phase == PHASE_OPPOSING)
-    aiding = steady & (result.phase == PHASE_AIDING)
+    opposing = steady & (result.phase == OPPOSING)
+    aiding = steady & (result.phase == AIDING)
     assert opposing.sum() > 1000 and aiding.sum() > 1000
     np.testing.assert_allclose(-p_load[opposing] / p_motor[opposing], eta_opposing(0.2, 3.0))
     np.testing.assert_allclose(-p_motor[aiding] / p_load[aiding], eta_aiding(0.2, 3.0))
     # signs of docs/architecture.md: opposing P_m > 0 > P_l, aiding P_m < 0 < P_l
     assert np.all(p_motor[opposing] > 0) and np.all(p_load[opposing] < 0)
     assert np.all(p_motor[aiding] < 0) and np.all(p_load[aiding] > 0)
-    idle = result.phase == PHASE_IDLE
+    idle = result.phase == IDLE
     assert idle.sum() > 0 and np.all(result.true_velocity_load[idle] == 0.0)
 
 
@@ -117,7 +114,7 @@ def test_spur_plant_truth_and_power_ratio() -> None:
 def test_self_locking_motor_pushes_back() -> None:
     config = SimulationConfig(wear=Wear('constant', 1.4), sensors=Sensors.noiseless())
     result = simulate(config, sample_times(12.0, RATE))
-    locking = result.phase == PHASE_SELF_LOCKING
+    locking = result.phase == SELF_LOCKING
     assert locking.sum() > 100
     p_motor = result.effort_motor * result.velocity_motor
     p_load = -result.effort_load * result.velocity_load

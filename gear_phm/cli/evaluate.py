@@ -19,8 +19,9 @@ import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
+from gear_phm.cli.options import add_health_arguments, health_values
 from gear_phm.interfaces import HEALTH_RUL, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, stamp_to_ns
-from gear_phm.prognostics import add_health_arguments, end_of_life_u, health_config_from_args
+from gear_phm.prognostics import HealthConfig, end_of_life_u
 from gear_phm.prognostics.metrics import ALPHA, LAMBDAS, evaluate
 
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
@@ -106,7 +107,7 @@ def truth_eol(truth: Path, u_eol: float) -> float:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        config = health_config_from_args(args, args.ratio)
+        config = HealthConfig(ratio=float(args.ratio), **health_values(args))
     except ValueError as exc:
         raise CliError(str(exc)) from None
     u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,

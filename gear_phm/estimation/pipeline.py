@@ -1,10 +1,10 @@
-"""Message -> batch -> estimator -> output records, free of ROS (shared by node and analyze).
+"""Samples -> energy windows -> Kalman filter -> :class:`FrictionEstimate` records, free of ROS.
 
-:class:`EstimatorPipeline` is the whole estimator: the live node feeds it one JointState at a
-time (:meth:`on_joint_state`) and turns the returned :class:`~gear_phm.interfaces.Vector3Out`
-records into rclpy messages; ``gear-phm analyze`` feeds it large decoded batches
-(:meth:`on_batch`) and writes the same records to a bag. Results do not depend on how the
-samples are split into batches.
+:class:`EstimatorPipeline` is the whole estimator: the live node feeds it the samples it
+buffered between timer ticks (:meth:`on_samples`), ``gear-phm analyze`` large decoded batches
+(:meth:`on_batch`). Both get the same :class:`FrictionEstimate` records back (at most one per
+stamp), which their transport turns into messages. Results do not depend on how the samples
+are split into batches. Time comes from the sample stamps only.
 """
 from __future__ import annotations
 
@@ -14,12 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from gear_phm import interfaces
 from gear_phm.estimation.config import EstimatorConfig
+from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.estimation.powerflow import IMPOSSIBLE, classify
+from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
-from gear_phm.interfaces import OK, WARN, StatusOut, Vector3Out, format_value
+from gear_phm.models.lever import efficiencies
+from gear_phm.models.power_flow import IMPOSSIBLE
+from gear_phm.status import OK, WARN, StatusOut, format_value
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
@@ -31,14 +33,6 @@ WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_dom
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
 
 
-def _eta_d(u: float, ratio: float) -> float:
-    return (ratio - u) / (ratio * (1.0 + u)) if u > -1.0 else math.nan
-
-
-def _eta_i(u: float, ratio: float) -> float:
-    return ratio * (1.0 - u) / (ratio + u) if u > -ratio else math.nan
-
-
 class EstimatorPipeline:
     """Friction estimator over a stream of samples; see the module docstring.
 
@@ -46,16 +40,9 @@ class EstimatorPipeline:
     filter accepted it (used by ``gear-phm analyze`` for its plot).
     """
 
-    def __init__(self, config: EstimatorConfig, motor_joint: str = 'motor',
-                 load_joint: str = 'load', frame_id: str = '',
+    def __init__(self, config: EstimatorConfig,
                  on_measurement: Callable[[Measurement, bool], None] | None = None) -> None:
-        if not motor_joint or not load_joint or motor_joint == load_joint:
-            raise ValueError(f'motor_joint and load_joint must be distinct non-empty names, got '
-                             f'{motor_joint!r} and {load_joint!r}')
         self.config = config
-        self.motor_joint = motor_joint
-        self.load_joint = load_joint
-        self.frame_id = frame_id
         self.on_measurement = on_measurement
         self.counts: dict[str, int] = {
             r: 0 for r in SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS}
@@ -64,8 +51,7 @@ class EstimatorPipeline:
         self.samples_rejected = 0
         self.windows_used = 0
         self._max_stamp: int | None = None
-        self._last_group_stamp: int | None = None     # stamp of the newest output group [ns]
-        self._group_topics: set[str] = set()
+        self._last_group_stamp: int | None = None     # stamp of the newest estimate [ns]
         self._reset_estimator()
 
     # --- state -------------------------------------------------------------------------------
@@ -94,7 +80,10 @@ class EstimatorPipeline:
     def _t(self, stamp_ns: int) -> float:
         return (stamp_ns - self._origin_ns) * 1e-9
 
-    def _stamp(self, t: float) -> int:
+    def stamp_ns(self, t: float) -> int:
+        """The stamp [ns] of pipeline time ``t`` [s] (times count from the first sample)."""
+        if self._origin_ns is None:
+            raise ValueError('no sample yet: pipeline time has no origin')
         return self._origin_ns + int(round(t * 1e9))
 
     # --- inputs ------------------------------------------------------------------------------
@@ -104,17 +93,7 @@ class EstimatorPipeline:
         self.counts[key] += count
         self.samples_rejected += count
 
-    def sample_from_message(self, msg: Any) -> interfaces.JointSample | None:
-        """The sample of one JointState, or None (counted by reason) if it has none."""
-        try:
-            return interfaces.joint_state_to_sample(msg, self.motor_joint, self.load_joint)
-        except interfaces.BadMessage as exc:
-            self.reject_message(exc.reason)
-        except (AttributeError, TypeError, ValueError, OverflowError):
-            self.reject_message('bad_message')
-        return None
-
-    def on_samples(self, samples: list[interfaces.JointSample]) -> list[Vector3Out]:
+    def on_samples(self, samples: list[JointSample]) -> list[FrictionEstimate]:
         """A buffer of samples (e.g. collected by the live node between timer ticks)."""
         if not samples:
             return []
@@ -123,14 +102,9 @@ class EstimatorPipeline:
         stamps = np.array([s.stamp_ns for s in samples], dtype=np.int64)
         return self.on_batch(stamps, *columns.T)
 
-    def on_joint_state(self, msg: Any) -> list[Vector3Out]:
-        """One sensor_msgs/JointState (rclpy or rosbags object); never raises on bad content."""
-        sample = self.sample_from_message(msg)
-        return [] if sample is None else self.on_samples([sample])
-
     def on_batch(self, stamp_ns: np.ndarray, motor_velocity: np.ndarray,
                  motor_effort: np.ndarray, load_velocity: np.ndarray,
-                 load_effort: np.ndarray) -> list[Vector3Out]:
+                 load_effort: np.ndarray) -> list[FrictionEstimate]:
         """Samples in arrival order: stamps [ns] (int64), speeds [rad/s], torques [N m]."""
         stamps = np.asarray(stamp_ns, dtype=np.int64)
         arrays = [np.asarray(a, dtype=float) for a in
@@ -138,7 +112,7 @@ class EstimatorPipeline:
         if any(a.shape != stamps.shape for a in arrays) or stamps.ndim != 1:
             raise ValueError(f'batch arrays must be 1-D of equal length, got shapes '
                              f'{[stamps.shape] + [a.shape for a in arrays]}')
-        outputs: list[Vector3Out] = []
+        outputs: list[FrictionEstimate] = []
         start = 0
         n = stamps.size
         while start < n:
@@ -161,7 +135,7 @@ class EstimatorPipeline:
             start = end
         return outputs
 
-    def on_silence(self, silence_s: float) -> list[Vector3Out]:
+    def on_silence(self, silence_s: float) -> list[FrictionEstimate]:
         """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
         node clock since the last arrival). Past ``sensor_timeout``: close the open window,
         predict only, flag the timeout and publish once, stamped with the newest sample (the
@@ -174,16 +148,16 @@ class EstimatorPipeline:
             return []
         self.timed_out = True
         self.counts['timeout'] += 1
-        outputs: list[Vector3Out] = []
+        outputs: list[FrictionEstimate] = []
         for window in self.integrator.flush():
             outputs += self._apply_window(window)
         x, p = self.filter.predicted(self._t(self._last_stamp))
-        outputs += self._records(int(self._last_stamp), x, p)
+        outputs.append(self._estimate(int(self._last_stamp), x, p))
         return outputs
 
     # --- core --------------------------------------------------------------------------------
     def _process(self, stamps: np.ndarray, arrays: list[np.ndarray],
-                 prior: np.ndarray) -> list[Vector3Out]:
+                 prior: np.ndarray) -> list[FrictionEstimate]:
         n = stamps.size
         if n == 0:
             return []
@@ -244,7 +218,7 @@ class EstimatorPipeline:
                 self._grid = int(cell[-1])
         else:
             publish = np.empty(0, dtype=np.int64)
-        outputs: list[Vector3Out] = []
+        outputs: list[FrictionEstimate] = []
         w_i = 0
         for k in publish.tolist():
             while w_i < len(windows) and windows[w_i].close_index <= k:
@@ -254,8 +228,8 @@ class EstimatorPipeline:
                 w_i += 1
             self._last_code = int(code[k])
             x, p = self.filter.predicted(t[k])
-            outputs += self._records(int(stamps[k]), x, p, int(used_cum[k]),
-                                     int(rejected_cum[k]))
+            outputs.append(self._estimate(int(stamps[k]), x, p, int(used_cum[k]),
+                                          int(rejected_cum[k])))
         for window in windows[w_i:]:
             k = min(window.close_index, n - 1)
             outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
@@ -263,19 +237,16 @@ class EstimatorPipeline:
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
-        return self._one_group_per_stamp(outputs)
+        return self._one_per_stamp(outputs)
 
-    def _one_group_per_stamp(self, outputs: list[Vector3Out]) -> list[Vector3Out]:
-        """At most one output group per stamp, whatever the batch split: a group whose stamp
-        equals the previous group's is dropped (the filter state it carries is in the next)."""
+    def _one_per_stamp(self, outputs: list[FrictionEstimate]) -> list[FrictionEstimate]:
+        """At most one estimate per stamp, whatever the batch split: an estimate whose stamp
+        equals the previous one's is dropped (the filter state it carries is in the next)."""
         kept = []
         for output in outputs:
-            if output.stamp_ns == self._last_group_stamp and output.topic in self._group_topics:
+            if output.stamp_ns == self._last_group_stamp:
                 continue
-            if output.stamp_ns != self._last_group_stamp:
-                self._last_group_stamp = output.stamp_ns
-                self._group_topics = set()
-            self._group_topics.add(output.topic)
+            self._last_group_stamp = output.stamp_ns
             kept.append(output)
         return kept
 
@@ -295,7 +266,7 @@ class EstimatorPipeline:
         return rejected
 
     def _apply_window(self, window: Window, code: int | None = None, used: int | None = None,
-                      rejected: int | None = None) -> list[Vector3Out]:
+                      rejected: int | None = None) -> list[FrictionEstimate]:
         c = self.config
         result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma)
         if isinstance(result, str):
@@ -314,38 +285,28 @@ class EstimatorPipeline:
         self.windows_used += 1
         if code is not None:
             self._last_code = code
-        return self._records(self._stamp(window.t_end), self.filter.x, self.filter.P,
-                             used, rejected)
+        return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
+                               used, rejected)]
 
-    def _records(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
-                 rejected: int | None = None) -> list[Vector3Out]:
-        r = self.config.ratio
+    def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
+                  rejected: int | None = None) -> FrictionEstimate:
         u, rate = float(x[0]), float(x[1])
+        eta_d, eta_i = efficiencies(u, self.config.ratio)
         last = self.filter.last
-        frame = self.frame_id
-        used = self.samples_used if used is None else used
-        rejected = self.samples_rejected if rejected is None else rejected
-        return [
-            Vector3Out(interfaces.FRICTION, stamp_ns, u, rate, math.sqrt(max(p[0, 0], 0.0)),
-                       frame),
-            Vector3Out(interfaces.FRICTION_COVARIANCE, stamp_ns, float(p[0, 0]),
-                       float(p[0, 1]), float(p[1, 1]), frame),
-            Vector3Out(interfaces.EFFICIENCY, stamp_ns, _eta_d(u, r), _eta_i(u, r),
-                       self._last_eta, frame),
-            Vector3Out(interfaces.INNOVATION, stamp_ns, last.innovation,
-                       last.innovation_variance, last.nis, frame),
-            Vector3Out(interfaces.COUNTS, stamp_ns, float(used), float(rejected),
-                       float(self._last_code), frame),
-        ]
+        return FrictionEstimate(
+            stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
+            self._last_eta, last.innovation, last.innovation_variance, last.nis,
+            self.samples_used if used is None else used,
+            self.samples_rejected if rejected is None else rejected, self._last_code)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
         """Final estimate and counters (JSON-friendly)."""
         x, p = self.filter.x, self.filter.P
-        r = self.config.ratio
+        eta_d, eta_i = efficiencies(float(x[0]), self.config.ratio)
         return {
             'u': float(x[0]), 'u_rate': float(x[1]), 'sigma_u': math.sqrt(max(p[0, 0], 0.0)),
-            'eta_opposing': _eta_d(float(x[0]), r), 'eta_aiding': _eta_i(float(x[0]), r),
+            'eta_opposing': eta_d, 'eta_aiding': eta_i,
             'last_measured_efficiency': self._last_eta,
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,

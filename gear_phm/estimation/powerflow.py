@@ -4,15 +4,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-IMPOSSIBLE, IDLE, OPPOSING, AIDING, SELF_LOCKING = -1, 0, 1, 2, 3
-
-
-def shaft_powers(motor_velocity: ArrayLike, motor_effort: ArrayLike, load_velocity: ArrayLike,
-                 load_effort: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Powers entering the gearbox [W]: P_m = effort_m w_m, P_l = -effort_l w_l."""
-    p_motor = np.asarray(motor_effort, dtype=float) * np.asarray(motor_velocity, dtype=float)
-    p_load = -np.asarray(load_effort, dtype=float) * np.asarray(load_velocity, dtype=float)
-    return p_motor, p_load
+from gear_phm.models.power_flow import AIDING, IDLE, IMPOSSIBLE, OPPOSING, SELF_LOCKING
 
 
 def classify(p_motor: ArrayLike, p_load: ArrayLike, motor_velocity: ArrayLike,

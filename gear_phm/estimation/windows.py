@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gear_phm.estimation.powerflow import AIDING, OPPOSING, SELF_LOCKING
+from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
 from gear_phm.models import d_u_d_eta_aiding, d_u_d_eta_opposing
 from gear_phm.models import u_from_eta_aiding, u_from_eta_opposing
 

@@ -10,6 +10,7 @@ from gear_phm.models.comparison import total_squared_error
 from gear_phm.models.lever import (
     d_u_d_eta_aiding,
     d_u_d_eta_opposing,
+    efficiencies,
     eta_aiding,
     eta_aiding_from_opposing,
     eta_opposing,
@@ -20,7 +21,7 @@ from gear_phm.models.lever import (
 from gear_phm.models.spur_gear import SpurGear, min_teeth
 
 __all__ = [
-    'SpurGear', 'd_u_d_eta_aiding', 'd_u_d_eta_opposing', 'eta_aiding',
+    'SpurGear', 'd_u_d_eta_aiding', 'd_u_d_eta_opposing', 'efficiencies', 'eta_aiding',
     'eta_aiding_from_opposing', 'eta_opposing', 'eta_opposing_from_aiding', 'min_teeth',
     'total_squared_error', 'u_from_eta_aiding', 'u_from_eta_opposing',
 ]

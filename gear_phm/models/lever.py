@@ -37,16 +37,24 @@ result is NaN. All functions broadcast their arguments like numpy ufuncs.
 """
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
 from gear_phm.models._validation import finite, positive
 
-#: Named parameters of the simplified model with their limits (progpy style).
-PARAMETER_LIMITS: dict[str, tuple[float, float]] = {
-    'ratio': (0.0, np.inf),   # R [-], ideal torque gain load/motor, exclusive lower bound
-    'u': (0.0, np.inf),       # friction parameter rho / l2 [-]; u > 1 self-locks, u > R jams
-}
+
+
+def _eta_d_terms(u: Any, ratio: Any) -> tuple[Any, Any]:
+    """Numerator and denominator of eq 10 (floats or arrays)."""
+    return ratio - u, ratio * (1.0 + u)
+
+
+def _eta_i_terms(u: Any, ratio: Any) -> tuple[Any, Any]:
+    """Numerator and denominator of eq 12 (floats or arrays)."""
+    return ratio * (1.0 - u), ratio + u
 
 
 def _where_valid(valid: np.ndarray, numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
@@ -64,7 +72,7 @@ def eta_opposing(u: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """
     u = finite('u', u)
     ratio = positive('ratio', ratio)
-    return _where_valid(u > -1.0, ratio - u, ratio * (1.0 + u))
+    return _where_valid(u > -1.0, *_eta_d_terms(u, ratio))
 
 
 def eta_aiding(u: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
@@ -75,7 +83,25 @@ def eta_aiding(u: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """
     u = finite('u', u)
     ratio = positive('ratio', ratio)
-    return _where_valid(u > -ratio, ratio * (1.0 - u), ratio + u)
+    return _where_valid(u > -ratio, *_eta_i_terms(u, ratio))
+
+
+def efficiencies(u: float, ratio: float) -> tuple[float, float]:
+    """(eta_D, eta_I) [-] of one friction parameter u [-] (eqs 10 and 12), for Python floats.
+
+    The per-update path of the estimator: the same formulas as :func:`eta_opposing` and
+    :func:`eta_aiding` without numpy's per-call cost. It never raises: NaN where a formula is
+    undefined (u <= -1, u <= -R) or an argument is not finite; ``ratio`` must be > 0.
+    """
+    eta_d = math.nan
+    eta_i = math.nan
+    if u > -1.0 and math.isfinite(u):
+        numerator, denominator = _eta_d_terms(u, ratio)
+        eta_d = numerator / denominator
+    if u > -ratio and math.isfinite(u):
+        numerator, denominator = _eta_i_terms(u, ratio)
+        eta_i = numerator / denominator
+    return eta_d, eta_i
 
 
 def u_from_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:

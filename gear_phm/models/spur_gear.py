@@ -39,17 +39,6 @@ from numpy.typing import ArrayLike
 
 from gear_phm.models._validation import at_least, in_open_interval, non_negative, positive
 
-#: Named parameters with their limits (progpy style); units in brackets.
-PARAMETER_LIMITS: dict[str, tuple[float, float]] = {
-    'z1': (2.0, np.inf),                  # motor-wheel teeth [-]; see min_teeth()
-    'z2': (2.0, np.inf),                  # load-wheel teeth [-]; see min_teeth()
-    'module': (0.0, np.inf),              # [m], exclusive
-    'pressure_angle': (0.0, np.pi / 2),   # [rad], open interval
-    'addendum': (0.0, np.inf),            # [m], exclusive; default one module
-    'friction': (0.0, np.inf),            # tooth-tooth Coulomb coefficient [-]
-    'bearing_radius_1': (0.0, np.inf),    # bearing friction radius of wheel 1 [m]
-    'bearing_radius_2': (0.0, np.inf),    # bearing friction radius of wheel 2 [m]
-}
 
 
 def min_teeth(pressure_angle: ArrayLike, addendum_over_module: ArrayLike = 1.0) -> np.ndarray:

@@ -11,13 +11,15 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
-from gear_phm.interfaces import (DiagnosticsOut, StatusOut, Vector3Out, format_value,
-                                 ns_to_sec_nanosec)
+from gear_phm.interfaces import DiagnosticsOut, Vector3Out, ns_to_sec_nanosec
+from gear_phm.parameters import ParamSpec
+from gear_phm.status import StatusOut, format_value
 
 def sensor_qos(depth: int = 100) -> QoSProfile:
     """qos_profile_sensor_data (best effort, volatile, keep last) with a deeper queue.
@@ -62,6 +64,26 @@ def declare(node: Node, name: str, default: Any, description: str, *,
                 from_value=int(-2**62 if low is None else low),
                 to_value=int(2**62 if high is None else high), step=0)]
     return node.declare_parameter(name, default, descriptor).value
+
+
+def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
+    """Declare each spec as a ROS parameter with its descriptor (description with unit, range,
+    choices, read-only) and return ``{name: value}``; a value rclpy refuses, or one outside
+    the spec's choices, raises :class:`ConfigError` naming the parameter."""
+    values: dict[str, Any] = {}
+    for spec in specs:
+        low, high = spec.low, spec.high
+        if spec.kind is float and high is not None:
+            high = min(high, 1e300)              # a FloatingPointRange holds no inf
+        constraints = f'one of {", ".join(spec.choices)}' if spec.choices else ''
+        try:
+            value = declare(node, spec.name, spec.default, spec.text, low=low, high=high,
+                            constraints=constraints, read_only=spec.read_only)
+            values[spec.name] = spec.check(value)
+        except (ParameterException, ValueError) as exc:
+            raise ConfigError(f'parameter {spec.name}: {" ".join(str(exc).split())}') \
+                from None
+    return values
 
 
 def stamp(stamp_ns: int) -> Time:

@@ -1,10 +1,10 @@
 """``ros2 run gear_phm estimator``: friction estimator node (thin adapter over
 :class:`gear_phm.estimation.EstimatorPipeline`).
 
-Subscribes ``joint_states`` (sensor QoS), publishes ``gear_phm/friction``,
-``gear_phm/friction_covariance``, ``gear_phm/efficiency``, ``gear_phm/innovation`` and
-``gear_phm/counts`` (geometry_msgs/Vector3Stamped, stamped with the sample time) and its own
-``/diagnostics`` status ``gear_phm estimator: <node name>`` with drop counters by reason.
+Takes JointState in and publishes each :class:`~gear_phm.estimation.FrictionEstimate` through
+the live transport (:mod:`gear_phm.nodes.transport`; topics in docs/architecture.md), stamped
+with the sample time, plus its own ``/diagnostics`` status
+``gear_phm estimator: <node name>`` with drop counters by reason.
 A bad message is dropped and counted, never fatal. Parameters: config/estimator.yaml.
 """
 from __future__ import annotations
@@ -12,35 +12,46 @@ from __future__ import annotations
 import time
 
 from collections.abc import Sequence
+from dataclasses import fields
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
-from sensor_msgs.msg import JointState
-
-from gear_phm import interfaces
-from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline
-from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import (OUTPUT_QOS, SENSOR_QOS, ConfigError, OutputPublisher,
-                                   declare, run_node, to_rclpy)
-
 from rclpy.node import Node
 
-STRING_PARAMETERS = {
-    'motor_joint': ('motor', 'name of the motor joint in joint_states'),
-    'load_joint': ('load', 'name of the load joint in joint_states'),
-    'backwards_policy': ('reset', "stamps going backwards (bag loop): 'reset' the estimator "
-                                  "or 'skip' the samples"),
-    'frame_id': ('', 'frame_id written in the output headers'),
-}
+from gear_phm import interfaces
+from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline, JointSample
+from gear_phm.interfaces import DiagnosticsOut
+from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, declare_parameters, run_node,
+                                   to_rclpy)
+from gear_phm.nodes.transport import EstimatePublisher, subscribe_joint_states
+from gear_phm.parameters import ParamSpec
+
+#: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
+NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('motor_joint', 'motor', 'name of the motor joint in joint_states'),
+    ParamSpec('load_joint', 'load', 'name of the load joint in joint_states'),
+    ParamSpec('frame_id', '', 'frame_id written in the output headers'),
+    ParamSpec('diagnostics_period', 1.0, '/diagnostics status period', 's', 0.01, 3600.0,
+              read_only=True),
+    ParamSpec('batch_period', 0.005, 'samples are buffered and processed every batch_period '
+              '(or 200 samples); outputs are stamped with sample time', 's', 0.0001, 1.0,
+              read_only=True),
+)
+CONFIG_FIELDS = tuple(f.name for f in fields(EstimatorConfig))
 
 
 def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
-    """EstimatorConfig from parameter values (ints accepted for doubles); ValueError."""
-    fields = {name: values[name] for name in PARAMETERS if name in values}
-    fields['backwards_policy'] = values.get('backwards_policy', 'reset')
-    return EstimatorConfig(**fields)
+    """EstimatorConfig from parameter values; ValueError with the reason."""
+    return EstimatorConfig(**{name: values[name] for name in CONFIG_FIELDS if name in values})
+
+
+def joint_names_problem(values: dict[str, Any]) -> str:
+    """'' or why motor_joint/load_joint are unusable."""
+    if not values['motor_joint'] or values['motor_joint'] == values['load_joint']:
+        return (f'motor_joint and load_joint must be two different non-empty names, got '
+                f'{values["motor_joint"]!r} and {values["load_joint"]!r}')
+    return ''
 
 
 class EstimatorNode(Node):
@@ -48,59 +59,51 @@ class EstimatorNode(Node):
 
     def __init__(self) -> None:
         super().__init__('estimator')
-        defaults = EstimatorConfig()
-        values: dict[str, Any] = {}
+        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        problem = joint_names_problem(values)
         try:
-            for name, (low, high, unit, text) in PARAMETERS.items():
-                default = getattr(defaults, name)
-                default = int(default) if name == 'max_consecutive_gated' else float(default)
-                values[name] = declare(self, name, default, f'{text} [{unit}]',
-                                       low=low, high=min(high, 1e300))
-            for name, (default, text) in STRING_PARAMETERS.items():
-                values[name] = declare(self, name, default, text)
-            values['diagnostics_period'] = declare(
-                self, 'diagnostics_period', 1.0, '/diagnostics status period [s]',
-                low=0.01, high=3600.0)
-            values['batch_period'] = declare(
-                self, 'batch_period', 0.005, 'samples are buffered and processed every '
-                'batch_period (or 200 samples); outputs are stamped with sample time [s]',
-                low=0.0001, high=1.0)
+            if problem:
+                raise ValueError(problem)
             self.config = config_from_values(values)
-            self.pipeline = EstimatorPipeline(self.config, values['motor_joint'],
-                                              values['load_joint'], values['frame_id'])
-        except Exception as exc:  # rclpy parameter exceptions and ValueError alike
-            raise ConfigError(f'estimator parameters: {str(exc).splitlines()[0]}') from None
+        except ValueError as exc:
+            raise ConfigError(f'estimator parameters: {exc}') from None
+        self.pipeline = EstimatorPipeline(self.config)
         self.values = values
-        self.outputs = OutputPublisher(self, [(t, Vector3Stamped)
-                                              for t in interfaces.ESTIMATOR_TOPICS])
+        self.outputs = EstimatePublisher(self, values['frame_id'])
         self.diag_pub = self.create_publisher(DiagnosticArray, interfaces.DIAGNOSTICS,
                                               OUTPUT_QOS)
         _warm_up(self.config)
-        self.create_subscription(JointState, interfaces.JOINT_STATES, self._on_joint_state,
-                                 SENSOR_QOS)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
         self.messages_received = 0
-        self.status_name = f'gear_phm estimator: {self.get_name()}'
-        self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
-        self.buffer: list[interfaces.JointSample] = []
+        self.buffer: list[JointSample] = []
         self.last_arrival_ns: int | None = None   # node clock at the newest arrival [ns]
         self.batch_period: float = values['batch_period']
         self.last_flush = time.monotonic()        # wall time, only paces the batching [s]
         self.max_buffer = 200
+        subscribe_joint_states(self, lambda: self.values['motor_joint'],
+                               lambda: self.values['load_joint'], self._on_sample,
+                               self._on_reject)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.status_name = f'gear_phm estimator: {self.get_name()}'
+        self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
         self.create_timer(values['batch_period'], self._on_clock_timer)
 
     # --- callbacks -----------------------------------------------------------------------------
-    def _on_joint_state(self, msg: JointState) -> None:
+    def _arrived(self) -> None:
         self.messages_received += 1
         self.last_arrival_ns = self.get_clock().now().nanoseconds
-        sample = self.pipeline.sample_from_message(msg)
-        if sample is not None:
-            self.buffer.append(sample)
-            now = time.monotonic()
-            # in a stream, process as soon as batch_period has passed (latency); the timer
-            # only handles the tail of a stream
-            if len(self.buffer) >= self.max_buffer or now - self.last_flush >= self.batch_period:
-                self._flush()
+
+    def _on_reject(self, reason: str) -> None:
+        self._arrived()
+        self.pipeline.reject_message(reason)
+
+    def _on_sample(self, sample: JointSample) -> None:
+        self._arrived()
+        self.buffer.append(sample)
+        now = time.monotonic()
+        # in a stream, process as soon as batch_period has passed (latency); the timer
+        # only handles the tail of a stream
+        if len(self.buffer) >= self.max_buffer or now - self.last_flush >= self.batch_period:
+            self._flush()
 
     def _flush(self) -> None:
         """Process buffered samples as one batch (same results as one by one)."""
@@ -131,14 +134,10 @@ class EstimatorNode(Node):
     def _on_set_parameters(self, params: Sequence[Any]) -> SetParametersResult:
         values = dict(self.values)
         for param in params:
-            if param.name in ('diagnostics_period', 'batch_period'):
-                return SetParametersResult(successful=False,
-                                           reason=f'{param.name} is fixed at start-up')
             values[param.name] = param.value
-        if not values['motor_joint'] or values['motor_joint'] == values['load_joint']:
-            return SetParametersResult(
-                successful=False, reason=f'motor_joint and load_joint must be two different '
-                f'non-empty names, got {values["motor_joint"]!r} and {values["load_joint"]!r}')
+        problem = joint_names_problem(values)
+        if problem:
+            return SetParametersResult(successful=False, reason=problem)
         try:
             config = config_from_values(values)
         except ValueError as exc:
@@ -146,9 +145,7 @@ class EstimatorNode(Node):
         self._flush()
         self.values = values
         self.config = config
-        self.pipeline.motor_joint = values['motor_joint']
-        self.pipeline.load_joint = values['load_joint']
-        self.pipeline.frame_id = values['frame_id']
+        self.outputs.frame_id = values['frame_id']
         self.pipeline.reconfigure(config)
         return SetParametersResult(successful=True)
 

@@ -1,21 +1,17 @@
-"""Prognostics, free of ROS: end of life, RUL, health levels, Saxena metrics, wear state.
+"""Prognostics, free of ROS: end of life, RUL, health levels, Saxena metrics.
 
-See docs/prognostics.md. Everything takes time ``t`` [s] as an argument; nothing reads a clock.
+:class:`HealthAssessor` turns each :class:`~gear_phm.estimation.FrictionEstimate` into a
+:class:`HealthState`. See docs/prognostics.md. Everything takes time from the estimates'
+stamps; nothing reads a clock.
 """
+from gear_phm.prognostics.assessor import HealthAssessor, HealthState, waiting_state
 from gear_phm.prognostics.config import PARAMETERS, HealthConfig, cross_field_problem
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
-from gear_phm.prognostics.health import DivergenceMonitor, health_level, is_stale
-from gear_phm.prognostics.monitor import (STATUS_KEYS, Estimate, HealthMonitor, HealthStatus,
-                                          waiting_status)
-from gear_phm.prognostics.options import add_health_arguments, health_config_from_args
+from gear_phm.prognostics.health import DivergenceDetector, health_level
 from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend, TrendDetector
-from gear_phm.prognostics.state import (WearState, WearStateSaver, load_wear_state,
-                                        save_wear_state)
 
 __all__ = [
-    'PARAMETERS', 'STATUS_KEYS', 'DivergenceMonitor', 'Estimate', 'HealthConfig',
-    'HealthMonitor', 'HealthStatus', 'RulEstimate', 'RulPredictor', 'Trend', 'TrendDetector',
-    'WearState', 'WearStateSaver', 'add_health_arguments', 'cross_field_problem',
-    'end_of_life_thresholds', 'end_of_life_u', 'health_config_from_args', 'health_level',
-    'is_stale', 'load_wear_state', 'save_wear_state', 'waiting_status',
+    'PARAMETERS', 'DivergenceDetector', 'HealthAssessor', 'HealthConfig', 'HealthState',
+    'RulEstimate', 'RulPredictor', 'Trend', 'TrendDetector', 'cross_field_problem',
+    'end_of_life_thresholds', 'end_of_life_u', 'health_level', 'waiting_state',
 ]

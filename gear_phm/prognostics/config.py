@@ -9,68 +9,76 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
-#: (low, high, unit, description) per numeric parameter; bounds inclusive.
-PARAMETERS: dict[str, tuple[float, float, str, str]] = {
-    'ratio': (1e-6, 1e6, '-', 'ideal torque gain load/motor R = z2/z1 of the gearbox'),
-    'eta_opposing_min': (-1.0, 1.0, '-',
-                         'end of life when the opposing-load efficiency eta_D falls to this'),
-    'u_max': (0.0, 1e6, '-', 'end of life when u reaches this (0: criterion disabled)'),
-    'eta_warn': (-1.0, 1.0, '-', 'WARN when eta_D is below this (must be > eta_opposing_min)'),
-    'warn_horizon': (0.0, 1e12, 's', 'WARN when the 5 % RUL bound is below this'),
-    'detect_z': (0.0, 100.0, '-',
-                 'degradation is seen when du/dt > detect_z sigma(du/dt); otherwise RUL = inf'),
-    'trend_window': (1e-3, 1e12, 's', 'length of the u history used to detect acceleration'),
-    'accel_z': (0.0, 1e3, '-',
-                'exponential trend when the fitted curvature of u(t) exceeds accel_z std errors'),
-    'min_growth': (0.0, 1e6, '-',
-                   'and when du/dt grows by at least this fraction over the trend window'),
-    'mc_samples': (100, 1_000_000, '-', 'Monte Carlo samples of the posterior for RUL bounds'),
-    'seed': (0, 2**31 - 1, '-', 'seed of the fixed Monte Carlo draws (common random numbers)'),
-    'nis_window': (1, 100_000, '-', 'number of recent NIS values averaged for divergence'),
-    'nis_probability': (0.5, 1.0 - 1e-12, '-',
-                        'chi-square probability of the NIS-average bound (divergence above)'),
-    'max_u_sigma': (1e-9, 1e6, '-', 'divergence when sigma_u exceeds this'),
-    'stale_timeout': (1e-3, 1e6, 's', 'STALE when no estimator input arrives for this long'),
-}
+from gear_phm.parameters import ParamSpec, check_values, defaults
+
 TRENDS = ('auto', 'linear', 'exponential')
-_INTEGERS = ('mc_samples', 'seed', 'nis_window')
+
+#: The health parameters (diagnostics node parameters of the same names,
+#: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options).
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
+              1e-6, 1e6),
+    ParamSpec('eta_opposing_min', 0.5,
+              'end of life when the opposing-load efficiency eta_D falls to this', '-', -1.0,
+              1.0),
+    ParamSpec('self_locking_eol', True, 'count the self-locking onset (eta_I <= 0, u >= 1) as '
+              'end of life (ERROR)'),
+    ParamSpec('u_max', 0.0, 'end of life when u reaches this (0: criterion disabled)', '-',
+              0.0, 1e6),
+    ParamSpec('eta_warn', 0.6, 'WARN when eta_D is below this (must be > eta_opposing_min)',
+              '-', -1.0, 1.0),
+    ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
+              1e12),
+    ParamSpec('detect_z', 2.0, 'degradation is seen when du/dt > detect_z sigma(du/dt); '
+              'otherwise RUL = inf', '-', 0.0, 100.0),
+    ParamSpec('trend', 'auto', f'RUL trend model, one of {TRENDS}', choices=TRENDS),
+    ParamSpec('trend_window', 600.0, 'length of the u history used to detect acceleration',
+              's', 1e-3, 1e12),
+    ParamSpec('accel_z', 3.0, 'exponential trend when the fitted curvature of u(t) exceeds '
+              'accel_z std errors', '-', 0.0, 1e3),
+    ParamSpec('min_growth', 0.25,
+              'and when du/dt grows by at least this fraction over the trend window', '-', 0.0,
+              1e6),
+    ParamSpec('mc_samples', 2000, 'Monte Carlo samples of the posterior for RUL bounds', '-',
+              100, 1_000_000),
+    ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
+              2**31 - 1),
+    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for divergence', '-', 1,
+              100_000),
+    ParamSpec('nis_probability', 0.999,
+              'chi-square probability of the NIS-average bound (divergence above)', '-', 0.5,
+              1.0 - 1e-12),
+    ParamSpec('max_u_sigma', 1.0, 'divergence when sigma_u exceeds this', '-', 1e-9, 1e6),
+    ParamSpec('stale_timeout', 2.0, 'STALE when no estimator input arrives for this long', 's',
+              1e-3, 1e6),
+)
+_D = defaults(PARAMETERS)
 
 
 @dataclass(frozen=True)
 class HealthConfig:
     """End-of-life, RUL and health-level parameters (SI units, see :data:`PARAMETERS`)."""
 
-    ratio: float = 3.0
-    eta_opposing_min: float = 0.5
-    self_locking_eol: bool = True
-    u_max: float = 0.0
-    eta_warn: float = 0.6
-    warn_horizon: float = 3600.0
-    detect_z: float = 2.0
-    trend: str = 'auto'
-    trend_window: float = 600.0
-    accel_z: float = 3.0
-    min_growth: float = 0.25
-    mc_samples: int = 2000
-    seed: int = 0
-    nis_window: int = 20
-    nis_probability: float = 0.999
-    max_u_sigma: float = 1.0
-    stale_timeout: float = 2.0
+    ratio: float = float(_D['ratio'])
+    eta_opposing_min: float = float(_D['eta_opposing_min'])
+    self_locking_eol: bool = bool(_D['self_locking_eol'])
+    u_max: float = float(_D['u_max'])
+    eta_warn: float = float(_D['eta_warn'])
+    warn_horizon: float = float(_D['warn_horizon'])
+    detect_z: float = float(_D['detect_z'])
+    trend: str = str(_D['trend'])
+    trend_window: float = float(_D['trend_window'])
+    accel_z: float = float(_D['accel_z'])
+    min_growth: float = float(_D['min_growth'])
+    mc_samples: int = int(_D['mc_samples'])
+    seed: int = int(_D['seed'])
+    nis_window: int = int(_D['nis_window'])
+    nis_probability: float = float(_D['nis_probability'])
+    max_u_sigma: float = float(_D['max_u_sigma'])
+    stale_timeout: float = float(_D['stale_timeout'])
 
     def __post_init__(self) -> None:
-        for name, (low, high, unit, _) in PARAMETERS.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f'{name} must be a number [{unit}], got {value!r}')
-            if name in _INTEGERS and int(value) != value:
-                raise ValueError(f'{name} must be an integer, got {value!r}')
-            if math.isnan(value) or not low <= value <= high:
-                raise ValueError(f'{name} must be in [{low:g}, {high:g}] {unit}, got {value!r}')
-        if not isinstance(self.self_locking_eol, bool):
-            raise ValueError(f'self_locking_eol must be a bool, got {self.self_locking_eol!r}')
-        if self.trend not in TRENDS:
-            raise ValueError(f'trend must be one of {TRENDS}, got {self.trend!r}')
+        check_values(PARAMETERS, asdict(self))
         problem = cross_field_problem(asdict(self))
         if problem:
             raise ValueError(problem)

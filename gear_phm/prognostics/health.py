@@ -3,10 +3,11 @@
 Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 
 - ERROR: u >= u_eol (end of life; includes self-locking u >= 1 when enabled), or the filter
-  diverged (:class:`DivergenceMonitor`).
+  diverged (:class:`DivergenceDetector`).
 - WARN: RUL 5 % bound < ``warn_horizon`` [s], or eta_D < ``eta_warn``.
-- STALE: no estimator input for ``stale_timeout`` [s] (:func:`is_stale`), judged on the
-  caller's clock; it overrides the other levels because the estimate is no longer current.
+- STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
+  diagnostics node's); it overrides the other levels because the estimate is no longer
+  current.
 - OK otherwise.
 """
 from __future__ import annotations
@@ -15,7 +16,7 @@ import math
 from collections import deque
 from statistics import NormalDist
 
-from gear_phm.interfaces import ERROR, OK, STALE, WARN
+from gear_phm.status import ERROR, OK, WARN
 
 
 def chi_square_mean_bound(window: int, probability: float) -> float:
@@ -33,7 +34,7 @@ def chi_square_mean_bound(window: int, probability: float) -> float:
     return (1.0 - a + z * math.sqrt(a)) ** 3
 
 
-class DivergenceMonitor:
+class DivergenceDetector:
     """Flags a diverging filter.
 
     Diverged when (a) the mean of the last ``window`` NIS values exceeds the chi-square bound
@@ -96,10 +97,4 @@ def health_level(u: float, u_eol: float, eol_reason: str, eta_opposing: float, e
     return OK, 'ok'
 
 
-def is_stale(now: float, last_arrival: float | None, timeout: float) -> bool:
-    """True when nothing arrived yet or the last input is older than ``timeout`` [s]."""
-    return last_arrival is None or now - last_arrival > timeout
-
-
-__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DivergenceMonitor', 'chi_square_mean_bound',
-           'health_level', 'is_stale']
+__all__ = ['DivergenceDetector', 'chi_square_mean_bound', 'health_level']

@@ -12,10 +12,6 @@ See docs/publisher.md for the physics, the defaults and their units.
 from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import (
     EFFICIENCY_MODELS,
-    PHASE_AIDING,
-    PHASE_IDLE,
-    PHASE_OPPOSING,
-    PHASE_SELF_LOCKING,
     Plant,
 )
 from gear_phm.simulation.parameters import PARAMETERS, config_from_parameters
@@ -30,8 +26,7 @@ from gear_phm.simulation.simulator import (
 from gear_phm.simulation.wear import WEAR_KINDS, Wear
 
 __all__ = [
-    'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PARAMETERS', 'PHASE_AIDING',
-    'PHASE_IDLE', 'PHASE_OPPOSING', 'PHASE_SELF_LOCKING', 'Plant', 'Sensors',
+    'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PARAMETERS', 'Plant', 'Sensors',
     'SimulationConfig', 'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear',
     'config_from_parameters', 'sample_times', 'simulate',
 ]

@@ -36,12 +36,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
 from gear_phm.simulation._checks import non_negative, one_of, positive, real
 
 EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
 
-#: Power-flow phase codes (docs/architecture.md).
-PHASE_IDLE, PHASE_OPPOSING, PHASE_AIDING, PHASE_SELF_LOCKING = 0, 1, 2, 3
 
 
 @dataclass(frozen=True)
@@ -116,8 +115,8 @@ class Plant:
         safe_eta_d = np.where(opposing, eta_d, 1.0)
         tau_in = np.where(opposing, tau_out / (self.ratio * safe_eta_d),
                           np.where(aiding, eta_i * tau_out / self.ratio, holding))
-        phase = np.full(tau_out.shape, PHASE_IDLE, dtype=np.int8)
-        phase[opposing] = PHASE_OPPOSING
-        phase[aiding & (eta_i >= 0.0)] = PHASE_AIDING
-        phase[aiding & (eta_i < 0.0)] = PHASE_SELF_LOCKING
+        phase = np.full(tau_out.shape, IDLE, dtype=np.int8)
+        phase[opposing] = OPPOSING
+        phase[aiding & (eta_i >= 0.0)] = AIDING
+        phase[aiding & (eta_i < 0.0)] = SELF_LOCKING
         return tau_in, phase

@@ -1,0 +1,72 @@
+"""Command-line options built from the parameter specs (:class:`gear_phm.parameters.ParamSpec`)."""
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from gear_phm.cli.main import CliError
+from gear_phm.estimation.config import PARAMETERS as ESTIMATOR_PARAMETERS
+from gear_phm.parameters import ParamSpec, spec_map
+from gear_phm.prognostics.config import PARAMETERS as HEALTH_PARAMETERS
+
+#: Health parameters that are not options: the ratio comes from ``--ratio``; staleness is a
+#: live-only concept.
+_NOT_OPTIONS = ('ratio', 'stale_timeout')
+_PREFIX = 'health_'
+
+
+def _help(spec: ParamSpec) -> str:
+    text = spec.description.replace('%', '%%')
+    if spec.kind is bool:
+        return text
+    if spec.choices:
+        return f'{text} (default {spec.default})'
+    low = '-inf' if spec.low is None else f'{spec.low:g}'
+    high = 'inf' if spec.high is None else f'{spec.high:g}'
+    return f'{text} [{spec.unit}], in [{low}, {high}] (default {spec.default})'
+
+
+def add_health_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--eta-opposing-min``, ``--u-max``, ``--eta-warn``, ... one per health parameter
+    (``--no-self-locking-eol`` for the flag); read them back with :func:`health_values`."""
+    group = parser.add_argument_group('health and end of life (diagnostics)')
+    for spec in HEALTH_PARAMETERS:
+        if spec.name in _NOT_OPTIONS:
+            continue
+        option = '--' + spec.name.replace('_', '-')
+        if spec.kind is bool:
+            group.add_argument('--no-' + spec.name.replace('_', '-'), dest=_PREFIX + spec.name,
+                               action='store_false', default=spec.default,
+                               help=f'do not {spec.description}')
+        elif spec.choices:
+            group.add_argument(option, dest=_PREFIX + spec.name, choices=spec.choices,
+                               default=spec.default, help=_help(spec))
+        else:
+            group.add_argument(option, dest=_PREFIX + spec.name, type=spec.kind,
+                               default=spec.default,
+                               metavar=spec.unit.upper() if spec.unit != '-' else 'VALUE',
+                               help=_help(spec))
+
+
+def health_values(args: argparse.Namespace) -> dict[str, Any]:
+    """The health parameter values of :func:`add_health_arguments`'s options."""
+    return {key[len(_PREFIX):]: value for key, value in vars(args).items()
+            if key.startswith(_PREFIX)}
+
+
+def estimator_params(items: list[str]) -> dict[str, Any]:
+    """``--param NAME=VALUE`` items as estimator parameter values (CliError if malformed)."""
+    table = spec_map(ESTIMATOR_PARAMETERS)
+    values: dict[str, Any] = {}
+    for item in items:
+        name, sep, text = item.partition('=')
+        if not sep:
+            raise CliError(f'--param expects NAME=VALUE, got {item!r}')
+        if name not in table or name == 'ratio':
+            known = ', '.join(sorted(set(table) - {'ratio'}))
+            raise CliError(f'--param: unknown estimator parameter {name!r} (known: {known})')
+        try:
+            values[name] = table[name].parse(text)
+        except ValueError as exc:
+            raise CliError(f'--param {exc}') from None
+    return values

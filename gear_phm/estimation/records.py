@@ -1,0 +1,61 @@
+"""The estimator's records: a sample in (:class:`JointSample`), an update out
+(:class:`FrictionEstimate`). No ROS, SI units."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class JointSample:
+    """One synchronised sample of both shafts. Angles [rad], speeds [rad/s], torques [N m]."""
+
+    stamp_ns: int
+    motor_position: float
+    motor_velocity: float
+    motor_effort: float
+    load_position: float
+    load_velocity: float
+    load_effort: float
+
+    @property
+    def t(self) -> float:
+        """Sample time [s]."""
+        return self.stamp_ns * 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class FrictionEstimate:
+    """The posterior on x = [u, du/dt] at the newest sample it used, with its evidence.
+
+    ``stamp_ns`` is that sample's stamp [ns]; u [-], rate du/dt [1/s]; ``covariance`` is
+    (P_uu, P_ur, P_rr) [-, 1/s, 1/s^2]; ``eta_opposing``/``eta_aiding`` [-] are eqs 10/12 at
+    u; ``measured_efficiency`` [-] is the newest window's (NaN before the first);
+    ``innovation`` [-], its variance ``innovation_variance`` S and ``nis`` come from the last
+    filter update; ``samples_used``/``samples_rejected`` count samples so far;
+    ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample.
+    """
+
+    stamp_ns: int
+    u: float
+    rate: float
+    covariance: tuple[float, float, float]
+    eta_opposing: float = math.nan
+    eta_aiding: float = math.nan
+    measured_efficiency: float = math.nan
+    innovation: float = math.nan
+    innovation_variance: float = math.nan
+    nis: float = math.nan
+    samples_used: int = 0
+    samples_rejected: int = 0
+    power_flow: int = 0
+
+    @property
+    def t(self) -> float:
+        """Time of the newest sample the estimate used [s]."""
+        return self.stamp_ns * 1e-9
+
+    @property
+    def u_sigma(self) -> float:
+        """Standard deviation of u [-]."""
+        return math.sqrt(max(self.covariance[0], 0.0))

@@ -1,0 +1,142 @@
+"""The live transport: domain records <-> rclpy messages on the nodes' topics.
+
+With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the bag side) this
+is the only place that knows which topic carries what. The estimator node publishes each
+:class:`~gear_phm.estimation.FrictionEstimate` as five Vector3Stamped topics with one stamp
+(:class:`EstimatePublisher`); the diagnostics node puts them back together into the same
+record (:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and
+hands whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import JointState
+
+from gear_phm import interfaces
+from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, to_rclpy
+from gear_phm.prognostics.assessor import HealthState
+
+#: Pending stamps kept while waiting for the rest of an update; older ones are processed.
+MAX_PENDING_STAMPS = 64
+#: Stamps further back than this are a new run (replay restarted), not stragglers [ns].
+RESTART_JUMP_NS = 10 * 10**9
+
+
+def subscribe_joint_states(node: Node, motor_joint: Callable[[], str],
+                           load_joint: Callable[[], str],
+                           on_sample: Callable[[JointSample], None],
+                           on_reject: Callable[[str], None]) -> Any:
+    """Subscribe ``joint_states`` (sensor QoS); each message becomes a sample or a reject
+    reason. The joint names are read per message (they are run-time parameters)."""
+    def callback(msg: JointState) -> None:
+        result = interfaces.sample_or_reason(msg, motor_joint(), load_joint())
+        if isinstance(result, str):
+            on_reject(result)
+        else:
+            on_sample(result)
+    return node.create_subscription(JointState, interfaces.JOINT_STATES, callback, SENSOR_QOS)
+
+
+class EstimatePublisher:
+    """Publishes estimates on the five estimator topics (reliable, depth 10)."""
+
+    def __init__(self, node: Node, frame_id: str = '') -> None:
+        self.frame_id = frame_id
+        self._publishers = {topic: node.create_publisher(Vector3Stamped, topic, OUTPUT_QOS)
+                            for topic in interfaces.ESTIMATOR_TOPICS}
+
+    def publish(self, estimates: list[FrictionEstimate]) -> None:
+        for estimate in estimates:
+            for output in interfaces.estimate_outputs(estimate, self.frame_id):
+                self._publishers[output.topic].publish(to_rclpy(output))
+
+
+class HealthPublisher:
+    """Publishes health states on ``gear_phm/health/rul`` and ``gear_phm/health/efficiency``;
+    ``record`` (optional) also gets each message with its topic."""
+
+    def __init__(self, node: Node,
+                 record: Callable[[str, Any], None] | None = None) -> None:
+        self._publishers = {topic: node.create_publisher(Vector3Stamped, topic, OUTPUT_QOS)
+                            for topic in (interfaces.HEALTH_RUL, interfaces.HEALTH_EFFICIENCY)}
+        self._record = record
+
+    def topic_names(self) -> dict[str, str]:
+        """{topic: resolved name}."""
+        return {topic: publisher.topic_name for topic, publisher in self._publishers.items()}
+
+    def publish(self, state: HealthState, efficiency_only: bool = False) -> None:
+        rul, efficiency = interfaces.health_outputs(state)
+        for output in (efficiency,) if efficiency_only else (rul, efficiency):
+            msg = to_rclpy(output)
+            self._publishers[output.topic].publish(msg)
+            if self._record is not None:
+                self._record(output.topic, msg)
+
+
+class EstimateAssembler:
+    """The estimator's five topics in, whole :class:`FrictionEstimate` records out.
+
+    Messages are grouped by stamp; a group is complete with all five topics. Stragglers of an
+    update already processed are dropped (``late_stamp``); when more than
+    :data:`MAX_PENDING_STAMPS` stamps wait, the oldest are processed if they hold at least
+    friction and covariance, else dropped (``incomplete_update``). A jump back by more than
+    :data:`RESTART_JUMP_NS` is a replay that restarted, not a straggler. ``dropped`` counts
+    by reason.
+    """
+
+    def __init__(self) -> None:
+        self.pending: dict[int, dict[str, Any]] = {}
+        self.dropped: dict[str, int] = {}
+        self.last_stamp: int | None = None
+
+    def _drop(self, reason: str) -> None:
+        self.dropped[reason] = self.dropped.get(reason, 0) + 1
+
+    def subscribe(self, node: Node, qos: QoSProfile,
+                  on_estimates: Callable[[list[FrictionEstimate]], None],
+                  on_message: Callable[[str, Vector3Stamped], None] | None = None) -> None:
+        """Subscribe the five topics; ``on_estimates`` gets each completed update,
+        ``on_message`` (optional) every raw message first (e.g. to record it)."""
+        for topic in interfaces.ESTIMATOR_TOPICS:
+            def callback(msg: Vector3Stamped, topic: str = topic) -> None:
+                if on_message is not None:
+                    on_message(topic, msg)
+                estimates = self.add(topic, interfaces.stamp_to_ns(msg.header.stamp),
+                                     msg.vector)
+                if estimates:
+                    on_estimates(estimates)
+            node.create_subscription(Vector3Stamped, topic, callback, qos)
+
+    def add(self, topic: str, stamp_ns: int, vector: Any) -> list[FrictionEstimate]:
+        """One estimator message (``vector`` has .x .y .z); the updates it completes."""
+        last = self.last_stamp
+        if last is not None and stamp_ns <= last and stamp_ns not in self.pending \
+                and last - stamp_ns < RESTART_JUMP_NS:
+            self._drop('late_stamp')       # a straggler of an update already processed
+            return []
+        group = self.pending.setdefault(stamp_ns, {})
+        group[topic] = vector
+        if len(group) == len(interfaces.ESTIMATOR_TOPICS):
+            return self.flush(up_to=stamp_ns)
+        if len(self.pending) > MAX_PENDING_STAMPS:
+            return self.flush(up_to=min(self.pending))
+        return []
+
+    def flush(self, up_to: int | None = None) -> list[FrictionEstimate]:
+        """Pending groups with stamps <= ``up_to`` (all if None), in stamp order."""
+        estimates: list[FrictionEstimate] = []
+        for stamp_ns in sorted(s for s in self.pending if up_to is None or s <= up_to):
+            group = self.pending.pop(stamp_ns)
+            if interfaces.FRICTION not in group or interfaces.FRICTION_COVARIANCE not in group:
+                self._drop('incomplete_update')
+                continue
+            estimates.append(interfaces.estimate_from_vectors(stamp_ns, group))
+            self.last_stamp = stamp_ns
+        return estimates

@@ -1,0 +1,410 @@
+"""The offline engine: recorded JointState in, the live nodes' estimates and health out.
+
+:func:`analyze_bag` runs :class:`~gear_phm.estimation.EstimatorPipeline` and
+:class:`~gear_phm.prognostics.HealthAssessor` (the code of the estimator and diagnostics
+nodes) over one bag, or several in order of their start time, as fast as the bag can be read.
+It returns an :class:`Analysis` of numpy histories and, given ``out``, writes the same topics
+the nodes publish as a rosbag2 MCAP directory, plus ``summary.json`` and ``analysis.png``.
+
+Data path (no Python work per message): the bag reader yields raw batches of JointState CDR
+(:meth:`gear_phm.bagio.BagReader.raw_batches`), :func:`gear_phm.interfaces.
+decode_joint_state_buffer` turns each into columns, the pipeline returns
+:class:`~gear_phm.estimation.FrictionEstimate` records, the assessor a
+:class:`~gear_phm.prognostics.HealthState` per estimate, and :mod:`gear_phm.interfaces`
+maps both to the topics written by :class:`~gear_phm.bagio.Rosbag2McapWriter`. The bag is cut at
+each ``/diagnostics`` tick of bag time, so each status holds the state after exactly the
+messages logged before it, as the nodes would have published it.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from contextlib import nullcontext
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gear_phm import interfaces
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, FrictionEstimate, Measurement
+from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState
+from gear_phm.status import LEVEL_NAMES
+
+#: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
+BATCH = 20000
+ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
+
+
+class AnalysisError(ValueError):
+    """A problem with the input or the options: one line, meant for the user."""
+
+
+@dataclass(frozen=True)
+class EstimateHistory:
+    """Every :class:`FrictionEstimate` of a run, as columns (same units and meanings)."""
+
+    stamp_ns: np.ndarray
+    u: np.ndarray
+    rate: np.ndarray
+    p_uu: np.ndarray
+    p_ur: np.ndarray
+    p_rr: np.ndarray
+    eta_opposing: np.ndarray
+    eta_aiding: np.ndarray
+    measured_efficiency: np.ndarray
+    innovation: np.ndarray
+    innovation_variance: np.ndarray
+    nis: np.ndarray
+    samples_used: np.ndarray
+    samples_rejected: np.ndarray
+    power_flow: np.ndarray
+
+    @property
+    def t(self) -> np.ndarray:
+        """Stamps [s]."""
+        return self.stamp_ns * 1e-9
+
+    @property
+    def u_sigma(self) -> np.ndarray:
+        """Standard deviation of u [-]."""
+        return np.sqrt(np.maximum(self.p_uu, 0.0))
+
+    @classmethod
+    def of(cls, estimates: Sequence[FrictionEstimate]) -> EstimateHistory:
+        rows = [(e.stamp_ns, e.u, e.rate, *e.covariance, e.eta_opposing, e.eta_aiding,
+                 e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
+                 e.samples_used, e.samples_rejected, e.power_flow) for e in estimates]
+        table = np.array(rows, dtype=float).reshape(-1, 15)
+        columns = {f.name: table[:, i] for i, f in enumerate(fields(cls))}
+        for name in ('stamp_ns', 'samples_used', 'samples_rejected', 'power_flow'):
+            columns[name] = np.array([getattr(e, name) for e in estimates], dtype=np.int64)
+        return cls(**columns)
+
+
+@dataclass(frozen=True)
+class HealthHistory:
+    """Every :class:`HealthState` of a run, as columns: level (0 OK .. 3 STALE), RUL median,
+    p5 and p95 [s] (inf: no degradation detectable), end-of-life u [-]; ``messages`` holds
+    each state's reason."""
+
+    stamp_ns: np.ndarray
+    level: np.ndarray
+    rul_median: np.ndarray
+    rul_p5: np.ndarray
+    rul_p95: np.ndarray
+    u_eol: np.ndarray
+    messages: tuple[str, ...]
+
+    @property
+    def t(self) -> np.ndarray:
+        """Stamps [s]."""
+        return self.stamp_ns * 1e-9
+
+    @classmethod
+    def of(cls, states: Sequence[HealthState]) -> HealthHistory:
+        def column(values: list[float]) -> np.ndarray:
+            return np.array(values, dtype=float)
+        return cls(np.array([s.stamp_ns for s in states], dtype=np.int64),
+                   np.array([s.level for s in states], dtype=np.int64),
+                   column([s.rul.median for s in states]), column([s.rul.p5 for s in states]),
+                   column([s.rul.p95 for s in states]), column([s.u_eol for s in states]),
+                   tuple(s.message for s in states))
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Result of :func:`analyze_bag`: histories, the JSON summary, and where it was written."""
+
+    estimates: EstimateHistory
+    health: HealthHistory
+    summary: dict[str, Any]
+    #: (stamp of the window end [ns], the window's measurement, accepted by the filter)
+    measurements: tuple[tuple[int, Measurement, bool], ...]
+    truth: dict[str, np.ndarray]
+    out: Path | None = None
+
+    def to_dataframe(self) -> Any:
+        """One row per estimate: the estimate columns, ``t`` [s] and the health columns of
+        the same stamp (pandas required: ``pip install pandas``)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:
+            raise ImportError('Analysis.to_dataframe needs pandas: pip install pandas') from exc
+        e = self.estimates
+        frame = pd.DataFrame({f.name: getattr(e, f.name) for f in fields(e)})
+        frame.insert(1, 't', e.t)
+        h = self.health
+        health = pd.DataFrame({'stamp_ns': h.stamp_ns, 'level': h.level,
+                               'rul_median': h.rul_median, 'rul_p5': h.rul_p5,
+                               'rul_p95': h.rul_p95, 'u_eol': h.u_eol,
+                               'health_message': list(h.messages)})
+        return frame.merge(health, on='stamp_ns', how='left')
+
+
+def split_options(ratio: float, options: dict[str, Any]) -> tuple[EstimatorConfig, HealthConfig]:
+    """Route keyword options to the estimator or the health parameters by name."""
+    estimator_names = {f.name for f in fields(EstimatorConfig)} - {'ratio'}
+    health_names = {f.name for f in fields(HealthConfig)} - {'ratio', 'stale_timeout'}
+    unknown = sorted(set(options) - estimator_names - health_names)
+    if unknown:
+        raise AnalysisError(f'unknown option(s) {unknown}; estimator: '
+                            f'{sorted(estimator_names)}; health: {sorted(health_names)}')
+    try:
+        estimator = EstimatorConfig(ratio=float(ratio), **{
+            k: v for k, v in options.items() if k in estimator_names})
+        health = HealthConfig(ratio=float(ratio), **{
+            k: v for k, v in options.items() if k in health_names})
+    except (TypeError, ValueError) as exc:
+        raise AnalysisError(str(exc)) from None
+    return estimator, health
+
+
+def order_bags(paths: Sequence[str | Path]) -> list[Path]:
+    """The bags in order of their first message (a campaign of recordings)."""
+    from gear_phm.bagio import BagError, BagReader
+    starts = []
+    for path in paths:
+        if not Path(path).exists():
+            raise AnalysisError(f'bag {path} does not exist')
+        try:
+            with BagReader(path) as bag:
+                starts.append((bag.start_ns, str(path)))
+        except BagError as exc:
+            raise AnalysisError(str(exc)) from None
+    return [Path(p) for _, p in sorted(starts)]
+
+
+def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, *,
+                motor_joint: str = 'motor', load_joint: str = 'load',
+                topic: str = interfaces.JOINT_STATES, out: str | Path | None = None,
+                overwrite: bool = False, plot: bool = True, progress: bool = False,
+                transmission_name: str = 'gearbox', hardware_id: str = 'gearbox',
+                diagnostics_rate: float = 1.0, **options: Any) -> Analysis:
+    """Run the estimator and diagnostics nodes' code over recorded bags.
+
+    ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, or a
+    list of them (analysed as one run, in order of their start times). ``ratio`` is the
+    gearbox's R = z2/z1 [-]. ``options`` are estimator or health parameters by name, as in
+    config/estimator.yaml and config/diagnostics.yaml (e.g. ``eta_opposing_min=0.7333``).
+    With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into
+    that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
+    nothing is left there if the analysis fails. Raises :class:`AnalysisError` on bad input.
+    """
+    estimator_config, health_config = split_options(ratio, options)
+    if not motor_joint or not load_joint or motor_joint == load_joint:
+        raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty names, '
+                            f'got {motor_joint!r} and {load_joint!r}')
+    if not diagnostics_rate > 0:
+        raise AnalysisError(f'diagnostics_rate must be > 0 Hz, got {diagnostics_rate}')
+    paths = [path_or_paths] if isinstance(path_or_paths, (str, Path)) else list(path_or_paths)
+    if not paths:
+        raise AnalysisError('no bag given')
+    bags = order_bags(paths)
+    target = None if out is None else _check_out(Path(out), overwrite)
+    run = _Run(estimator_config, health_config, motor_joint, load_joint, topic,
+               transmission_name, hardware_id, diagnostics_rate, plot)
+    staging = None
+    try:
+        if target is not None:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
+        analysis = run.execute(bags, None if staging is None else staging / target.name,
+                               progress)
+        if target is not None and staging is not None:
+            written = staging / target.name
+            (written / 'summary.json').write_text(
+                json.dumps(analysis.summary, indent=2, default=_json) + '\n')
+            if plot:
+                from gear_phm.offline.plot import plot_analysis
+                plot_analysis(written / 'analysis.png', analysis, ratio, bags)
+            if target.exists():
+                shutil.rmtree(target)
+            written.rename(target)
+            analysis = Analysis(analysis.estimates, analysis.health, analysis.summary,
+                                analysis.measurements, analysis.truth, target)
+        return analysis
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+
+
+def _check_out(out: Path, overwrite: bool) -> Path:
+    if overwrite and out.is_dir() and (out / 'summary.json').is_file():
+        return out                              # replaced once the new analysis is complete
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        hint = '' if overwrite else ' (add --overwrite to replace an earlier analysis)'
+        raise AnalysisError(f'--out {out} exists and is not an empty directory{hint}')
+    return out
+
+
+class _Run:
+    """One analysis: the pipeline, the assessor and what they produced."""
+
+    def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
+                 motor_joint: str, load_joint: str, topic: str, transmission_name: str,
+                 hardware_id: str, diagnostics_rate: float, want_truth: bool) -> None:
+        self.measurements: list[tuple[int, Measurement, bool]] = []
+        self.pipeline = EstimatorPipeline(estimator_config, on_measurement=self._on_measurement)
+        self.assessor = HealthAssessor(health_config)
+        self.estimator_config = estimator_config
+        self.motor_joint, self.load_joint, self.topic = motor_joint, load_joint, topic
+        self.transmission_name, self.hardware_id = transmission_name, hardware_id
+        self.diag_period_ns = int(1e9 / diagnostics_rate)
+        self.want_truth = want_truth
+        self.estimates: list[FrictionEstimate] = []
+        self.states: list[HealthState] = []
+        self.first_seen: dict[str, int] = {}
+        self.truth: dict[str, list[tuple[int, float, float, float]]] = {}
+        self.samples = 0
+
+    def _on_measurement(self, measurement: Measurement, accepted: bool) -> None:
+        stamp_ns = self.pipeline.stamp_ns(measurement.t)
+        self.measurements.append((stamp_ns, measurement, accepted))
+
+    def execute(self, bags: list[Path], directory: Path | None, progress: bool) -> Analysis:
+        from gear_phm.bagio import BagError, Rosbag2McapWriter
+        started = time.perf_counter()
+        readers = []
+        try:
+            with (nullcontext(None) if directory is None
+                  else Rosbag2McapWriter(directory)) as writer:
+                for path in bags:
+                    readers.append(self._read(path, writer, progress))
+        except BagError as exc:
+            raise AnalysisError(str(exc)) from None
+        elapsed = time.perf_counter() - started
+        if self.pipeline.samples_seen == 0:
+            raise AnalysisError(f'no message of topic {self.topic} has joints '
+                                f'{self.motor_joint!r} and {self.load_joint!r}: '
+                                f'{dict(self.pipeline.counts)}')
+        summary = self._summary(bags, readers, elapsed)
+        truth = {name: np.array(rows, dtype=float).reshape(-1, 4)
+                 for name, rows in self.truth.items()}
+        return Analysis(EstimateHistory.of(self.estimates), HealthHistory.of(self.states),
+                        summary, tuple(self.measurements), truth)
+
+    def _read(self, path: Path, writer: Any, progress: bool) -> str:
+        """Feed one bag; returns the reader kind used."""
+        from gear_phm.bagio import BagReader
+        from gear_phm.bagio.writer import vector3_stamped_from_cdr
+        with BagReader(path) as bag:
+            topic = bag.require_topic(self.topic, interfaces.JOINT_STATE_TYPE)
+            total = bag.message_count(topic)
+            if total == 0:
+                raise AnalysisError(f'topic {topic} in bag {path} has no message')
+            truth_topics = {} if not self.want_truth else {
+                bag.resolve_topic(name): name
+                for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY)
+                if bag.resolve_topic(name) in bag.topics}
+            bar = _progress(total, not progress)
+            next_tick: int | None = None         # next /diagnostics tick, bag time [ns]
+            last_log_ns = 0
+            for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+                if raw.topic != topic:           # ground truth, for the plot only
+                    self.truth.setdefault(truth_topics[raw.topic], []).extend(
+                        vector3_stamped_from_cdr(payload) for payload in raw.payloads())
+                    continue
+                times = raw.log_time_ns
+                if next_tick is None:
+                    next_tick = int(times[0]) + self.diag_period_ns
+                decoded = interfaces.decode_joint_state_buffer(
+                    raw.buffer, raw.offsets, raw.lengths, self.motor_joint, self.load_joint)
+                begin = 0
+                while next_tick <= int(times[-1]):
+                    cut = int(np.searchsorted(times, next_tick, side='left'))
+                    self._process(decoded, begin, cut, writer)
+                    begin = cut
+                    self._tick(next_tick, writer)
+                    next_tick += self.diag_period_ns
+                self._process(decoded, begin, len(raw), writer)
+                last_log_ns = int(times[-1])
+                bar.update(len(raw))
+            if next_tick is not None:            # the final state, at the last message
+                self._tick(last_log_ns, writer)
+            bar.close()
+            return bag.reader_kind
+
+    def _process(self, decoded: interfaces.JointBatch, begin: int, end: int,
+                 writer: Any) -> None:
+        """Messages begin..end-1 of a decoded batch: estimator, then diagnostics code."""
+        if end <= begin:
+            return
+        batch = decoded.messages(begin, end)
+        for reason, count in batch.rejected.items():
+            self.pipeline.reject_message(reason, count)
+        estimates = self.pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
+                                           batch.motor_effort, batch.load_velocity,
+                                           batch.load_effort)
+        self.samples += end - begin
+        records: list[interfaces.Vector3Out] = []     # in the order the nodes publish them
+        for estimate in estimates:
+            self.estimates.append(estimate)
+            records += interfaces.estimate_outputs(estimate)
+            state = self.assessor.on_estimate(estimate)
+            if state is not None:
+                self.states.append(state)
+                records += interfaces.health_outputs(state)
+        if writer is not None:
+            writer.write_outputs(records)
+
+    def _tick(self, stamp_ns: int, writer: Any) -> None:
+        """The /diagnostics array the estimator and diagnostics nodes would publish."""
+        statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, self.samples)]
+        latest = self.assessor.latest
+        if latest is not None:
+            statuses.append(interfaces.health_status(latest, self.transmission_name,
+                                                     self.hardware_id))
+            self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
+        if writer is not None:
+            writer.write_output(interfaces.DiagnosticsOut(stamp_ns, tuple(statuses)))
+
+    def _summary(self, bags: list[Path], readers: list[str], elapsed: float
+                 ) -> dict[str, Any]:
+        summary = self.pipeline.summary()
+        latest = self.assessor.latest
+        dropped = dict(self.assessor.rejected)
+        if latest is None:
+            health: dict[str, Any] = {'level': 'none', 'first_seen_ns': self.first_seen,
+                                      'dropped': dropped}
+        else:
+            health = {'level': LEVEL_NAMES[latest.level], 'message': latest.message,
+                      'values': dict(interfaces.health_key_values(latest)),
+                      'first_seen_ns': self.first_seen, 'dropped': dropped}
+        one = len(bags) == 1
+        summary.update({
+            'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': self.topic,
+            'messages': self.samples, 'reader': readers[0] if one else readers,
+            'seconds': elapsed,
+            'samples_per_second': self.samples / elapsed if elapsed > 0 else math.inf,
+            'windows_measured': len(self.measurements),
+            'config': self.estimator_config.as_dict(), 'health': health,
+        })
+        return summary
+
+
+def _json(value: Any) -> Any:
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return str(value)
+
+
+class _NoProgress:
+    def update(self, n: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def _progress(total: int, disabled: bool) -> Any:
+    if disabled:
+        return _NoProgress()
+    from tqdm import tqdm
+    return tqdm(total=total, unit='msg', unit_scale=True, file=sys.stderr, mininterval=0.5,
+                desc='analyze')

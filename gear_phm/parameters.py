@@ -1,0 +1,116 @@
+"""One way to specify a parameter: :class:`ParamSpec` (no ROS imports).
+
+Every parameter of gear_phm, of a node, a config dataclass or the CLI, is a ``ParamSpec``:
+name, default, description, unit and range (or choices). The same spec declares the ROS
+parameter with its ParameterDescriptor (:func:`gear_phm.nodes.common.declare_parameters`),
+builds the ``--kebab-case`` CLI option (:mod:`gear_phm.cli.options`), validates values
+(:meth:`ParamSpec.check`) and generates the README tables. Cross-field rules live in the
+config dataclasses, which call :func:`check_values` first.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+Value = bool | int | float | str
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """A named parameter: ``default`` fixes its type (bool, int, float or str).
+
+    ``low``/``high`` are inclusive bounds of a number (None: unbounded); ``choices`` the
+    allowed strings; ``unit`` is SI ('-' dimensionless, '' for text and flags);
+    ``read_only`` parameters are fixed once a node has started.
+    """
+
+    name: str
+    default: Value
+    description: str
+    unit: str = ''
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] = ()
+    read_only: bool = False
+
+    @property
+    def kind(self) -> type:
+        """bool, int, float or str."""
+        return type(self.default)
+
+    @property
+    def text(self) -> str:
+        """Description with its unit, e.g. ``prior std dev of u [-]``."""
+        return f'{self.description} [{self.unit}]' if self.unit else self.description
+
+    def check(self, value: Any) -> Value:
+        """``value`` converted to this parameter's type (an int is a float), or ValueError
+        naming the parameter, the rule and the value."""
+        kind = self.kind
+        if kind is bool:
+            if not isinstance(value, bool):
+                raise ValueError(f'{self.name} must be true or false, got {value!r}')
+            return value
+        if kind is str:
+            if not isinstance(value, str):
+                raise ValueError(f'{self.name} must be a string, got {value!r}')
+            if self.choices and value not in self.choices:
+                raise ValueError(f'{self.name} must be one of {self.choices}, got {value!r}')
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            unit = f' [{self.unit}]' if self.unit else ''
+            raise ValueError(f'{self.name} must be a number{unit}, got {value!r}')
+        if kind is int and int(value) != value:
+            raise ValueError(f'{self.name} must be an integer, got {value!r}')
+        low = -math.inf if self.low is None else self.low
+        high = math.inf if self.high is None else self.high
+        if math.isnan(value) or not low <= value <= high:
+            raise ValueError(f'{self.name} must be in [{low:g}, {high:g}] {self.unit}, '
+                             f'got {value!r}')
+        return int(value) if kind is int else float(value)
+
+    def parse(self, text: str) -> Value:
+        """A command-line or YAML string as this parameter's type, checked."""
+        kind = self.kind
+        try:
+            if kind is bool:
+                lowered = text.strip().lower()
+                if lowered not in ('true', 'false', '1', '0'):
+                    raise ValueError
+                value: Value = lowered in ('true', '1')
+            elif kind is int:
+                value = int(text)
+            elif kind is float:
+                value = float(text)
+            else:
+                value = text
+        except ValueError:
+            raise ValueError(f'{self.name} needs a {kind.__name__}, got {text!r}') from None
+        return self.check(value)
+
+
+def spec_map(specs: Iterable[ParamSpec]) -> dict[str, ParamSpec]:
+    """``{name: spec}``; ValueError on a name given twice."""
+    table: dict[str, ParamSpec] = {}
+    for spec in specs:
+        if spec.name in table:
+            raise ValueError(f'parameter {spec.name} is specified twice')
+        table[spec.name] = spec
+    return table
+
+
+def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[str, Value]:
+    """Each value of ``values`` checked by the spec of its name (ValueError on an unknown
+    name or a bad value)."""
+    table = spec_map(specs)
+    unknown = sorted(set(values) - set(table))
+    if unknown:
+        raise ValueError(f'unknown parameter(s) {unknown}; known: {sorted(table)}')
+    return {name: table[name].check(value) for name, value in values.items()}
+
+
+def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
+    """``{name: default}``."""
+    return {spec.name: spec.default for spec in specs}

@@ -1,0 +1,140 @@
+"""Health assessment of a stream of friction estimates, shared by the diagnostics node and
+``gear-phm analyze`` (no ROS).
+
+Feed every :class:`~gear_phm.estimation.FrictionEstimate` to :meth:`HealthAssessor.on_estimate`;
+it returns the :class:`HealthState` of that update: end of life, RUL with its 5 %/95 % bounds,
+divergence and the level. STALE is applied by the caller's clock with
+:meth:`HealthState.as_stale`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from gear_phm.estimation.records import FrictionEstimate
+from gear_phm.models.lever import efficiencies
+from gear_phm.prognostics.config import HealthConfig
+from gear_phm.prognostics.end_of_life import end_of_life_u
+from gear_phm.prognostics.health import DivergenceDetector, health_level
+from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend, TrendDetector
+from gear_phm.status import ERROR, LEVEL_NAMES, STALE
+
+#: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
+#: of eq 10 is ~1e-16, a 0.1 % ratio error at u = 0.05 moves eta_D by ~4e-5.
+RATIO_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class HealthState:
+    """Health at one estimate: level (OK/WARN/ERROR/STALE) and its reason (``message``),
+    the estimate's u [-] and sigma, efficiencies [-], RUL [s] with bounds, power-flow code,
+    sample counts, the end-of-life u [-] and the trend used."""
+
+    stamp_ns: int
+    level: int
+    message: str
+    u: float
+    u_sigma: float
+    eta_opposing: float
+    eta_aiding: float
+    rul: RulEstimate
+    power_flow: int
+    samples_used: int
+    samples_rejected: int
+    u_eol: float
+    trend: Trend
+
+    def as_stale(self, silence: float) -> HealthState:
+        """This status turned STALE after ``silence`` [s] without input."""
+        return replace(self, level=STALE,
+                       message=f'no estimator input for {silence:.3g} s (last: {self.message})')
+
+    @property
+    def level_name(self) -> str:
+        return LEVEL_NAMES[self.level]
+
+
+def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
+    """STALE state before any estimate arrived."""
+    nan = math.nan
+    return HealthState(stamp_ns, STALE, 'waiting for estimator output', nan, nan, nan, nan,
+                       RulEstimate(nan, nan, nan, 'none'), 0, 0, 0, u_eol, Trend())
+
+
+class HealthAssessor:
+    """End of life, RUL, divergence and level for a stream of estimates (see module doc)."""
+
+    def __init__(self, config: HealthConfig) -> None:
+        self.config = config
+        self.u_eol, self.eol_reason = end_of_life_u(
+            config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
+        self.predictor = RulPredictor(self.u_eol, config.detect_z, int(config.mc_samples),
+                                      int(config.seed))
+        self.trend_detector = TrendDetector(config.trend_window, config.accel_z,
+                                            config.min_growth)
+        self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
+                                             config.max_u_sigma)
+        self.latest: HealthState | None = None
+        self.rejected: dict[str, int] = {}
+
+    def _trend(self) -> Trend:
+        if self.config.trend == 'linear':
+            return Trend()
+        fitted = self.trend_detector.fit()
+        if self.config.trend == 'exponential' and fitted.model != 'exponential':
+            return Trend('exponential', max(fitted.k, 0.0), fitted.k_sigma,
+                         fitted.curvature_z, fitted.growth)
+        return fitted
+
+    def on_estimate(self, estimate: FrictionEstimate) -> HealthState | None:
+        """Process one update; None (counted in ``rejected``) if it is unusable."""
+        p_uu = estimate.covariance[0]
+        if not (math.isfinite(estimate.u) and math.isfinite(estimate.rate)
+                and all(math.isfinite(p) for p in estimate.covariance)):
+            self.rejected['non_finite_estimate'] = self.rejected.get('non_finite_estimate',
+                                                                     0) + 1
+            return None
+        if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
+            self.trend_detector.reset()                    # replay restarted
+            self.divergence.reset()
+        u_sigma = math.sqrt(max(p_uu, 0.0))
+        if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
+            # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
+            eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
+            estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
+        self.trend_detector.add(estimate.t, estimate.u, p_uu)
+        divergence = self.divergence.update(estimate.innovation, estimate.innovation_variance,
+                                            estimate.nis, u_sigma)
+        trend = self._trend()
+        rul = self.predictor.predict_from(estimate.u, estimate.rate, *estimate.covariance,
+                                          trend)
+        level, message = health_level(estimate.u, self.u_eol, self.eol_reason,
+                                      estimate.eta_opposing, self.config.eta_warn, rul.p5,
+                                      self.config.warn_horizon, divergence)
+        if level == 0 and rul.model != 'none':
+            message = f'ok; {rul.model} trend, RUL {rul.median:.4g} s'
+        mismatch = self._ratio_mismatch(estimate)
+        if mismatch:
+            level, message = ERROR, mismatch
+        self.latest = HealthState(estimate.stamp_ns, level, message, estimate.u, u_sigma,
+                                  estimate.eta_opposing, estimate.eta_aiding, rul,
+                                  estimate.power_flow, estimate.samples_used,
+                                  estimate.samples_rejected, self.u_eol, trend)
+        return self.latest
+
+    def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:
+        """'' or why the estimator's ratio differs from this assessor's.
+
+        The estimator reports eta_D at u with its own ratio; eq 10 inverted for R gives
+        R = u / (1 - eta_D (1 + u)). End of life is a u computed with this assessor's ratio,
+        so two different ratios would put it at the wrong u, silently. Not decidable at
+        u ~ 0, where eta_D = 1 for every R.
+        """
+        expected, _ = efficiencies(estimate.u, self.config.ratio)
+        if not (math.isfinite(expected) and math.isfinite(estimate.eta_opposing)) \
+                or abs(expected - estimate.eta_opposing) <= RATIO_TOLERANCE:
+            return ''
+        denominator = 1.0 - estimate.eta_opposing * (1.0 + estimate.u)
+        implied = estimate.u / denominator if denominator != 0.0 else math.inf
+        return (f'ratio mismatch: the estimator\'s efficiencies imply ratio {implied:.6g}, '
+                f'the diagnostics ratio is {self.config.ratio:.6g}; set the same ratio on both')

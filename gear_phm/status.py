@@ -1,0 +1,42 @@
+"""Status reports of the pure logic: levels and key-value records (no ROS, no topic names).
+
+The levels are diagnostic_msgs/DiagnosticStatus's (OK 0, WARN 1, ERROR 2, STALE 3); a
+:class:`StatusOut` is what diagnostic_updater's DiagnosticStatusWrapper holds. The transports
+(:mod:`gear_phm.interfaces` for bags, :mod:`gear_phm.nodes.transport` live) turn it into a
+message; the estimator and the health assessor produce it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
+
+
+@dataclass(frozen=True)
+class StatusOut:
+    """One DiagnosticStatus: level (:data:`LEVEL_NAMES`), name, message, hardware id and
+    KeyValue pairs (decimal strings, see :func:`format_value`)."""
+
+    level: int
+    name: str
+    message: str
+    hardware_id: str
+    values: tuple[tuple[str, str], ...] = ()
+
+
+def format_value(value: float | int | str) -> str:
+    """KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
+    value = float(value)
+    if math.isnan(value):
+        return 'nan'
+    if math.isinf(value):
+        return 'inf' if value > 0 else '-inf'
+    return repr(value)
