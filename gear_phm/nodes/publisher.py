@@ -35,9 +35,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from gear_phm.bagio import BagError, BagReader
-from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, JOINT_STATE_TYPE, JOINT_STATES, OK,
-                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, WARN,
+from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, JOINT_STATE_TYPE, JOINT_STATES,
+                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE,
                                  decode_joint_states)
+from gear_phm.status import OK, WARN
 from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare, run_node,
                                    stamp, status_msg)
 from gear_phm.simulation import (PARAMETERS, SimulationConfig, Simulator,
