@@ -87,7 +87,8 @@ class ParamSpec:
             else:
                 value = text
         except ValueError:
-            raise ValueError(f'{self.name} needs a {kind.__name__}, got {text!r}') from None
+            what = {bool: 'true or false', int: 'an integer', float: 'a number'}[kind]
+            raise ValueError(f'{self.name} needs {what}, got {text!r}') from None
         return self.check(value)
 
 
