@@ -20,6 +20,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'monitor': ('gear_phm.cli.monitor', 'run publisher, estimator and diagnostics in one '
                                         'process'),
     'recover': ('gear_phm.cli.recover', 'rebuild a recording after a crash (kill -9)'),
+    'fleet': ('gear_phm.cli.fleet', 'analyse a fleet: one folder of recordings per unit, in '
+                                    'parallel on Dask'),
 }
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the truth topics every N-th sample (1)')
     parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
                         help='MCAP chunk compression (zstd)')
+    fleet = parser.add_argument_group(
+        'fleet: --out becomes a tree of unit folders, each with --recordings bags of '
+        '--duration seconds of operation separated by --gap seconds of idle time')
+    fleet.add_argument('--fleet', type=int, default=0, metavar='N',
+                       help='simulate N units instead of one bag (0)')
+    fleet.add_argument('--recordings', type=int, default=1, metavar='M',
+                       help='recordings per unit (1)')
+    fleet.add_argument('--gap', type=float, default=7 * 86400.0,
+                       help='idle time between recordings [s] (one week)')
+    fleet.add_argument('--unit-spread', type=float, default=0.2,
+                       help='unit-to-unit relative spread of --friction-initial and '
+                            '--wear-rate (0.2)')
     group = parser.add_argument_group('simulation parameters (as the publisher node\'s)')
     for name, (default, description, _, _) in PARAMETERS.items():
         kind = type(default)
@@ -120,10 +133,13 @@ def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns:
 
 def write_simulation(out: Path, config: SimulationConfig, duration: float, rate: float,
                      start_time: float = 0.0, names: tuple[str, str] = ('motor', 'load'),
-                     truth_every: int = 1, compression: str | None = 'zstd') -> int:
+                     truth_every: int = 1, compression: str | None = 'zstd',
+                     operating_offset: float = 0.0) -> int:
     """Simulate ``duration`` [s] at ``rate`` [Hz] into the rosbag2 directory ``out``.
 
-    Returns the number of samples. Deterministic: no wall-clock flushes, fixed stamps.
+    The plant's clock (wear, duty cycle) starts at ``operating_offset`` [s]: a recording
+    that continues a life after idle time. Returns the number of samples. Deterministic: no
+    wall-clock flushes, fixed stamps.
     """
     count = int(math.floor(duration * rate + 1e-9))
     start_ns = int(round(start_time * 1e9))
@@ -136,17 +152,71 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
             index = np.arange(first, min(first + CHUNK, count))
             # integer-nanosecond stamps, no accumulated rounding: stamp_k = start + k/rate
             stamps_ns = start_ns + np.round(index * (1e9 / rate)).astype(np.int64)
-            result = simulator.sample((stamps_ns - start_ns) * 1e-9)
+            result = simulator.sample(operating_offset + (stamps_ns - start_ns) * 1e-9)
             _write_chunk(writer, result, stamps_ns, first, list(names), truth_every)
     return count
 
 
+def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -> int:
+    """Units ``unit_00``... with ``--recordings`` bags each and ``truth.yaml``; returns the
+    number of samples written."""
+    import yaml
+    rng = np.random.default_rng(config.seed)
+    total = 0
+    for unit in range(args.fleet):
+        spread = args.unit_spread
+        initial = float(config.wear.initial * np.exp(spread * rng.standard_normal()))
+        rate = float(config.wear.rate * np.exp(spread * rng.standard_normal()))
+        wear = replace(config.wear, initial=initial, rate=rate)
+        unit_config = replace(config, wear=wear)
+        folder = out / f'unit_{unit:02d}'
+        starts = []
+        for k in range(args.recordings):
+            start = args.start_time + k * (args.duration + args.gap)
+            starts.append(start)
+            recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k)
+            total += write_simulation(
+                folder / f'rec_{k:03d}', recording, args.duration, args.rate, start,
+                (args.motor_joint, args.load_joint), args.truth_every,
+                None if args.compression == 'none' else args.compression,
+                operating_offset=k * args.duration)
+        truth = {'ratio': config.plant.ratio, 'plant': config.plant.efficiency_model,
+                 'wear': {'kind': wear.kind, 'initial': initial, 'rate': rate,
+                          't_fault': wear.t_fault, 'step': wear.step},
+                 'recording_duration_s': args.duration, 'gap_s': args.gap,
+                 'recording_start_s': starts, 'rate_hz': args.rate, 'seed': config.seed,
+                 'note': 'wear advances with operating time only: the friction value of the '
+                         'plant at operating time s is wear(s); recording k covers '
+                         'operating time [k d, (k + 1) d), d = recording_duration_s'}
+        (folder / 'truth.yaml').write_text(yaml.safe_dump(truth, sort_keys=False))
+    return total
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
-    config = _config(args)
     out: Path = args.out
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise CliError(f'--out {out} exists and is not an empty directory')
+    if args.fleet:
+        if args.fleet < 0 or args.recordings < 1 or not args.gap >= 0 \
+                or not args.unit_spread >= 0:
+            raise CliError('--fleet, --recordings must be >= 1 and --gap, --unit-spread >= 0, '
+                           f'got {args.fleet}, {args.recordings}, {args.gap}, '
+                           f'{args.unit_spread}')
+        # the life spans all recordings: --friction-final is reached at the last one's end
+        args.duration, single = args.duration * args.recordings, args.duration
+        config = _config(args)
+        args.duration = single
+        try:
+            count = write_fleet(out, config, args)
+        except ValueError as exc:
+            raise CliError(str(exc)) from None
+        except (OSError, BagError) as exc:
+            raise CliError(f'cannot write {out}: {exc}') from None
+        print(f'wrote {args.fleet} units x {args.recordings} recordings, {count} samples, '
+              f'to {out}')
+        return 0
+    config = _config(args)
     try:
         count = write_simulation(out, config, args.duration, args.rate, args.start_time,
                                  (args.motor_joint, args.load_joint), args.truth_every,

@@ -50,6 +50,9 @@ class EstimatorPipeline:
         self.samples_used = 0
         self.samples_rejected = 0
         self.windows_used = 0
+        #: Time with motion [s]: sums of sample intervals (up to sensor_timeout) that end at a
+        #: moving, finite sample; idle time and gaps between recordings do not count.
+        self.operating_time = 0.0
         self._max_stamp: int | None = None
         self._last_group_stamp: int | None = None     # stamp of the newest estimate [ns]
         self._reset_estimator()
@@ -189,7 +192,11 @@ class EstimatorPipeline:
         t_ok = t[timely]
         if t_ok.size:
             last = self._t(self._last_stamp) if self._last_stamp is not None else t_ok[0]
-            gaps = np.diff(np.concatenate(([last], t_ok))) > c.sensor_timeout
+            steps = np.diff(np.concatenate(([last], t_ok)))
+            gaps = steps > c.sensor_timeout
+            # operating time: sample intervals that end in motion, not across a gap
+            self.operating_time += float(np.sum(steps[~gaps & ~zero_speed[timely]
+                                                      & finite[timely]]))
             n_gaps = int(np.count_nonzero(gaps))
             if self.timed_out and gaps[0]:
                 n_gaps -= 1         # already counted by on_silence
@@ -309,6 +316,7 @@ class EstimatorPipeline:
             'eta_opposing': eta_d, 'eta_aiding': eta_i,
             'last_measured_efficiency': self._last_eta,
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
+            'operating_time_s': self.operating_time,
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,
             'counts': dict(self.counts), 'timed_out': self.timed_out,
         }

@@ -1,0 +1,247 @@
+"""Many transmissions: one folder of recordings per unit, analysed in parallel on Dask.
+
+:func:`analyze_fleet` finds the units (the sub-folders of a root), runs
+:func:`~gear_phm.offline.analyze_bag` over each unit's recordings as one campaign, on a Dask
+cluster (a local one sized to the machine, or an existing one by its scheduler address), and
+writes the fleet table (Parquet and CSV, one row per unit) and the fleet plot. Each unit is one
+Dask task, so a unit's result does not depend on the number of workers or the order in which
+they finish: the table of a run on 2 workers is byte for byte the table of a serial run.
+
+A unit folder holds rosbag2 directories and/or ``.mcap``, ``.db3``, ``.bag`` files, and an
+optional ``unit.yaml`` of per-unit options (``ratio``, ``motor_joint``, ``load_joint``,
+``topic``, and any estimator or health parameter by name), which override the fleet-wide ones.
+A unit that cannot be analysed (no recording, a corrupt bag, bad options) gets a row with level
+``FAILED`` and the reason; the others complete.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import resource
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Columns of the fleet table, in order.
+COLUMNS = ('unit', 'recordings', 'operating_time_s', 'u', 'u_sigma', 'eta_opposing',
+           'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s', 'level', 'reason')
+#: Points of each unit's u trend kept for the fleet plot.
+TREND_POINTS = 200
+BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
+
+
+class FleetError(ValueError):
+    """The fleet as a whole cannot be analysed (e.g. no unit folder): one line."""
+
+
+@dataclass(frozen=True)
+class UnitResult:
+    """One unit: its table row, its u trend (t [s], u, sigma) and the worker's peak RSS."""
+
+    row: dict[str, Any]
+    trend: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
+    peak_rss_mib: float
+
+
+def unit_recordings(unit: Path) -> list[Path]:
+    """The recordings of a unit folder: rosbag2 directories (with metadata.yaml) and bag files,
+    sorted by name (analyze_bag orders them by start time)."""
+    found = []
+    for entry in sorted(unit.iterdir()):
+        if entry.is_dir() and (entry / 'metadata.yaml').is_file():
+            found.append(entry)
+        elif entry.is_file() and entry.suffix in BAG_SUFFIXES:
+            found.append(entry)
+    return found
+
+
+def discover_units(root: Path) -> list[Path]:
+    """Unit folders: the sub-directories of ``root`` that are not themselves a bag."""
+    if not root.is_dir():
+        raise FleetError(f'fleet root {root} is not a directory')
+    units = [p for p in sorted(root.iterdir())
+             if p.is_dir() and not (p / 'metadata.yaml').is_file() and not p.name.startswith('.')]
+    if not units:
+        raise FleetError(f'fleet root {root} has no unit folder (one sub-folder per unit)')
+    return units
+
+
+def unit_options(unit: Path, fleet_options: dict[str, Any]) -> dict[str, Any]:
+    """Fleet-wide options overridden by the unit's ``unit.yaml`` (ValueError if malformed)."""
+    options = dict(fleet_options)
+    path = unit / 'unit.yaml'
+    if path.is_file():
+        import yaml
+        try:
+            loaded = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise ValueError(f'{path}: not valid YAML ({" ".join(str(exc).split())})') from None
+        if loaded is None:
+            loaded = {}
+        if not isinstance(loaded, dict):
+            raise ValueError(f'{path}: expected a mapping of option: value')
+        options.update(loaded)
+    return options
+
+
+def _failed(name: str, recordings: int, reason: str) -> dict[str, Any]:
+    row: dict[str, Any] = {column: math.nan for column in COLUMNS}
+    row.update(unit=name, recordings=recordings, level='FAILED', reason=reason)
+    return row
+
+
+def analyze_unit(unit: Path, fleet_options: dict[str, Any],
+                 out: Path | None = None) -> UnitResult:
+    """One unit's row (never raises on the unit's data: a failure is a FAILED row)."""
+    from gear_phm.offline.engine import AnalysisError, analyze_bag
+    recordings = unit_recordings(unit)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    empty: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())
+    if not recordings:
+        return UnitResult(_failed(unit.name, 0, f'no recording in {unit}'), empty, peak)
+    try:
+        options = unit_options(unit, fleet_options)
+        ratio = options.pop('ratio', None)
+        if ratio is None:
+            raise ValueError('no ratio: give --ratio or ratio in unit.yaml')
+        analysis = analyze_bag(recordings, float(ratio), out=out, plot=False, progress=False,
+                               **options)
+    except (AnalysisError, ValueError, TypeError, OSError) as exc:
+        return UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
+                          empty, peak)
+    s = analysis.summary
+    health = s['health']
+    values = health.get('values', {})
+    row = {'unit': unit.name, 'recordings': len(recordings),
+           'operating_time_s': float(s.get('operating_time_s', math.nan)),
+           'u': float(s['u']), 'u_sigma': float(s['sigma_u']),
+           'eta_opposing': float(s['eta_opposing']), 'eta_aiding': float(s['eta_aiding']),
+           'rul_s': float(values.get('rul_s', 'nan')),
+           'rul_p5_s': float(values.get('rul_p5_s', 'nan')),
+           'rul_p95_s': float(values.get('rul_p95_s', 'nan')),
+           'level': health['level'], 'reason': health.get('message', '')}
+    e = analysis.estimates
+    keep = np.unique(np.linspace(0, e.u.size - 1, min(TREND_POINTS, e.u.size)).astype(int))
+    trend = (tuple((e.t[keep] - e.t[0]).tolist()), tuple(e.u[keep].tolist()),
+             tuple(e.u_sigma[keep].tolist()))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return UnitResult(row, trend, peak)
+
+
+def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
+              scheduler: str | None, workers: int | None,
+              on_done: Callable[[], None] = lambda: None) -> list[UnitResult]:
+    """Each unit as one Dask task; results in unit order. ``scheduler``: address of an
+    existing cluster, else a local one with ``workers`` processes (default: one per core)."""
+    from dask.distributed import Client, LocalCluster, as_completed
+    outs = [None if out is None else out / 'units' / unit.name for unit in units]
+    if scheduler:
+        client = Client(scheduler)
+        cluster = None
+    else:
+        import os
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                               processes=True, dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+    try:
+        futures = [client.submit(analyze_unit, unit, options, unit_out, pure=False,
+                                 key=f'gear-phm-unit-{unit.name}-{i}')
+                   for i, (unit, unit_out) in enumerate(zip(units, outs))]
+        order = {future.key: i for i, future in enumerate(futures)}
+        results: list[UnitResult | None] = [None] * len(futures)
+        for future in as_completed(futures):
+            results[order[future.key]] = future.result()
+            on_done()
+        return [r for r in results if r is not None]
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def write_table(rows: list[dict[str, Any]], out: Path) -> None:
+    """``fleet.csv`` and ``fleet.parquet`` (one row per unit, :data:`COLUMNS`)."""
+    with open(out / 'fleet.csv', 'w', newline='') as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in row.items()})
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    table = pa.table({column: [row[column] for row in rows] for column in COLUMNS})
+    pq.write_table(table, out / 'fleet.parquet')
+
+
+def plot_fleet(results: list[UnitResult], path: Path, title: str) -> None:
+    """Units ranked by RUL with their p5-p95 bands (left), the u trends (right)."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    ok = [r for r in results if r.row['level'] != 'FAILED']
+    ranked = sorted(ok, key=lambda r: (r.row['rul_s'], r.row['unit']))
+    fig, (ax_rul, ax_u) = plt.subplots(1, 2, figsize=(13, max(4.0, 0.28 * len(ranked) + 2)))
+    colours = {'OK': 'C2', 'WARN': 'C1', 'ERROR': 'C3', 'STALE': 'C7'}
+    finite_hi = [r.row['rul_p95_s'] for r in ranked if math.isfinite(r.row['rul_p95_s'])]
+    cap = max(finite_hi) * 1.1 if finite_hi else 1.0
+    for y, r in enumerate(ranked):
+        row = r.row
+        median, p5, p95 = (min(row[k], cap) if math.isfinite(row[k]) else cap
+                           for k in ('rul_s', 'rul_p5_s', 'rul_p95_s'))
+        colour = colours.get(row['level'], 'k')
+        ax_rul.plot([p5, p95], [y, y], color=colour, lw=4, alpha=0.4)
+        ax_rul.plot([median], [y], 'o', color=colour)
+    ax_rul.set_yticks(range(len(ranked)), [r.row['unit'] for r in ranked], fontsize=7)
+    ax_rul.set_xlabel('RUL [s] (median, p5-p95; beyond the axis = no wear detected)')
+    ax_rul.set_title('units ranked by RUL (colour = level)')
+    ax_rul.grid(alpha=0.3)
+    for r in ranked:
+        t, u, _ = (np.array(v) for v in r.trend)
+        if t.size:
+            ax_u.plot(t, u, lw=1, color=colours.get(r.row['level'], 'k'), alpha=0.7)
+    ax_u.set_xlabel('time since the first recording [s]')
+    ax_u.set_ylabel('friction parameter u [-]')
+    ax_u.set_title('u trends')
+    ax_u.grid(alpha=0.3)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = None,
+                  scheduler: str | None = None, workers: int | None = None,
+                  progress: bool = False, unit_outputs: bool = True,
+                  **options: Any) -> list[UnitResult]:
+    """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty):
+    ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker memory) and,
+    with ``unit_outputs``, each unit's analysis under ``units/<unit>/``."""
+    root, out = Path(root), Path(out)
+    units = discover_units(root)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise FleetError(f'--out {out} exists and is not an empty directory')
+    fleet_options = dict(options)
+    if ratio is not None:
+        fleet_options['ratio'] = float(ratio)
+    out.mkdir(parents=True, exist_ok=True)
+    bar: Any = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(units), unit='unit', file=sys.stderr, desc='fleet')
+    results = run_units(units, fleet_options, out if unit_outputs else None, scheduler,
+                        workers, on_done=(bar.update if bar is not None else lambda: None))
+    if bar is not None:
+        bar.close()
+    rows = [r.row for r in results]
+    write_table(rows, out)
+    plot_fleet(results, out / 'fleet.png', f'gear-phm fleet {root.name}: {len(rows)} units')
+    (out / 'fleet_run.json').write_text(json.dumps({
+        'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
+        'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1) for r in results},
+        'max_peak_rss_mib': round(max(r.peak_rss_mib for r in results), 1),
+    }, indent=2) + '\n')
+    return results

@@ -1,0 +1,80 @@
+"""gear-phm simulate --fleet and gear-phm fleet: units in parallel on Dask, bad units reported,
+results independent of the number of workers."""
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+pytestmark = pytest.mark.timeout(600)
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([str(GEAR_PHM), *args], capture_output=True, text=True, timeout=500)
+
+
+@pytest.fixture(scope='module')
+def fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp('fleet') / 'root'
+    result = run('simulate', '--fleet', '3', '--recordings', '2', '--duration', '40',
+                 '--gap', '86400', '--wear', 'linear', '--friction-initial', '0.05',
+                 '--wear-rate', '1e-3', '--seed', '4', '--out', str(root))
+    assert result.returncode == 0, result.stderr
+    (root / 'unit_empty').mkdir()                                  # no recording
+    broken = root / 'unit_broken'
+    broken.mkdir()
+    (broken / 'rec.mcap').write_bytes(b'\x89MCAP0\r\n' + b'\x00' * 100)   # corrupt bag
+    (root / 'unit_02' / 'unit.yaml').write_text('ratio: 30.0\n')       # per-unit option
+    return root
+
+
+def read_rows(path: Path) -> dict[str, dict[str, str]]:
+    with open(path / 'fleet.csv', newline='') as handle:
+        return {row['unit']: row for row in csv.DictReader(handle)}
+
+
+def test_fleet_table_bad_units_and_worker_independence(fleet: Path, tmp_path: Path) -> None:
+    one, two = tmp_path / 'one', tmp_path / 'two'
+    result = run('fleet', str(fleet), '--ratio', '3.0', '--out', str(two), '--workers', '2',
+                 '--eta-opposing-min', '0.7333', '--eta-warn', '0.8')
+    assert result.returncode == 0, result.stderr
+    assert 'unit unit_broken: FAILED' in result.stderr and 'unit_empty: FAILED' in result.stderr
+    result = run('fleet', str(fleet), '--ratio', '3.0', '--out', str(one), '--workers', '1',
+                 '--eta-opposing-min', '0.7333', '--eta-warn', '0.8', '--no-unit-outputs')
+    assert result.returncode == 0, result.stderr
+    # one task per unit: the table does not depend on the number of workers
+    assert (one / 'fleet.csv').read_bytes() == (two / 'fleet.csv').read_bytes()
+    assert (one / 'fleet.parquet').read_bytes() == (two / 'fleet.parquet').read_bytes()
+    rows = read_rows(two)
+    assert list(rows) == ['unit_00', 'unit_01', 'unit_02', 'unit_broken', 'unit_empty']
+    assert rows['unit_empty']['reason'].startswith('no recording in')
+    assert rows['unit_broken']['level'] == 'FAILED' and rows['unit_broken']['reason']
+    for unit in ('unit_00', 'unit_01'):
+        row = rows[unit]
+        assert row['recordings'] == '2' and row['level'] in ('OK', 'WARN', 'ERROR')
+        # about 40 s of life per recording, u near 0.05 + 1e-3 * 80 s of operation
+        assert 0.09 < float(row['u']) < 0.2
+        assert 55.0 < float(row['operating_time_s']) <= 80.0
+        assert float(row['rul_p5_s']) <= float(row['rul_s']) <= float(row['rul_p95_s'])
+    # unit_02 was analysed with its own ratio 30 (unit.yaml): another u for the same data
+    assert abs(float(rows['unit_02']['u']) - float(rows['unit_01']['u'])) > 0.01
+    assert (two / 'fleet.png').stat().st_size > 10_000
+    assert (two / 'units' / 'unit_00' / 'summary.json').is_file()
+    assert not (one / 'units').exists()
+    import pyarrow.parquet as pq
+    table = pq.read_table(two / 'fleet.parquet')
+    assert table.column_names[:3] == ['unit', 'recordings', 'operating_time_s']
+    assert table.num_rows == 5
+
+
+def test_fleet_bad_root_is_one_line(tmp_path: Path) -> None:
+    (tmp_path / 'empty').mkdir()
+    result = run('fleet', str(tmp_path / 'empty'), '--ratio', '3', '--out', str(tmp_path / 'o'))
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        f'gear-phm fleet: error: fleet root {tmp_path / "empty"} has no unit folder '
+        '(one sub-folder per unit)']
