@@ -1,0 +1,285 @@
+"""The README's commands, run verbatim, so that the README cannot drift from the code.
+
+Every ```bash block under the README headings in SECTIONS is split into commands (one per
+line, backslash continuations joined; `&&` parts listed in NOT_RUN are left out, with their
+reason). Each runs with ``bash -c`` in a fresh working directory that holds a copy of
+``bags/`` and ``config/`` and a ``.venv`` link to the environment running this test, so that
+``.venv/bin/...`` is ``Path(sys.executable).parent``. Outputs stay in that directory.
+
+Commands that finish by themselves must exit 0. Node commands, which run until stopped, are
+started together, watched until they publish what the README says they do, stopped with
+SIGINT as the README says, and must exit 0.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from gear_phm.bagio import BagReader
+
+REPO = Path(__file__).resolve().parents[1]
+README = REPO / 'README.md'
+SECTIONS = ('Quick start', 'Live: three nodes over topics', 'Offline')
+#: `&&` parts of README commands that are not run, with the reason.
+NOT_RUN = {
+    'bash .ci/setup': 'creates .venv, in which this test suite already runs',
+    '.venv/bin/python -m pytest -q': 'the test suite itself (recursion)',
+}
+#: Executables that run until stopped (a replay or a simulation without duration).
+NODE_COMMANDS = re.compile(r'^\.venv/bin/(publisher|estimator|diagnostics|gear-phm monitor)\b')
+ONE_SHOT_TIMEOUT = 300.0
+NODE_TIMEOUT = 120.0
+
+
+def readme_section(title: str) -> str:
+    text = README.read_text(encoding='utf-8')
+    match = re.search(rf'^## {re.escape(title)}\n(.*?)(?=^## |\Z)', text, re.M | re.S)
+    assert match, f'README has no section "## {title}"'
+    return match.group(1)
+
+
+def readme_commands(title: str) -> list[str]:
+    """The commands of the section's ```bash blocks, in order, without the NOT_RUN parts."""
+    commands = []
+    for block in re.findall(r'^```bash\n(.*?)^```', readme_section(title), re.M | re.S):
+        for line in block.replace('\\\n', ' ').splitlines():
+            parts = [p.strip() for p in line.split(' && ')]
+            kept = [p for p in parts if p and p not in NOT_RUN]
+            if kept:
+                commands.append(' && '.join(kept))
+    return commands
+
+
+@pytest.fixture
+def workdir(tmp_path: Path) -> Path:
+    """A fresh directory with copies of bags/ and config/ and .venv -> this environment."""
+    for name in ('bags', 'config'):
+        shutil.copytree(REPO / name, tmp_path / name)
+    (tmp_path / '.venv').symlink_to(Path(sys.executable).parent.parent,
+                                    target_is_directory=True)
+    assert (tmp_path / '.venv' / 'bin' / 'gear-phm').exists()
+    return tmp_path
+
+
+def run_one_shot(command: str, cwd: Path) -> subprocess.CompletedProcess:
+    done = subprocess.run(['bash', '-c', command], cwd=cwd, capture_output=True, text=True,
+                          timeout=ONE_SHOT_TIMEOUT, env=os.environ.copy())
+    assert done.returncode == 0, f'{command}\nexit {done.returncode}\n{done.stderr[-3000:]}'
+    return done
+
+
+# --- what each finishing command must leave behind -------------------------------------------
+
+def check_quick_start_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    """The outputs and the health history that the quick start describes."""
+    out = cwd / 'out' / 'wearing'
+    printed = done.stdout + done.stderr
+    assert re.search(r'u = 0\.\d+ \+/- ', printed), printed                  # the final estimate
+    assert list(out.glob('*.mcap')) and (out / 'metadata.yaml').is_file()
+    assert (out / 'analysis.png').stat().st_size > 20000
+    first_seen = json.loads((out / 'summary.json').read_text())['health']['first_seen_ns']
+    with BagReader(cwd / 'bags' / 'wearing') as bag:
+        start_ns = bag.start_ns
+    section = readme_section('Quick start')
+    for level, claim in (('WARN', r'then WARN \((\d+) s\)'),
+                         ('ERROR', r'then ERROR at end of life \((\d+) s')):
+        match = re.search(claim, section)
+        assert match, f'the quick start no longer states when {level} comes ({claim})'
+        seen = (first_seen[level] - start_ns) * 1e-9
+        assert abs(seen - int(match.group(1))) <= 1.0, (level, seen, match.group(1))
+    assert first_seen['OK'] < first_seen['WARN'] < first_seen['ERROR']
+
+
+def check_simulate(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    with BagReader(cwd / 'out' / 'run') as bag:
+        assert bag.message_count('/joint_states') == 30000          # 300 s at 100 Hz
+        assert '/gear_phm/truth/friction' in bag.topics
+
+
+def check_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    summary = json.loads((cwd / 'out' / 'run-analysis' / 'summary.json').read_text())
+    assert summary['messages'] == 30000 and math.isfinite(summary['u'])
+
+
+def check_evaluate(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    assert 'alpha-lambda' in done.stdout + done.stderr
+    assert json.loads((cwd / 'out' / 'run-analysis' / 'evaluation.json').read_text())
+
+
+def check_regenerate(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    """The three sample bags are rewritten in place with the committed topics and counts
+    (the byte-for-byte comparison is test_simulate_cli's)."""
+    for name in ('healthy', 'wearing', 'fault'):
+        with BagReader(cwd / 'bags' / name) as new, BagReader(REPO / 'bags' / name) as old:
+            assert new.topics == old.topics
+            for topic in old.topics:
+                assert new.message_count(topic) == old.message_count(topic), (name, topic)
+
+
+#: (pattern of a README command, the check of its results).
+CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], ...] = (
+    (r'^\.venv/bin/gear-phm analyze bags/wearing .*--out out/wearing', check_quick_start_analyze),
+    (r'^\.venv/bin/gear-phm simulate --out out/run ', check_simulate),
+    (r'^\.venv/bin/gear-phm analyze out/run ', check_analyze),
+    (r'^\.venv/bin/gear-phm evaluate out/run-analysis ', check_evaluate),
+    (r'^bash bags/regenerate\.sh\b', check_regenerate),
+)
+
+
+def run_section_one_shots(title: str, cwd: Path) -> list[str]:
+    """Run the section's finishing commands in order, with their checks; return the node
+    commands, which run until stopped."""
+    nodes = []
+    for command in readme_commands(title):
+        if NODE_COMMANDS.match(command):
+            nodes.append(command)
+            continue
+        done = run_one_shot(command, cwd)
+        for pattern, check in CHECKS:
+            if re.search(pattern, command):
+                check(cwd, done)
+    return nodes
+
+
+def test_readme_sections_hold_the_documented_commands() -> None:
+    """The parser finds what the README shows; each check below matches a README command."""
+    commands = {title: readme_commands(title) for title in SECTIONS}
+    assert commands['Quick start'] and commands['Offline']
+    assert all(not c.startswith('bash .ci/setup') for cs in commands.values() for c in cs)
+    every = [c for cs in commands.values() for c in cs]
+    for pattern, check in CHECKS:
+        assert any(re.search(pattern, c) for c in every), f'{check.__name__}: {pattern}'
+    assert sum(bool(NODE_COMMANDS.match(c)) for c in commands['Live: three nodes over topics']) \
+        == 4
+
+
+def test_quick_start_commands(workdir: Path) -> None:
+    assert run_section_one_shots('Quick start', workdir) == []
+
+
+def test_offline_commands(workdir: Path) -> None:
+    nodes = run_section_one_shots('Offline', workdir)
+    assert len(nodes) == 1          # the replay publisher: test_offline_node_commands
+
+
+# --- commands that run until stopped ---------------------------------------------------------
+
+class Seen:
+    """What an in-process subscriber received: joint_states count, health status values."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.joint_states = 0
+        self.health: list[dict[str, str]] = []
+
+    def on_joint_state(self, msg: Any) -> None:
+        with self.lock:
+            self.joint_states += 1
+
+    def on_diagnostics(self, msg: Any) -> None:
+        with self.lock:
+            self.health += [{kv.key: kv.value for kv in s.values} for s in msg.status
+                            if s.name == 'gear_phm: gearbox']
+
+    def estimate_reported(self) -> bool:
+        with self.lock:
+            return any(math.isfinite(float(v.get('u', 'nan'))) for v in self.health)
+
+
+@contextmanager
+def listening() -> Iterator[Seen]:
+    """Subscribe to joint_states and /diagnostics in this process (own rclpy context)."""
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    context = rclpy.Context()
+    rclpy.init(args=[], context=context)
+    node = rclpy.create_node('readme_commands_listener', context=context)
+    seen = Seen()
+    node.create_subscription(JointState, 'joint_states', seen.on_joint_state,
+                             qos_profile_sensor_data)
+    node.create_subscription(DiagnosticArray, '/diagnostics', seen.on_diagnostics,
+                             QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        yield seen
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        thread.join(timeout=5.0)
+
+
+def run_until_stopped(commands: list[str], cwd: Path, ready: Callable[[], bool],
+                      what: str) -> None:
+    """Start the commands together, wait for ``ready``, SIGINT them all, expect exit 0."""
+    processes = [subprocess.Popen(['bash', '-c', c], cwd=cwd, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, env=os.environ.copy(),
+                                  start_new_session=True) for c in commands]
+    try:
+        deadline = time.monotonic() + NODE_TIMEOUT
+        while not ready():
+            exited = [(c, p.poll()) for c, p in zip(commands, processes) if p.poll() is not None]
+            assert not exited, f'exited before {what}: {exited}'
+            assert time.monotonic() < deadline, f'no {what} within {NODE_TIMEOUT} s'
+            time.sleep(0.1)
+        for process in processes:
+            os.killpg(process.pid, signal.SIGINT)
+        for command, process in zip(commands, processes):
+            _, stderr = process.communicate(timeout=60.0)
+            assert process.returncode == 0, f'{command}\nexit {process.returncode}\n{stderr}'
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.communicate()
+
+
+@pytest.mark.integration
+def test_offline_node_commands(workdir: Path) -> None:
+    """The replay publisher publishes the bag's joint_states (it waits for this subscriber)."""
+    commands = [c for c in readme_commands('Offline') if NODE_COMMANDS.match(c)]
+    assert [c.split()[0] for c in commands] == ['.venv/bin/publisher']
+    with listening() as seen:
+        run_until_stopped(commands, workdir, lambda: seen.joint_states >= 100,
+                          '100 joint_states messages')
+
+
+@pytest.mark.integration
+def test_live_commands(workdir: Path) -> None:
+    """The three nodes started as the README shows, then gear-phm monitor: each reports an
+    estimate on /diagnostics, stops cleanly on SIGINT, and monitor's recording is readable."""
+    commands = readme_commands('Live: three nodes over topics')
+    nodes = [c for c in commands if not c.startswith('.venv/bin/gear-phm monitor')]
+    monitor = [c for c in commands if c.startswith('.venv/bin/gear-phm monitor')]
+    assert len(nodes) == 3 and len(monitor) == 1
+    with listening() as seen:
+        run_until_stopped(nodes, workdir, seen.estimate_reported,
+                          'estimate on /diagnostics from the three nodes')
+    with listening() as seen:
+        run_until_stopped(monitor, workdir, seen.estimate_reported,
+                          'estimate on /diagnostics from gear-phm monitor')
+    record = re.search(r'record_path:=(\S+)', monitor[0])
+    assert record, monitor[0]
+    with BagReader(workdir / record.group(1)) as bag:
+        assert bag.message_count('/diagnostics') >= 1
