@@ -47,8 +47,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('publish_rate', 10.0,
               'output rate in sample time between filter updates (0: only at updates)', 'Hz',
               0.0, 1e4),
-    ParamSpec('backwards_policy', 'reset', "stamps going backwards (bag loop): 'reset' the "
-              "estimator or 'skip' the samples", choices=('reset', 'skip')),
+    ParamSpec('backwards_policy', 'reset', 'stamps going backwards (bag loop): reset the '
+              'estimator or skip the samples', choices=('reset', 'skip')),
 )
 _D = defaults(PARAMETERS)
 

@@ -74,7 +74,7 @@ def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]
         low, high = spec.low, spec.high
         if spec.kind is float and high is not None:
             high = min(high, 1e300)              # a FloatingPointRange holds no inf
-        constraints = f'one of {", ".join(spec.choices)}' if spec.choices else ''
+        constraints = f'one of {", ".join(map(repr, spec.choices))}' if spec.choices else ''
         try:
             value = declare(node, spec.name, spec.default, spec.text, low=low, high=high,
                             constraints=constraints, read_only=spec.read_only)

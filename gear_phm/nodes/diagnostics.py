@@ -54,10 +54,10 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'must not exist or be empty', read_only=True),
     ParamSpec('record_inputs', False, 'also record the five estimator input topics',
               read_only=True),
-    ParamSpec('record_compression', '', 'MCAP chunk compression: "" (none), zstd or lz4',
+    ParamSpec('record_compression', '', 'MCAP chunk compression ("": none)',
               choices=('', 'zstd', 'lz4'), read_only=True),
-    ParamSpec('record_flush_period', 0.5, 'the recording is flushed at least this often (data '
-              'older than this survives kill -9)', 's', 0.01, 60.0, read_only=True),
+    ParamSpec('record_flush_period', 0.5, 'the recording is flushed at least this often, so '
+              'data older than this survives kill -9', 's', 0.01, 60.0, read_only=True),
 )
 
 

@@ -31,7 +31,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when du/dt > detect_z sigma(du/dt); '
               'otherwise RUL = inf', '-', 0.0, 100.0),
-    ParamSpec('trend', 'auto', f'RUL trend model, one of {TRENDS}', choices=TRENDS),
+    ParamSpec('trend', 'auto', 'RUL trend model', choices=TRENDS),
     ParamSpec('trend_window', 600.0, 'length of the u history used to detect acceleration',
               's', 1e-3, 1e12),
     ParamSpec('accel_z', 3.0, 'exponential trend when the fitted curvature of u(t) exceeds '
