@@ -45,3 +45,9 @@ def test_bench_monitor_vs_processes_tiny() -> None:
     out = run('monitor_vs_processes.py', '--bag', str(BENCH.parent / 'bags' / 'healthy'),
               '--rate-factor', '40')
     assert '| three processes (baseline) |' in out and '`gear-phm monitor`' in out
+
+
+def test_bench_fleet_scale_tiny() -> None:
+    out = run('fleet_scale.py', '--units', '2', '--recordings', '2', '--duration', '5',
+              '--repeat', '1')
+    assert '| 2 |' in out and 'core-hours' in out and '| yes |' in out
