@@ -131,12 +131,28 @@ def check_regenerate(cwd: Path, done: subprocess.CompletedProcess) -> None:
 
 
 #: (pattern of a README command, the check of its results).
+def check_simulate_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    units = sorted(p.name for p in (cwd / 'out' / 'fleet').iterdir())
+    assert units == ['unit_00', 'unit_01', 'unit_02'], units
+    assert len(list((cwd / 'out' / 'fleet' / 'unit_00').glob('rec_*'))) == 4
+
+
+def check_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    out = cwd / 'out' / 'fleet-analysis'
+    rows = (out / 'fleet.csv').read_text().splitlines()
+    assert rows[0].startswith('unit,recordings,operating_time_s,u,u_sigma,eta_opposing')
+    assert len(rows) == 4 and all(',4,' in row for row in rows[1:])
+    assert (out / 'fleet.parquet').is_file() and (out / 'fleet.png').is_file()
+
+
 CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], ...] = (
     (r'^\.venv/bin/gear-phm analyze bags/wearing .*--out out/wearing', check_quick_start_analyze),
     (r'^\.venv/bin/gear-phm simulate --out out/run ', check_simulate),
     (r'^\.venv/bin/gear-phm analyze out/run ', check_analyze),
     (r'^\.venv/bin/gear-phm evaluate out/run-analysis ', check_evaluate),
     (r'^bash bags/regenerate\.sh\b', check_regenerate),
+    (r'^\.venv/bin/gear-phm simulate --fleet ', check_simulate_fleet),
+    (r'^\.venv/bin/gear-phm fleet out/fleet ', check_fleet),
 )
 
 
