@@ -140,13 +140,17 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
     existing cluster, else a local one with ``workers`` processes (default: one per core)."""
     from dask.distributed import Client, LocalCluster, as_completed
     outs = [None if out is None else out / 'units' / unit.name for unit in units]
+    scratch = None
     if scheduler:
         client = Client(scheduler)
         cluster = None
     else:
         import os
+        import tempfile
+        scratch = tempfile.TemporaryDirectory(prefix='gear-phm-dask-')   # not in the cwd
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                               processes=True, dashboard_address=None, silence_logs=40)
+                               processes=True, dashboard_address=None, silence_logs=40,
+                               local_directory=scratch.name)
         client = Client(cluster)
     try:
         futures = [client.submit(analyze_unit, unit, options, unit_out, pure=False,
@@ -162,6 +166,8 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
         client.close()
         if cluster is not None:
             cluster.close()
+        if scratch is not None:
+            scratch.cleanup()
 
 
 def write_table(rows: list[dict[str, Any]], out: Path) -> None:
