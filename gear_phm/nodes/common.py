@@ -12,7 +12,6 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
@@ -138,11 +137,12 @@ class DropCounter:
 
 
 def stopped_by_signal(exc: BaseException) -> bool:
-    """True for a clean stop: Ctrl-C/SIGTERM, or an RCLError raised because a signal shut the
-    context down while a callback was publishing. Any other error is real."""
+    """True for a clean stop: Ctrl-C/SIGTERM, or a RuntimeError raised because a signal shut
+    the context down while a callback was publishing (rclpy's error for "context is invalid"
+    is a RuntimeError; its own class is not public API). Any other error is real."""
     if isinstance(exc, (KeyboardInterrupt, ExternalShutdownException)):
         return True
-    return isinstance(exc, RCLError) and not rclpy.ok()
+    return isinstance(exc, RuntimeError) and not rclpy.ok()
 
 
 def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
