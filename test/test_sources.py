@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import itertools
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 
 from gear_phm.bagio import BagReader
 from gear_phm.simulation import PARAMETERS, config_from_parameters, sample_times, simulate
-from gear_phm.sources import Recorded, Sample, SourceError
+from gear_phm.sources import PASS_END, Recorded, Sample, SourceError, read_ahead
 from gear_phm.sources import replay as replay_module
 from gear_phm.sources.replay import ReplaySource
 from gear_phm.sources.simulate import SimulateSource
@@ -108,16 +109,18 @@ def test_replay_source_streams_the_bag_without_bad_messages_pass_after_pass(
     assert source.dropped == {'missing_joint': 143}
     first_ns = kept[0][1]
     one_pass_ns = (kept[-1][1] - first_ns) + 10**7           # plus the median period
-    items = list(itertools.islice(source.items(), 2 * len(kept) + 1))
-    assert source.loops == 2                       # the third pass has begun
+    per_pass = len(kept) + 1                       # and PASS_END
+    items = list(itertools.islice(source.items(), 2 * per_pass + 1))
     for k in range(2):
-        for (elapsed, item), (topic, t_ns, raw) in zip(items[k * len(kept):], kept):
+        this_pass = items[k * per_pass:(k + 1) * per_pass]
+        for (elapsed, item), (topic, t_ns, raw) in zip(this_pass, kept, strict=False):
             assert isinstance(item, Recorded)
             assert elapsed == t_ns - first_ns + k * one_pass_ns
             assert (item.log_ns, item.raw) == (t_ns, raw)
             assert item.channel == ('joint_states' if topic == '/joint_states'
                                     else 'truth_friction')
-    assert items[-1][0] == 2 * one_pass_ns
+        assert this_pass[-1] == ((k + 1) * one_pass_ns, PASS_END)
+    assert items[-1] == (2 * one_pass_ns, items[0][1])    # the third pass starts over
     assert source.describe() == [('bag', str(path)), ('topic', '/joint_states'),
                                  ('rate_factor', 1.0)]
 
@@ -126,9 +129,12 @@ def test_replay_source_without_truth_and_from_an_offset() -> None:
     source = ReplaySource(str(HEALTHY), motor_joint='motor', load_joint='load',
                           start_offset=119.0, replay_truth=False, rate_factor=4.0)
     items = list(source.items())
-    assert source.speed == 4.0 and source.loops == 1 and source.dropped == {}
-    assert [item.channel for _, item in items] == ['joint_states'] * 100
-    assert [elapsed for elapsed, _ in items] == [k * 10**7 for k in range(100)]
+    assert source.speed == 4.0 and source.dropped == {}
+    assert items[-1] == (100 * 10**7, PASS_END)                  # one pass, not looping
+    recorded = [item for _, item in items[:-1]]
+    assert [item.channel for item in recorded if isinstance(item, Recorded)] == \
+        ['joint_states'] * 100
+    assert [elapsed for elapsed, _ in items[:-1]] == [k * 10**7 for k in range(100)]
 
 
 @pytest.mark.parametrize('kwargs, message', [
@@ -144,3 +150,31 @@ def test_replay_source_refuses_with_one_line(kwargs: dict[str, object], message:
     with pytest.raises(SourceError, match=message) as raised:
         ReplaySource(arguments.pop('bag_path'), **arguments)
     assert '\n' not in str(raised.value)
+
+
+def test_read_ahead_keeps_order_raises_in_place_and_stops_its_thread() -> None:
+    assert list(read_ahead(iter(range(1000)), batches=2)) == list(range(1000))
+
+    def failing():
+        yield from range(300)
+        raise ValueError('the gearbox jams')
+
+    got: list[int] = []
+    with pytest.raises(ValueError, match='the gearbox jams'):
+        for value in read_ahead(failing()):
+            got.append(value)
+    assert got == list(range(300))                  # every item before the error
+
+    closed = []
+
+    def endless():
+        try:
+            yield from itertools.count()
+        finally:
+            closed.append(True)
+
+    reader = read_ahead(endless(), batches=2)
+    assert list(itertools.islice(reader, 10)) == list(range(10))
+    reader.close()
+    assert closed == [True]                         # the source was closed by its reader
+    assert not [t for t in threading.enumerate() if t.name == 'source-read-ahead']

@@ -18,11 +18,13 @@ percentiles on /diagnostics. See docs/publisher.md.
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from collections import deque
 from collections.abc import Sequence
 from contextlib import closing
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -43,13 +45,16 @@ from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, JOINT_STATES, OK, TRUTH_EFF
 from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare, run_node,
                                    stamp, status_msg)
 from gear_phm.simulation import PARAMETERS
-from gear_phm.sources import Recorded, Sample, Source, SourceError, one_line
+from gear_phm.sources import (PassEnd, Recorded, Sample, Source, SourceError, one_line,
+                              read_ahead)
 from gear_phm.sources.replay import ReplaySource
 from gear_phm.sources.simulate import SimulateSource
 
 MODES = ('simulate', 'replay')
 #: Jitter samples kept for the percentiles.
 JITTER_WINDOW = 100_000
+#: Python thread switch interval of the publisher process [s].
+GIL_SWITCH_INTERVAL_S = 0.001
 
 
 #: Node-only parameters: (name, default, description, low, high); the simulation ones
@@ -136,6 +141,7 @@ class PublisherNode(Node):
         self.add_on_set_parameters_callback(self._refuse_changes)
         self.counter = DropCounter()
         self.published = 0
+        self.loops = 0
         self.jitter = JitterStats()
         self.state = 'starting'
         self.finished = threading.Event()
@@ -242,13 +248,19 @@ class PublisherNode(Node):
         plus the same scaled time.
         """
         speed = self.source.speed
-        wall0 = time.monotonic()
-        stamp0 = self.get_clock().now().nanoseconds
-        with closing(self.source.items()) as items:
-            for elapsed_ns, item in items:
+        with closing(read_ahead(self.source.items())) as items:
+            first = next(items, None)           # the clock starts once the source delivers
+            if first is None:
+                return
+            wall0 = time.monotonic()
+            stamp0 = self.get_clock().now().nanoseconds
+            for elapsed_ns, item in chain([first], items):
                 scaled_ns = elapsed_ns / speed
                 scheduled = wall0 + scaled_ns * 1e-9
                 new_stamp_ns = stamp0 + int(round(scaled_ns))
+                if isinstance(item, PassEnd):
+                    self.loops += 1
+                    continue
                 if isinstance(item, Sample):
                     sent = self._publish_sample(item, new_stamp_ns, scheduled)
                 else:
@@ -319,7 +331,7 @@ class PublisherNode(Node):
             and not self.wait_timed_out
         level = OK if healthy else WARN
         extra = [('mode', self.mode), ('state', self.state),
-                 ('messages_published', self.published), ('loops', self.source.loops),
+                 ('messages_published', self.published), ('loops', self.loops),
                  ('jitter_p50_ms', p50 * 1e3), ('jitter_p99_ms', p99 * 1e3),
                  ('jitter_max_ms', worst * 1e3),
                  ('subscribers', self.joint_pub.get_subscription_count()),
@@ -358,6 +370,10 @@ def _spin(node: PublisherNode) -> None:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point (``ros2 run gear_phm publisher``); returns the exit status."""
+    # The pacing thread must get the interpreter back within 1 ms (default 5 ms) while the
+    # read-ahead thread parses a bag chunk: replay at 6000 messages/s, p99 jitter 1.2-1.8 ms
+    # instead of 3.7-7.3 ms. This process runs only this node.
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     return run_node(PublisherNode, args=args, spin=_spin)
 
 

@@ -2,8 +2,9 @@
 
 A source yields ``(elapsed_ns, item)`` pairs in order, lazily: ``elapsed_ns`` is the source
 time since its first item [ns] (before any speed-up), ``item`` either a :class:`Sample` (one
-simulated instant: joint states and the truth) or a :class:`Recorded` message (CDR bytes from
-a bag, published as they are). Sources are free of ROS: they never publish, sleep or read a
+simulated instant: joint states and the truth), a :class:`Recorded` message (CDR bytes from
+a bag, published as they are), or :data:`PASS_END` after the last message of each pass
+through a bag. Sources are free of ROS: they never publish, sleep or read a
 clock. The node (:mod:`gear_phm.nodes.publisher`) owns everything live: the clock, pacing,
 stamps, QoS, publishers and /diagnostics.
 
@@ -19,9 +20,11 @@ Both check their configuration when built and raise :class:`SourceError` with on
 """
 from __future__ import annotations
 
-from collections.abc import Generator, Sequence
+import queue
+import threading
+from collections.abc import Generator, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, Protocol, TypeVar
 
 #: Output of a recorded message: joint states, or one of the two truth topics.
 Channel = Literal['joint_states', 'truth_friction', 'truth_efficiency']
@@ -60,7 +63,15 @@ class Recorded:
     raw: bytes
 
 
-Item = Sample | Recorded
+@dataclass(frozen=True, slots=True)
+class PassEnd:
+    """Marks the end of one pass through a recording (a looping replay makes many)."""
+
+
+#: The one PassEnd instance.
+PASS_END = PassEnd()
+
+Item = Sample | Recorded | PassEnd
 
 
 class Source(Protocol):
@@ -72,8 +83,6 @@ class Source(Protocol):
     speed: float
     #: Messages left out when the source was built, by reason (e.g. ``missing_joint``).
     dropped: dict[str, int]
-    #: Completed passes (a looping replay); 0 otherwise.
-    loops: int
 
     def items(self) -> Generator[tuple[int, Item], None, None]:
         """``(elapsed_ns, item)`` in order, until the source ends (never, if unbounded)."""
@@ -84,4 +93,66 @@ class Source(Protocol):
         ...
 
 
-__all__ = ['Channel', 'Item', 'Recorded', 'Sample', 'Source', 'SourceError', 'one_line']
+_T = TypeVar('_T')
+#: Items handed from the read-ahead thread to the consumer at a time.
+READ_AHEAD_BATCH = 256
+_END = object()
+
+
+def read_ahead(items: Iterator[_T], batches: int = 40) -> Generator[_T, None, None]:
+    """Yield ``items`` in order, read ahead by a background thread.
+
+    The thread stays at most ``batches`` x READ_AHEAD_BATCH items ahead. A pacing consumer
+    needs this: rosbags reads a bag chunk by chunk, a burst of up to ~70 ms per chunk (and a
+    simulation is computed in chunks), which must not fall between two sends. An exception of
+    ``items`` is raised here after the items before it. Closing this generator stops the
+    thread and closes ``items`` (if it is a generator).
+    """
+    handoff: queue.Queue[Any] = queue.Queue(maxsize=batches)
+    stop = threading.Event()
+
+    def put(entry: object) -> bool:
+        while not stop.is_set():
+            try:
+                handoff.put(entry, timeout=0.1)
+                return True
+            except queue.Full:
+                pass
+        return False
+
+    def read() -> None:
+        batch: list[_T] = []
+        try:
+            for item in items:
+                batch.append(item)
+                if len(batch) >= READ_AHEAD_BATCH:
+                    if not put(batch):
+                        return
+                    batch = []
+            if put(batch):
+                put(_END)
+        except BaseException as exc:  # noqa: BLE001 handed to the consumer, raised there
+            if put(batch):
+                put(exc)
+        finally:
+            close = getattr(items, 'close', None)
+            if close is not None:
+                close()
+
+    reader = threading.Thread(target=read, name='source-read-ahead', daemon=True)
+    reader.start()
+    try:
+        while True:
+            entry = handoff.get()
+            if entry is _END:
+                return
+            if isinstance(entry, BaseException):
+                raise entry
+            yield from entry
+    finally:
+        stop.set()
+        reader.join(timeout=5.0)
+
+
+__all__ = ['PASS_END', 'Channel', 'Item', 'PassEnd', 'Recorded', 'Sample', 'Source',
+           'SourceError', 'one_line', 'read_ahead']

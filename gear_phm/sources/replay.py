@@ -9,6 +9,7 @@ pass and yields the recorded CDR bytes unchanged.
 from __future__ import annotations
 
 from array import array
+from itertools import count
 from collections.abc import Generator, Sequence
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
                                  TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, decode_joint_states)
-from gear_phm.sources import Channel, Item, Recorded, SourceError, one_line
+from gear_phm.sources import PASS_END, Channel, Item, Recorded, SourceError, one_line
 
 #: JointState messages decoded together while checking a bag (bounds the memory of the check).
 CHECK_BATCH = 10_000
@@ -45,7 +46,6 @@ class ReplaySource:
         self.path = Path(bag_path).expanduser()
         self.speed = float(rate_factor)
         self.loop = loop
-        self.loops = 0
         self.dropped: dict[str, int] = {}
         self._joints = (motor_joint, load_joint)
         try:
@@ -115,9 +115,9 @@ class ReplaySource:
         self._pass_ns = last_ns - self._first_ns + period_ns
 
     def items(self) -> Generator[tuple[int, Item], None, None]:
-        """Read the bag again for every pass; one :class:`Recorded` per message kept."""
-        while True:
-            offset_ns = self.loops * self._pass_ns
+        """Read the bag again for every pass: one Recorded per message kept, then PASS_END."""
+        for passes in count():
+            offset_ns = passes * self._pass_ns
             with BagReader(self.path) as bag:
                 index = -1                          # position among the JointState messages
                 for topic, t_ns, raw in bag.raw_messages(list(self._channels),
@@ -128,7 +128,7 @@ class ReplaySource:
                         if index in self._rejected:
                             continue
                     yield t_ns - self._first_ns + offset_ns, Recorded(channel, t_ns, raw)
-            self.loops += 1
+            yield offset_ns + self._pass_ns, PASS_END
             if not self.loop:
                 return
 

@@ -29,7 +29,6 @@ class SimulateSource:
         self.rate = float(rate)
         self.duration = float(duration)
         self.dropped: dict[str, int] = {}
-        self.loops = 0
         if self.duration > 0.0:
             friction = float(config.wear.value(self.duration))
             _, eta_d, _ = config.plant.efficiencies(friction)
