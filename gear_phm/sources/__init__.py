@@ -1,14 +1,13 @@
 """Where the publisher node's messages come from: a simulation, or a recorded bag.
 
-A source yields ``(elapsed_ns, item)`` pairs in order, lazily: ``elapsed_ns`` is the source
-time since its first item [ns] (before any speed-up), ``item`` either a :class:`Sample` (one
-simulated instant: joint states and the truth), a :class:`Recorded` message (CDR bytes from
-a bag, published as they are), or :data:`PASS_END` after the last message of each pass
-through a bag. Sources are free of ROS: they never publish, sleep or read a
-clock. The node (:mod:`gear_phm.nodes.publisher`) owns everything live: the clock, pacing,
-stamps, QoS, publishers and /diagnostics.
-
-Split:
+A source yields ``(elapsed_ns, item)`` pairs in order, lazily. ``elapsed_ns`` is the source
+time since its first item [ns], before any speed-up. ``item`` is a :class:`Sample` (one
+simulated instant: joint states and the truth), a :class:`Recorded` message (CDR bytes from a
+bag, published as they are), or :data:`PASS_END` after the last message of each pass through a
+bag. Sources are free of ROS: they never publish, sleep or read a clock. The node
+(:mod:`gear_phm.nodes.publisher`) owns everything live: the clock and the stamps, pacing, the
+publishers and their QoS, and /diagnostics. It consumes a source through :func:`read_ahead`,
+so that the bursts in which a source produces its items never delay a send.
 
 - :mod:`gear_phm.sources.simulate`: :class:`~gear_phm.sources.simulate.SimulateSource`, the
   seeded plant of :mod:`gear_phm.simulation` sampled at a fixed rate, in chunks;
