@@ -5,6 +5,11 @@ mode ``simulate``: the seeded plant of :mod:`gear_phm.simulation` at ``rate`` [H
 mode ``replay``: the JointState topic of a rosbag2 (MCAP, sqlite3) or ROS1 bag, paced by its
 log times divided by ``rate_factor``; optionally ``/clock`` and the bag's truth topics.
 
+The messages come from a source of :mod:`gear_phm.sources` (``SimulateSource`` or
+``ReplaySource``, ROS-free, chosen by ``mode``); this node only declares the parameters, builds
+the source, and owns everything live: the clock and the stamps, pacing, the publishers and
+their QoS, and /diagnostics.
+
 Everything is validated before spinning: a bad parameter or bag prints one line on stderr and
 exits 2. Publishing runs in a dedicated thread that sleeps to each message's scheduled
 monotonic time; the lateness of every publish (actual - scheduled) is reported as jitter
@@ -13,12 +18,13 @@ percentiles on /diagnostics. See docs/publisher.md.
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass
-from pathlib import Path
+from contextlib import closing
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -34,21 +40,21 @@ from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from gear_phm.bagio import BagError, BagReader
-from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, JOINT_STATE_TYPE, JOINT_STATES,
-                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE,
-                                 decode_joint_states)
-from gear_phm.status import OK, WARN
+from gear_phm.interfaces import CLOCK, DIAGNOSTICS, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION
 from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare, run_node,
                                    stamp, status_msg)
-from gear_phm.simulation import (PARAMETERS, SimulationConfig, Simulator,
-                                 config_from_parameters)
+from gear_phm.simulation import PARAMETERS
+from gear_phm.sources import (PassEnd, Recorded, Sample, Source, SourceError, one_line,
+                              read_ahead)
+from gear_phm.sources.replay import ReplaySource
+from gear_phm.sources.simulate import SimulateSource
+from gear_phm.status import OK, WARN
 
 MODES = ('simulate', 'replay')
-#: Samples generated per simulation chunk [s of simulated time].
-SIM_CHUNK_S = 0.5
 #: Jitter samples kept for the percentiles.
 JITTER_WINDOW = 100_000
+#: Python thread switch interval of the publisher process [s].
+GIL_SWITCH_INTERVAL_S = 0.001
 
 
 #: Node-only parameters: (name, default, description, low, high); the simulation ones
@@ -101,46 +107,26 @@ class JitterStats:
         return len(self._late)
 
 
-@dataclass
-class ReplayMessage:
-    """One bag message to publish: output topic key, log time [ns], CDR payload."""
-
-    kind: str        # 'joint_states' | 'truth_friction' | 'truth_efficiency'
-    t_ns: int
-    raw: bytes
-
-
-def _flat(exc: BaseException) -> str:
-    return ' '.join(str(exc).split()) or type(exc).__name__
-
-
 class PublisherNode(Node):
     """The publisher node; all checks happen in __init__ (ConfigError with one line)."""
 
     def __init__(self) -> None:
         super().__init__('publisher')
-        self.pre_dropped: dict[str, int] = {}
-        self.topic = ''
         p = self._declare_all()
         self.mode: str = p['mode']
         self.motor_joint: str = p['motor_joint']
         self.load_joint: str = p['load_joint']
         self.wait_for_subscribers: int = p['wait_for_subscribers']
         self.wait_timeout: float = p['wait_timeout']
-        self.loop: bool = p['loop']
         self.publish_clock: bool = p['publish_clock']
         self.restamp: bool = p['restamp']
-        self.rate_factor: float = p['rate_factor']
-        self.params = p
         if self.motor_joint == self.load_joint or not self.motor_joint or not self.load_joint:
             raise ConfigError(f'motor_joint and load_joint must be two different non-empty '
                               f'names, got {self.motor_joint!r} and {self.load_joint!r}')
-        self.sim_config: SimulationConfig | None = None
-        self.replay: list[ReplayMessage] = []
-        if self.mode == 'simulate':
-            self._setup_simulation(p)
-        else:
-            self._setup_replay(p)
+        try:
+            self.source = self._make_source(p)
+        except SourceError as exc:
+            raise ConfigError(str(exc)) from None
         output = p['remap'] or JOINT_STATES
         self.joint_pub = self.create_publisher(JointState, output, OUTPUT_QOS)
         self.truth_pubs = {
@@ -164,7 +150,7 @@ class PublisherNode(Node):
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run_worker, name='publisher-pacing',
                                         daemon=True)
-        self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(1.0, self.publish_diagnostics)
 
     # -- parameters -------------------------------------------------------------------------
     def _declare_all(self) -> dict[str, Any]:
@@ -177,7 +163,7 @@ class PublisherNode(Node):
                 values[name] = declare(self, name, default, description, low=low, high=high,
                                        read_only=True)
             except ParameterException as exc:
-                raise ConfigError(f'parameter {name}: {_flat(exc)}') from None
+                raise ConfigError(f'parameter {name}: {one_line(exc)}') from None
         if values['mode'] not in MODES:
             raise ConfigError(f'parameter mode must be simulate or replay, got '
                               f'{values["mode"]!r}')
@@ -188,88 +174,18 @@ class PublisherNode(Node):
         return SetParametersResult(successful=False,
                                    reason=f'{names}: read at start only; restart the node')
 
-    # -- set-up -----------------------------------------------------------------------------
-    def _setup_simulation(self, p: dict[str, Any]) -> None:
-        try:
-            self.sim_config = config_from_parameters({n: p[n] for n in PARAMETERS})
-        except ValueError as exc:
-            raise ConfigError(f'parameter {_flat(exc)}') from None
-        if p['duration'] > 0.0:
-            friction = float(self.sim_config.wear.value(p['duration']))
-            _, eta_d, _ = self.sim_config.plant.efficiencies(friction)
-            if not float(eta_d) > 0.0:
-                raise ConfigError(f'parameter duration: friction {friction:.4g} at '
-                                  f'{p["duration"]:g} s gives eta_D <= 0 (gearbox jams)')
-
-    def _setup_replay(self, p: dict[str, Any]) -> None:
-        if not p['bag_path']:
-            raise ConfigError('parameter bag_path is empty: replay needs a bag')
-        path = Path(p['bag_path']).expanduser()
-        try:
-            with BagReader(path) as bag:
-                topic = self._pick_topic(bag, p['topic'])
-                wanted = {topic: 'joint_states'}
-                if p['replay_truth']:
-                    for truth, kind in ((TRUTH_FRICTION, 'truth_friction'),
-                                        (TRUTH_EFFICIENCY, 'truth_efficiency')):
-                        name = bag.resolve_topic(truth)
-                        if bag.topics.get(name) == VECTOR3_STAMPED_TYPE:
-                            wanted[name] = kind
-                start_ns = bag.start_ns + int(round(p['start_offset'] * 1e9))
-                if p['start_offset'] > 0 and start_ns > bag.end_ns:
-                    raise ConfigError(
-                        f'parameter start_offset {p["start_offset"]:g} s is beyond the end '
-                        f'of bag {path} ({(bag.end_ns - bag.start_ns) * 1e-9:.3f} s long)')
-                messages = [ReplayMessage(wanted[t], t_ns, raw) for t, t_ns, raw
-                            in bag.raw_messages(list(wanted), start_ns=start_ns)]
-        except BagError as exc:
-            raise ConfigError(_flat(exc)) from None
-        joints = [m for m in messages if m.kind == 'joint_states']
-        if not joints:
-            raise ConfigError(f'topic {topic} of bag {path} has no message after start_offset '
-                              f'{p["start_offset"]:g} s')
-        self.replay = self._check_joints(messages, joints, topic, path)
-        self.topic = topic
-
-    def _pick_topic(self, bag: BagReader, topic: str) -> str:
-        if topic:
-            return bag.require_topic(topic, JOINT_STATE_TYPE)
-        candidates = bag.topics_of_type(JOINT_STATE_TYPE)
-        if not candidates:
-            raise BagError(f'bag {bag.path} has no {JOINT_STATE_TYPE} topic (topics: '
-                           f'{", ".join(f"{t} [{k}]" for t, k in sorted(bag.topics.items()))})')
-        if len(candidates) == 1:
-            return candidates[0]
-        for preferred in ('/' + JOINT_STATES, JOINT_STATES):
-            if preferred in candidates:
-                return preferred
-        raise BagError(f'bag {bag.path} has several {JOINT_STATE_TYPE} topics '
-                       f'({", ".join(candidates)}): set parameter topic')
-
-    def _check_joints(self, messages: list[ReplayMessage], joints: list[ReplayMessage],
-                      topic: str, path: Path) -> list[ReplayMessage]:
-        """Drop JointState messages without both joints; ConfigError if none has them."""
-        batch = decode_joint_states([m.raw for m in joints], self.motor_joint, self.load_joint)
-        if len(batch) == len(joints):
-            return messages
-        if len(batch) == 0:
-            first = deserialize_message(joints[0].raw, JointState)
-            raise ConfigError(
-                f'joints {self.motor_joint!r} and {self.load_joint!r} (parameters motor_joint, '
-                f'load_joint) are not in the messages of {topic} in bag {path}: '
-                f'names are {list(first.name)} ({", ".join(sorted(batch.rejected))})')
-        kept = []
-        for message in messages:
-            if message.kind == 'joint_states' and not len(decode_joint_states(
-                    [message.raw], self.motor_joint, self.load_joint)):
-                continue
-            kept.append(message)
-        self.pre_dropped = dict(batch.rejected)
-        return kept
+    def _make_source(self, p: dict[str, Any]) -> Source:
+        """Build the source of ``mode``; SourceError (one line) if it cannot be built."""
+        if self.mode == 'simulate':
+            return SimulateSource.from_parameters(p, rate=p['rate'], duration=p['duration'])
+        return ReplaySource(p['bag_path'], motor_joint=self.motor_joint,
+                            load_joint=self.load_joint, topic=p['topic'],
+                            rate_factor=p['rate_factor'], start_offset=p['start_offset'],
+                            loop=p['loop'], replay_truth=p['replay_truth'])
 
     # -- running ----------------------------------------------------------------------------
     def start(self) -> None:
-        for reason, count in self.pre_dropped.items():
+        for reason, count in self.source.dropped.items():
             self.counter.dropped[reason] += count
         self._thread.start()
 
@@ -284,14 +200,11 @@ class PublisherNode(Node):
             if self._stop.is_set():
                 return
             self.state = 'running'
-            if self.mode == 'simulate':
-                self._simulate()
-            else:
-                self._replay()
+            self._play()
             self._flush()
             self.state = 'done'
         except Exception as exc:  # noqa: BLE001 reported by the main thread, exit non-zero
-            self.error = f'{type(exc).__name__}: {_flat(exc)}'
+            self.error = f'{type(exc).__name__}: {one_line(exc)}'
             self.state = 'failed'
         finally:
             self.finished.set()
@@ -328,66 +241,63 @@ class PublisherNode(Node):
         self.jitter.add(time.monotonic() - scheduled)
         publisher.publish(payload)
 
-    def _simulate(self) -> None:
-        assert self.sim_config is not None
-        simulator = Simulator(self.sim_config)
-        rate = float(self.params['rate'])
-        duration = float(self.params['duration'])
-        total = int(math.floor(duration * rate + 1e-9)) if duration > 0 else None
-        names = [self.motor_joint, self.load_joint]
-        wall0 = time.monotonic()
-        stamp0 = self.get_clock().now().nanoseconds
-        chunk = max(1, int(round(SIM_CHUNK_S * rate)))
-        index = 0
-        while total is None or index < total:
-            count = chunk if total is None else min(chunk, total - index)
-            k = np.arange(index, index + count)
-            result = simulator.sample(k / rate)
-            for i in range(count):
-                scheduled = wall0 + (index + i) / rate
-                t_ns = stamp0 + int(round((index + i) * 1e9 / rate))
-                msg = JointState()
-                msg.header.stamp = stamp(t_ns)
-                msg.name = names
-                msg.position = [float(result.position_motor[i]), float(result.position_load[i])]
-                msg.velocity = [float(result.velocity_motor[i]), float(result.velocity_load[i])]
-                msg.effort = [float(result.effort_motor[i]), float(result.effort_load[i])]
-                friction = _vector(t_ns, result.u[i], result.friction[i], 0.0)
-                efficiency = _vector(t_ns, result.eta_opposing[i], result.eta_aiding[i], 0.0)
-                if not self._sleep_until(scheduled):
-                    return
-                self._send(self.joint_pub, msg, scheduled)
-                self.truth_pubs['truth_friction'].publish(friction)
-                self.truth_pubs['truth_efficiency'].publish(efficiency)
-                self.counter.received += 1
-                self.published += 1
-            index += count
+    def _play(self) -> None:
+        """Publish the source's items, each at wall start + elapsed / speed.
 
-    def _replay(self) -> None:
-        first_ns = self.replay[0].t_ns
-        last_ns = self.replay[-1].t_ns
-        gaps = np.diff([m.t_ns for m in self.replay if m.kind == 'joint_states'])
-        period_ns = int(np.median(gaps)) if len(gaps) else 0
-        loop_ns = last_ns - first_ns + period_ns          # bag time of one pass
-        wall0 = time.monotonic()
-        stamp0 = self.get_clock().now().nanoseconds
-        while True:
-            offset_ns = self.loops * loop_ns
-            for message in self.replay:
-                bag_elapsed = (message.t_ns - first_ns + offset_ns) / self.rate_factor
-                scheduled = wall0 + bag_elapsed * 1e-9
-                if not self._sleep_until(scheduled):
-                    return
-                self._publish_replayed(message, stamp0 + int(round(bag_elapsed)), scheduled)
-            self.loops += 1
-            if not self.loop:
+        The stamp of a simulated sample or a restamped recording is the node clock at start
+        plus the same scaled time.
+        """
+        speed = self.source.speed
+        with closing(read_ahead(self.source.items())) as items:
+            first = next(items, None)           # the clock starts once the source delivers
+            if first is None:
                 return
+            wall0 = time.monotonic()
+            stamp0 = self.get_clock().now().nanoseconds
+            for elapsed_ns, item in chain([first], items):
+                scaled_ns = elapsed_ns / speed
+                scheduled = wall0 + scaled_ns * 1e-9
+                new_stamp_ns = stamp0 + int(round(scaled_ns))
+                if isinstance(item, PassEnd):
+                    self.loops += 1
+                    continue
+                if isinstance(item, Sample):
+                    sent = self._publish_sample(item, new_stamp_ns, scheduled)
+                else:
+                    sent = self._publish_recorded(item, new_stamp_ns, scheduled)
+                if not sent:
+                    return
 
-    def _publish_replayed(self, message: ReplayMessage, new_stamp_ns: int,
-                          scheduled: float) -> None:
+    def _publish_sample(self, sample: Sample, stamp_ns: int, scheduled: float) -> bool:
+        """Publish the joint states and truth of one instant at ``scheduled``.
+
+        Return False if asked to stop first.
+        """
+        msg = JointState()
+        msg.header.stamp = stamp(stamp_ns)
+        msg.name = [self.motor_joint, self.load_joint]
+        msg.position = list(sample.position)
+        msg.velocity = list(sample.velocity)
+        msg.effort = list(sample.effort)
+        friction = _vector(stamp_ns, *sample.friction, 0.0)
+        efficiency = _vector(stamp_ns, *sample.efficiency, 0.0)
+        if not self._sleep_until(scheduled):
+            return False
+        self._send(self.joint_pub, msg, scheduled)
+        self.truth_pubs['truth_friction'].publish(friction)
+        self.truth_pubs['truth_efficiency'].publish(efficiency)
         self.counter.received += 1
-        publisher = self.joint_pub if message.kind == 'joint_states' \
-            else self.truth_pubs[message.kind]
+        self.published += 1
+        return True
+
+    def _publish_recorded(self, message: Recorded, new_stamp_ns: int, scheduled: float) -> bool:
+        """Publish one bag message at ``scheduled``, with /clock before each JointState.
+
+        The bytes go out as they are, or deserialized with the new stamp (``restamp``).
+        Return False if asked to stop first.
+        """
+        publisher = self.joint_pub if message.channel == 'joint_states' \
+            else self.truth_pubs[message.channel]
         if self.restamp:
             msg = deserialize_message(message.raw, publisher.msg_type)
             msg.header.stamp = stamp(new_stamp_ns)
@@ -395,14 +305,18 @@ class PublisherNode(Node):
             clock_ns = new_stamp_ns
         else:
             payload = message.raw
-            clock_ns = message.t_ns
-        if message.kind == 'joint_states':
+            clock_ns = message.log_ns
+        if not self._sleep_until(scheduled):
+            return False
+        self.counter.received += 1
+        if message.channel == 'joint_states':
             if self.clock_pub is not None:
                 self.clock_pub.publish(Clock(clock=stamp(clock_ns)))
             self._send(publisher, payload, scheduled)
             self.published += 1
         else:
             publisher.publish(payload)
+        return True
 
     def _flush(self) -> None:
         """Wait until reliable subscribers acknowledged everything (bounded)."""
@@ -410,7 +324,8 @@ class PublisherNode(Node):
             publisher.wait_for_all_acked(Duration(seconds=5.0))
 
     # -- diagnostics --------------------------------------------------------------------------
-    def _publish_diagnostics(self) -> None:
+    def publish_diagnostics(self) -> None:
+        """Publish this node's status on /diagnostics (1 Hz, and once at the end)."""
         p50, p99, worst = self.jitter.percentiles()
         healthy = self.counter.dropped_total == 0 and self.error is None \
             and not self.wait_timed_out
@@ -419,12 +334,8 @@ class PublisherNode(Node):
                  ('messages_published', self.published), ('loops', self.loops),
                  ('jitter_p50_ms', p50 * 1e3), ('jitter_p99_ms', p99 * 1e3),
                  ('jitter_max_ms', worst * 1e3),
-                 ('subscribers', self.joint_pub.get_subscription_count())]
-        if self.mode == 'replay':
-            extra += [('bag', str(self.params['bag_path'])), ('topic', self.topic),
-                      ('rate_factor', self.rate_factor)]
-        else:
-            extra += [('rate_hz', self.params['rate'])]
+                 ('subscribers', self.joint_pub.get_subscription_count()),
+                 *self.source.describe()]
         status = self.counter.status(f'gear_phm publisher: {self.get_name()}',
                                      self.mode, level, self.error or self.state, extra)
         msg = DiagnosticArray()
@@ -448,7 +359,7 @@ def _spin(node: PublisherNode) -> None:
     finally:
         node.stop()
     if node.finished.is_set():
-        node._publish_diagnostics()
+        node.publish_diagnostics()
         p50, p99, worst = node.jitter.percentiles()
         node.get_logger().info(
             f'{node.state}: published {node.published} messages, jitter p50 '
@@ -459,6 +370,10 @@ def _spin(node: PublisherNode) -> None:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point (``ros2 run gear_phm publisher``); returns the exit status."""
+    # The pacing thread must get the interpreter back within 1 ms (default 5 ms) while the
+    # read-ahead thread parses a bag chunk: replay at 6000 messages/s, p99 jitter 1.2-1.8 ms
+    # instead of 3.7-7.3 ms. This process runs only this node.
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     return run_node(PublisherNode, args=args, spin=_spin)
 
 

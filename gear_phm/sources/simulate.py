@@ -1,0 +1,70 @@
+"""Simulate source: the seeded plant of :mod:`gear_phm.simulation` at a fixed sample rate."""
+from __future__ import annotations
+
+import math
+from collections.abc import Generator, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from gear_phm.simulation import PARAMETERS, SimulationConfig, Simulator, config_from_parameters
+from gear_phm.sources import Item, Sample, SourceError, one_line
+
+#: Samples generated per simulation chunk [s of simulated time].
+SIM_CHUNK_S = 0.5
+
+
+class SimulateSource:
+    """Samples k = 0, 1, ... at elapsed time round(k 1e9 / rate) [ns].
+
+    ``duration`` [s] > 0 stops after floor(duration rate) samples; 0 runs until the consumer
+    stops.
+    """
+
+    mode = 'simulate'
+    speed = 1.0
+
+    def __init__(self, config: SimulationConfig, rate: float, duration: float) -> None:
+        self.config = config
+        self.rate = float(rate)
+        self.duration = float(duration)
+        self.dropped: dict[str, int] = {}
+        if self.duration > 0.0:
+            friction = float(config.wear.value(self.duration))
+            _, eta_d, _ = config.plant.efficiencies(friction)
+            if not float(eta_d) > 0.0:
+                raise SourceError(f'parameter duration: friction {friction:.4g} at '
+                                  f'{self.duration:g} s gives eta_D <= 0 (gearbox jams)')
+
+    @classmethod
+    def from_parameters(cls, values: Mapping[str, Any], rate: float,
+                        duration: float) -> SimulateSource:
+        """Build from the flat simulation parameters (names of gear_phm.simulation.PARAMETERS)."""
+        try:
+            config = config_from_parameters({name: values[name] for name in PARAMETERS})
+        except ValueError as exc:
+            raise SourceError(f'parameter {one_line(exc)}') from None
+        return cls(config, rate, duration)
+
+    def items(self) -> Generator[tuple[int, Item], None, None]:
+        """One :class:`Sample` per sample time; a jam of an unbounded run raises ValueError."""
+        simulator = Simulator(self.config)
+        rate = self.rate
+        total = int(math.floor(self.duration * rate + 1e-9)) if self.duration > 0 else None
+        chunk = max(1, int(round(SIM_CHUNK_S * rate)))
+        index = 0
+        while total is None or index < total:
+            count = chunk if total is None else min(chunk, total - index)
+            r = simulator.sample(np.arange(index, index + count) / rate)
+            columns = zip(r.position_motor.tolist(), r.position_load.tolist(),
+                          r.velocity_motor.tolist(), r.velocity_load.tolist(),
+                          r.effort_motor.tolist(), r.effort_load.tolist(), r.u.tolist(),
+                          r.friction.tolist(), r.eta_opposing.tolist(), r.eta_aiding.tolist())
+            for i, (pm, pl, vm, vl, em, el, u, friction, eta_d, eta_i) in enumerate(columns):
+                elapsed_ns = int(round((index + i) * 1e9 / rate))
+                yield elapsed_ns, Sample((pm, pl), (vm, vl), (em, el), (u, friction),
+                                         (eta_d, eta_i))
+            index += count
+
+    def describe(self) -> Sequence[tuple[str, Any]]:
+        return [('rate_hz', self.rate)]

@@ -1,0 +1,82 @@
+"""Stopping nodes: what counts as a clean stop, and a publisher stopped by a signal exits 0."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+PUBLISHER = Path(sys.executable).parent / 'publisher'
+
+
+def test_stopped_by_signal_only_for_signals_and_a_shut_down_context() -> None:
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+    from std_msgs.msg import String
+
+    from gear_phm.nodes.common import stopped_by_signal
+
+    context_error = None
+    rclpy.init()
+    try:
+        node = rclpy.create_node('test_stopped_by_signal')
+        publisher = node.create_publisher(String, 'test_stopped_by_signal', 10)
+        assert not stopped_by_signal(RuntimeError('a real failure while running'))
+        rclpy.shutdown()                 # what rclpy's SIGINT/SIGTERM handler does
+        try:
+            publisher.publish(String())  # a timer callback that was just publishing
+        except Exception as exc:  # noqa: BLE001 the error rclpy raises is what is tested
+            context_error = exc
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown()
+    assert context_error is not None, 'publish on a shut-down context did not raise'
+    assert stopped_by_signal(context_error)
+    assert stopped_by_signal(KeyboardInterrupt())
+    assert stopped_by_signal(ExternalShutdownException())
+    assert not stopped_by_signal(ValueError('bad data'))       # not a RuntimeError
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_running_publisher_stopped_by_signal_exits_0(sig: signal.Signals) -> None:
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+
+    topic = f'shutdown_test_{sig.name.lower()}'
+    received: list[int] = []
+    rclpy.init()
+    node = rclpy.create_node('test_publisher_shutdown')
+    node.create_subscription(JointState, topic, lambda _m: received.append(1),
+                             QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    process = subprocess.Popen(
+        [str(PUBLISHER), '--ros-args', '-p', f'remap:={topic}', '-p', 'rate:=200.0'],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=os.environ.copy())
+    try:
+        deadline = time.monotonic() + 30.0
+        while len(received) < 50 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.02)
+        assert len(received) >= 50, 'the publisher never published'
+        process.send_signal(sig)
+        _, stderr = process.communicate(timeout=20)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
+        spinner.join(timeout=5.0)
+    assert process.returncode == 0, stderr
+    assert 'Traceback' not in stderr and 'error' not in stderr.lower(), stderr
