@@ -318,8 +318,7 @@ def test_config_file_lists_every_parameter_with_its_default_and_type() -> None:
     from gear_phm.simulation import PARAMETERS
     params = yaml.safe_load((REPO / 'config' / 'publisher.yaml').read_text())
     params = params['publisher']['ros__parameters']        # keyed by node name
-    expected = {name: default for name, default, *_ in NODE_PARAMETERS}
-    expected.update({name: spec[0] for name, spec in PARAMETERS.items()})
+    expected = {spec.name: spec.default for spec in NODE_PARAMETERS + PARAMETERS}
     assert set(params) == set(expected)
     for name, default in expected.items():
         assert type(params[name]) is type(default), name     # 30.0, not 30

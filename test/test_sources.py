@@ -22,7 +22,7 @@ VECTOR3 = 'geometry_msgs/msg/Vector3Stamped'
 
 
 def defaults(**overrides: object) -> dict[str, object]:
-    values: dict[str, object] = {name: spec[0] for name, spec in PARAMETERS.items()}
+    values: dict[str, object] = {spec.name: spec.default for spec in PARAMETERS}
     values.update(overrides)
     return values
 

@@ -58,14 +58,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help='unit-to-unit relative spread of --friction-initial and '
                             '--wear-rate (0.2)')
     group = parser.add_argument_group('simulation parameters (as the publisher node\'s)')
-    for name, (default, description, _, _) in PARAMETERS.items():
-        kind = type(default)
-        group.add_argument('--' + name.replace('_', '-'), dest=name, type=kind,
-                           default=default, help=f'{description} ({default})')
+    for spec in PARAMETERS:
+        group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name, type=spec.kind,
+                           default=spec.default, choices=spec.choices or None,
+                           help=f'{spec.text} ({spec.default})')
 
 
 def _config(args: argparse.Namespace) -> SimulationConfig:
-    values = {name: getattr(args, name) for name in PARAMETERS}
+    values = {spec.name: getattr(args, spec.name) for spec in PARAMETERS}
     if args.friction_final is not None:
         if args.wear not in ('linear', 'exponential'):
             raise CliError(f'--friction-final needs --wear linear or exponential, '

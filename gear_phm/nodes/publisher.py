@@ -24,6 +24,7 @@ import time
 from collections import deque
 from collections.abc import Sequence
 from contextlib import closing
+from dataclasses import replace
 from itertools import chain
 from typing import Any
 
@@ -32,7 +33,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.duration import Duration
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
@@ -41,8 +41,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import CLOCK, DIAGNOSTICS, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION
-from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare, run_node,
+from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare_parameters,
+                                   run_node,
                                    stamp, status_msg)
+from gear_phm.parameters import ParamSpec
 from gear_phm.simulation import PARAMETERS
 from gear_phm.sources import (PassEnd, Recorded, Sample, Source, SourceError, one_line,
                               read_ahead)
@@ -57,33 +59,33 @@ JITTER_WINDOW = 100_000
 GIL_SWITCH_INTERVAL_S = 0.001
 
 
-#: Node-only parameters: (name, default, description, low, high); the simulation ones
-#: come from gear_phm.simulation.PARAMETERS.
-NODE_PARAMETERS: tuple[tuple[str, Any, str, float | None, float | None], ...] = (
-    ('mode', 'simulate', 'simulate | replay', None, None),
-    ('motor_joint', 'motor', 'name of the motor joint in JointState', None, None),
-    ('load_joint', 'load', 'name of the load joint in JointState', None, None),
-    ('rate', 100.0, 'simulate: sample rate [Hz]', 1e-3, 10000.0),
-    ('duration', 0.0, 'simulate: run length [s]; 0 runs until shut down', 0.0, None),
-    ('bag_path', '', 'replay: rosbag2 directory, .mcap/.db3 in one, or ROS1 .bag',
-     None, None),
-    ('topic', '', 'replay: JointState topic in the bag; empty = auto-detect', None,
-     None),
-    ('remap', '', 'output topic of the joint states; empty = joint_states', None, None),
-    ('rate_factor', 1.0, 'replay: speed-up of the bag time [-], > 0', 1e-3, 1000.0),
-    ('loop', False, 'replay: start again at the end', None, None),
-    ('start_offset', 0.0, 'replay: skip this much of the bag start [s]', 0.0, None),
-    ('publish_clock', False, 'replay: publish /clock with the message stamps', None,
-     None),
-    ('restamp', False, 'replay: stamp messages with the node clock (start time + '
-                       'scaled bag time) instead of the bag stamps', None, None),
-    ('replay_truth', True, 'replay: also replay gear_phm/truth/* topics if present',
-     None, None),
-    ('wait_for_subscribers', 1, 'wait for this many joint_states subscribers before '
-                                'the first message', 0, 1000),
-    ('wait_timeout', 10.0, 'give up waiting for subscribers after this long and '
-                           'start anyway [s]; 0 waits forever', 0.0, None),
+#: Node-only parameters; the simulation ones are :data:`gear_phm.simulation.PARAMETERS`
+#: (declared with the prefix "simulate: " in their description). All are read at start only.
+NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('mode', 'simulate', 'simulate a transmission or replay a bag', choices=MODES),
+    ParamSpec('motor_joint', 'motor', 'name of the motor joint in JointState'),
+    ParamSpec('load_joint', 'load', 'name of the load joint in JointState'),
+    ParamSpec('rate', 100.0, 'simulate: sample rate', 'Hz', 1e-3, 10000.0),
+    ParamSpec('duration', 0.0, 'simulate: run length; 0 runs until shut down', 's', 0.0),
+    ParamSpec('bag_path', '', 'replay: rosbag2 directory, .mcap/.db3 in one, or ROS1 .bag'),
+    ParamSpec('topic', '', 'replay: JointState topic in the bag; empty = auto-detect'),
+    ParamSpec('remap', '', 'output topic of the joint states; empty = joint_states'),
+    ParamSpec('rate_factor', 1.0, 'replay: speed-up of the bag time, > 0', '-', 1e-3, 1000.0),
+    ParamSpec('loop', False, 'replay: start again at the end'),
+    ParamSpec('start_offset', 0.0, 'replay: skip this much of the bag start', 's', 0.0),
+    ParamSpec('publish_clock', False, 'replay: publish /clock with the message stamps'),
+    ParamSpec('restamp', False, 'replay: stamp messages with the node clock (start time + '
+              'scaled bag time) instead of the bag stamps'),
+    ParamSpec('replay_truth', True, 'replay: also replay gear_phm/truth/* topics if present'),
+    ParamSpec('wait_for_subscribers', 1, 'wait for this many joint_states subscribers before '
+              'the first message', '-', 0, 1000),
+    ParamSpec('wait_timeout', 10.0, 'give up waiting for subscribers after this long and '
+              'start anyway; 0 waits forever', 's', 0.0),
 )
+#: Every parameter of the node, read-only.
+ALL_PARAMETERS: tuple[ParamSpec, ...] = tuple(
+    replace(spec, read_only=True) for spec in NODE_PARAMETERS + tuple(
+        replace(spec, description='simulate: ' + spec.description) for spec in PARAMETERS))
 
 
 class JitterStats:
@@ -154,20 +156,7 @@ class PublisherNode(Node):
 
     # -- parameters -------------------------------------------------------------------------
     def _declare_all(self) -> dict[str, Any]:
-        specs = list(NODE_PARAMETERS)
-        for name, (default, description, low, high) in PARAMETERS.items():
-            specs.append((name, default, 'simulate: ' + description, low, high))
-        values: dict[str, Any] = {}
-        for name, default, description, low, high in specs:
-            try:
-                values[name] = declare(self, name, default, description, low=low, high=high,
-                                       read_only=True)
-            except ParameterException as exc:
-                raise ConfigError(f'parameter {name}: {one_line(exc)}') from None
-        if values['mode'] not in MODES:
-            raise ConfigError(f'parameter mode must be simulate or replay, got '
-                              f'{values["mode"]!r}')
-        return values
+        return declare_parameters(self, ALL_PARAMETERS)
 
     def _refuse_changes(self, params: Sequence[Any]) -> SetParametersResult:
         names = ', '.join(p.name for p in params)

@@ -41,7 +41,7 @@ class SimulateSource:
                         duration: float) -> SimulateSource:
         """Build from the flat simulation parameters (names of gear_phm.simulation.PARAMETERS)."""
         try:
-            config = config_from_parameters({name: values[name] for name in PARAMETERS})
+            config = config_from_parameters({spec.name: values[spec.name] for spec in PARAMETERS})
         except ValueError as exc:
             raise SourceError(f'parameter {one_line(exc)}') from None
         return cls(config, rate, duration)
