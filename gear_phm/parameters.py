@@ -57,7 +57,8 @@ class ParamSpec:
             if not isinstance(value, str):
                 raise ValueError(f'{self.name} must be a string, got {value!r}')
             if self.choices and value not in self.choices:
-                raise ValueError(f'{self.name} must be one of {self.choices}, got {value!r}')
+                allowed = ', '.join(choice or '""' for choice in self.choices)
+                raise ValueError(f'{self.name} must be one of {allowed}, got {value!r}')
             return value
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             unit = f' [{self.unit}]' if self.unit else ''
@@ -67,8 +68,14 @@ class ParamSpec:
         low = -math.inf if self.low is None else self.low
         high = math.inf if self.high is None else self.high
         if math.isnan(value) or not low <= value <= high:
-            raise ValueError(f'{self.name} must be in [{low:g}, {high:g}] {self.unit}, '
-                             f'got {value!r}')
+            unit = '' if self.unit in ('', '-') else f' {self.unit}'
+            if self.high is None:
+                rule = f'>= {low:g}{unit}'
+            elif self.low is None:
+                rule = f'<= {high:g}{unit}'
+            else:
+                rule = f'in [{low:g}, {high:g}]{unit}'
+            raise ValueError(f'{self.name} must be {rule}, got {value!r}')
         return int(value) if kind is int else float(value)
 
     def parse(self, text: str) -> Value:

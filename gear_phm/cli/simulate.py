@@ -60,8 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group('simulation parameters (as the publisher node\'s)')
     for spec in PARAMETERS:
         group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name, type=spec.kind,
-                           default=spec.default, choices=spec.choices or None,
-                           help=f'{spec.text} ({spec.default})')
+                           default=spec.default, help=f'{spec.text} ({spec.default})')
 
 
 def _config(args: argparse.Namespace) -> SimulationConfig:
