@@ -3,13 +3,13 @@ the same bag, measured in the same run.  Usage: .venv/bin/python bench/analyze_s
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.cli.main import main as gear_phm
 

@@ -11,8 +11,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from gear_phm.interfaces import OK, DiagnosticsOut
-from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, DropCounter, run_node, to_rclpy
+from gear_phm.interfaces import DiagnosticsOut, OK
+from gear_phm.nodes.common import DropCounter, OUTPUT_QOS, run_node, SENSOR_QOS, to_rclpy
 
 
 class BareSubscriber(Node):

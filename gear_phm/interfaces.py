@@ -8,10 +8,10 @@ so the live nodes and the offline analysis publish exactly the same topics.
 """
 from __future__ import annotations
 
-import math
-import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+import math
+import struct
 from typing import Any
 
 import numpy as np

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -115,7 +115,7 @@ def test_diagnostics_report_the_state_at_their_own_bag_time(tmp_path: Path) -> N
     with BagReader(HEALTHY) as bag:
         logged = np.array([t for _, t, _ in bag.raw_messages(['/joint_states'])])
     with BagReader(out) as bag:
-        reports = [(t, dict((kv.key, kv.value) for kv in s.values))
+        reports = [(t, {kv.key: kv.value for kv in s.values})
                    for _, t, m in bag.messages(['/diagnostics']) for s in m.status
                    if s.name == 'gear_phm estimator: estimator']
     stamps = np.array([t for t, _ in reports])

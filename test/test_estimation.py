@@ -3,20 +3,20 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 from scipy.stats import chi2
-from test_estimation_plant import lever_plant
 
 from gear_phm import interfaces
-from gear_phm.estimation import (EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
-                                 FrictionFilter, classify, to_measurement)
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing
+from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
+                                 FrictionFilter, to_measurement)
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear
+from test_estimation_plant import lever_plant
 
-NOISE = dict(motor_torque_noise=0.05, motor_speed_noise=0.01, load_torque_noise=0.05,
-             load_speed_noise=0.01)
+NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
+         'load_speed_noise': 0.01}
 CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
 
 
@@ -307,8 +307,8 @@ class _Msg:
 
     def __init__(self, stamp_ns: int, names, velocity, effort) -> None:
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-        self.header = type('H', (), {'stamp': type('S', (), {'sec': sec,
-                                                            'nanosec': nanosec})()})()
+        stamp = type('S', (), {'sec': sec, 'nanosec': nanosec})()
+        self.header = type('H', (), {'stamp': stamp})()
         self.name, self.position, self.velocity, self.effort = names, [], velocity, effort
 
 
@@ -335,7 +335,7 @@ def test_on_joint_state_counts_bad_messages_and_matches_batch_path() -> None:
 def test_config_validation_names_field_and_value() -> None:
     with pytest.raises(ValueError, match=r'min_window must be < window .* got 2\.0'):
         EstimatorConfig(window=1.0, min_window=2.0)
-    with pytest.raises(ValueError, match=r"ratio must be in .* got -1\.0"):
+    with pytest.raises(ValueError, match=r'ratio must be in .* got -1\.0'):
         EstimatorConfig(ratio=-1.0)
     with pytest.raises(ValueError, match='backwards_policy'):
         EstimatorConfig(backwards_policy='loop')

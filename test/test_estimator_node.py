@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
+
 from test_estimation_plant import lever_plant
 
 VENV_BIN = Path(sys.executable).parent

@@ -1,9 +1,9 @@
 """Vectorised JointState CDR decoding against rosbags' own deserializer, message by message."""
 from __future__ import annotations
 
-import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
 
 from gear_phm.bagio import TYPESTORE
 from gear_phm.interfaces import (BadMessage, decode_joint_state_buffer, decode_joint_states,

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mcap.writer import CompressionType, IndexType, Writer
 import numpy as np
 import pytest
-from mcap.writer import CompressionType, IndexType, Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 
-from gear_phm.bagio import TYPESTORE, BagError, BagReader, Rosbag2McapWriter
+from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter, TYPESTORE
 from gear_phm.bagio.chunks import RawBatch
 from gear_phm.bagio.writer import _rebuild_metadata, vector3_stamped_cdr
 from gear_phm.interfaces import Vector3Out
@@ -208,8 +208,8 @@ def test_mcap_file_writer_is_read_by_mcap_with_crcs_and_summary(tmp_path: Path,
     reader = make_reader(stream, validate_crcs=True)
     read = [(c.topic, m.log_time, m.publish_time, m.sequence, m.data)
             for _, c, m in reader.iter_messages(log_time_order=True)]
-    assert sorted(read, key=lambda m: (m[1], m[3])) == sorted(written, key=lambda m: (m[1],
-                                                                                    m[3]))
+    assert (sorted(read, key=lambda m: (m[1], m[3]))
+            == sorted(written, key=lambda m: (m[1], m[3])))
     summary = reader.get_summary()
     stats = summary.statistics
     assert stats.message_count == 2000 and stats.channel_count == 3 and stats.schema_count == 1

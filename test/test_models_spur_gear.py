@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 
-from gear_phm.models import SpurGear, min_teeth
+from gear_phm.models import min_teeth, SpurGear
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True)
 
@@ -152,9 +152,9 @@ def test_matches_numerical_work_integration(geometry: dict) -> None:
     (0.05, 0.0, 0.0), (0.3, 0.0, 0.0), (0.0, 0.004, 0.0), (0.0, 0.0, 0.01),
     (0.1, 0.003, 0.009), (0.8, 0.01, 0.03)])
 def test_matches_numerical_work_integration_concrete(friction, rho_1, rho_2) -> None:
-    geometry = dict(z1=23.0, z2=71.0, module=1.5e-3, pressure_angle=math.radians(20.0),
-                    addendum=1.5e-3, friction=friction, bearing_radius_1=rho_1,
-                    bearing_radius_2=rho_2)
+    geometry = {'z1': 23.0, 'z2': 71.0, 'module': 1.5e-3, 'pressure_angle': math.radians(20.0),
+                'addendum': 1.5e-3, 'friction': friction, 'bearing_radius_1': rho_1,
+                'bearing_radius_2': rho_2}
     expected = mesh_work_efficiencies(**geometry)
     assert SpurGear(**geometry).efficiencies() == pytest.approx(expected, rel=1e-9)
 
@@ -257,8 +257,8 @@ def test_array_pressure_angle_checks_each_wheel_against_its_own_limit() -> None:
     ('bearing_radius_2', math.nan, r'^bearing_radius_2 must be finite, got nan$'),
 ])
 def test_bad_field_raises_value_error_naming_field_and_value(field, value, message) -> None:
-    fields = dict(z1=20.0, z2=60.0, module=1e-3, pressure_angle=math.radians(20.0),
-                  friction=0.05)
+    fields = {'z1': 20.0, 'z2': 60.0, 'module': 1e-3, 'pressure_angle': math.radians(20.0),
+              'friction': 0.05}
     fields[field] = value
     with pytest.raises(ValueError, match=message):
         SpurGear(**fields)

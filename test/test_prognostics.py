@@ -6,18 +6,18 @@ import json
 import math
 import os
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 from scipy.stats import chi2
 
 from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.interfaces import ERROR, OK, WARN
-from gear_phm.prognostics import (Estimate, HealthConfig, HealthMonitor, RulPredictor, Trend,
-                                  TrendDetector, WearState, WearStateSaver, end_of_life_u,
-                                  health_level, load_wear_state, save_wear_state)
-from gear_phm.prognostics.health import DivergenceMonitor, chi_square_mean_bound, is_stale
+from gear_phm.prognostics import (end_of_life_u, Estimate, health_level, HealthConfig,
+                                  HealthMonitor, load_wear_state, RulPredictor, save_wear_state,
+                                  Trend, TrendDetector, WearState, WearStateSaver)
+from gear_phm.prognostics.health import chi_square_mean_bound, DivergenceMonitor, is_stale
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
 from gear_phm.simulation.wear import Wear
@@ -52,8 +52,8 @@ def test_linear_rul_exact_for_a_sharp_posterior() -> None:
     rul = RulPredictor(0.6).predict(0.1, 1e-4, TINY)
     assert rul.model == 'linear'
     assert rul.median == pytest.approx(5000.0, rel=1e-3)
-    assert rul.p5 == pytest.approx(5000.0, rel=2e-3) and rul.p95 == pytest.approx(5000.0,
-                                                                                rel=2e-3)
+    assert rul.p5 == pytest.approx(5000.0, rel=2e-3)
+    assert rul.p95 == pytest.approx(5000.0, rel=2e-3)
 
 
 def test_linear_rul_bounds_match_the_rate_quantiles() -> None:

@@ -1,13 +1,13 @@
 """Publisher node as a real subprocess: replay exactness and pacing, simulate mode, bad input."""
 from __future__ import annotations
 
+from collections.abc import Iterator
 import os
+from pathlib import Path
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -53,22 +53,23 @@ def broken_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 BAD_INPUTS = {
-    'missing bag': (dict(mode='replay', bag_path='/nonexistent/bag'), '/nonexistent/bag'),
-    'truncated bag': (dict(mode='replay', bag_path='{truncated}'), 'truncated'),
-    'corrupt bag': (dict(mode='replay', bag_path='{corrupt}'), 'corrupt'),
-    'bag without the topic': (dict(mode='replay', bag_path=str(HEALTHY), topic='/encoders'),
+    'missing bag': ({'mode': 'replay', 'bag_path': '/nonexistent/bag'}, '/nonexistent/bag'),
+    'truncated bag': ({'mode': 'replay', 'bag_path': '{truncated}'}, 'truncated'),
+    'corrupt bag': ({'mode': 'replay', 'bag_path': '{corrupt}'}, 'corrupt'),
+    'bag without the topic': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                               'topic': '/encoders'},
                               "no topic '/encoders'"),
-    'topic of the wrong type': (dict(mode='replay', bag_path=str(HEALTHY),
-                                     topic='/gear_phm/truth/friction'),
+    'topic of the wrong type': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                                 'topic': '/gear_phm/truth/friction'},
                                 'expected sensor_msgs/msg/JointState'),
-    'joint names not in the messages': (dict(mode='replay', bag_path=str(HEALTHY),
-                                             motor_joint='rotor'), "'rotor'"),
-    'ratio <= 0': (dict(ratio=0.0), 'parameter ratio'),
-    'negative rate': (dict(rate=-100.0), 'parameter rate'),
-    'negative rate factor': (dict(mode='replay', bag_path=str(HEALTHY), rate_factor=-2.0),
+    'joint names not in the messages': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                                         'motor_joint': 'rotor'}, "'rotor'"),
+    'ratio <= 0': ({'ratio': 0.0}, 'parameter ratio'),
+    'negative rate': ({'rate': -100.0}, 'parameter rate'),
+    'negative rate factor': ({'mode': 'replay', 'bag_path': str(HEALTHY), 'rate_factor': -2.0},
                              'parameter rate_factor'),
-    'unknown mode': (dict(mode='record'), 'parameter mode'),
-    'integer for a double': (dict(ratio=3), 'parameter ratio'),
+    'unknown mode': ({'mode': 'record'}, 'parameter mode'),
+    'integer for a double': ({'ratio': 3}, 'parameter ratio'),
 }
 
 
@@ -356,8 +357,8 @@ def write_other_formats(root: Path, count: int) -> dict[str, Path]:
         with writer:
             connection = writer.add_connection('/joint_states', kind, typestore=store)
             for i in range(count):
-                fields = dict(stamp=time_type(sec=50 + i // 100, nanosec=(i % 100) * 10**7),
-                              frame_id='')
+                fields = {'stamp': time_type(sec=50 + i // 100, nanosec=(i % 100) * 10**7),
+                          'frame_id': ''}
                 if fmt == 'ros1':
                     fields['seq'] = i
                 msg = store.types[kind](header=header(**fields), name=['load', 'motor'],

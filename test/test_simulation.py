@@ -1,27 +1,15 @@
 """Simulator: the measured power ratio in steady phases matches the models' efficiencies."""
 from __future__ import annotations
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
-from gear_phm.simulation import (
-    PHASE_AIDING,
-    PHASE_IDLE,
-    PHASE_OPPOSING,
-    PHASE_SELF_LOCKING,
-    Channel,
-    DutyCycle,
-    Plant,
-    Sensors,
-    SimulationConfig,
-    Simulator,
-    Wear,
-    sample_times,
-    simulate,
-)
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
+from gear_phm.simulation import (Channel, DutyCycle, PHASE_AIDING, PHASE_IDLE, PHASE_OPPOSING,
+                                 PHASE_SELF_LOCKING, Plant, sample_times, Sensors, simulate,
+                                 SimulationConfig, Simulator, Wear)
 
 RATE = 200.0
 

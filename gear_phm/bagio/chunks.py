@@ -14,11 +14,11 @@ Messages come out in log-time order per topic, also when chunks overlap in time.
 """
 from __future__ import annotations
 
-import zlib
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
+import zlib
 
 import numpy as np
 

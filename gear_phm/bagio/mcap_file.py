@@ -14,10 +14,10 @@ indexes (:mod:`gear_phm.bagio.chunks`).
 """
 from __future__ import annotations
 
-import struct
-import zlib
 from array import array
+import struct
 from typing import BinaryIO
+import zlib
 
 MAGIC = b'\x89MCAP0\r\n'
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE = 0x01, 0x02, 0x03, 0x04, 0x05

@@ -9,7 +9,7 @@ from typing import Any
 
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2.storage_mcap import McapReader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.bagio.chunks import CorruptChunk, McapChunkReader, NotIndexed, RawBatch
 

@@ -10,16 +10,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gear_phm import interfaces
 from gear_phm.cli.main import CliError
-from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline, Measurement
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, Measurement, PARAMETERS
 from gear_phm.prognostics.options import add_health_arguments, health_config_from_args
 from gear_phm.prognostics.pipeline import HealthPipeline
 

@@ -19,9 +19,9 @@ import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import HEALTH_RUL, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, stamp_to_ns
+from gear_phm.interfaces import HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE
 from gear_phm.prognostics import add_health_arguments, end_of_life_u, health_config_from_args
-from gear_phm.prognostics.metrics import ALPHA, LAMBDAS, evaluate
+from gear_phm.prognostics.metrics import ALPHA, evaluate, LAMBDAS
 
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
 

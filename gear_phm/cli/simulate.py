@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from gear_phm.bagio import TYPESTORE, BagError, Rosbag2McapWriter
+from gear_phm.bagio import BagError, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import (JOINT_STATE_TYPE, TRUTH_EFFICIENCY, TRUTH_FRICTION,
-                                 VECTOR3_STAMPED_TYPE, JOINT_STATES, ns_to_sec_nanosec)
-from gear_phm.simulation import (PARAMETERS, SimulationConfig, SimulationResult, Simulator,
-                                 Wear, config_from_parameters)
+from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, ns_to_sec_nanosec,
+                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.simulation import (config_from_parameters, PARAMETERS, SimulationConfig,
+                                 SimulationResult, Simulator, Wear)
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
 
@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the truth topics every N-th sample (1)')
     parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
                         help='MCAP chunk compression (zstd)')
-    group = parser.add_argument_group('simulation parameters (as the publisher node\'s)')
+    group = parser.add_argument_group("simulation parameters (as the publisher node's)")
     for name, (default, description, _, _) in PARAMETERS.items():
         kind = type(default)
         group.add_argument('--' + name.replace('_', '-'), dest=name, type=kind,

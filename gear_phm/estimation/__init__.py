@@ -6,11 +6,11 @@
 - :mod:`.pipeline`: the whole estimator over batches or single JointState messages, emitting
   the output records that the node publishes and ``gear-phm analyze`` writes.
 """
-from gear_phm.estimation.config import PARAMETERS, EstimatorConfig
+from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.kalman import FrictionFilter, UpdateResult
 from gear_phm.estimation.pipeline import EstimatorPipeline
 from gear_phm.estimation.powerflow import classify, shaft_powers
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 
 __all__ = ['PARAMETERS', 'EnergyIntegrator', 'EstimatorConfig', 'EstimatorPipeline',
            'FrictionFilter', 'Measurement', 'UpdateResult', 'Window', 'classify',

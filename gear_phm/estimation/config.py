@@ -1,8 +1,8 @@
 """Named estimator parameters with units, limits and validation (no ROS imports)."""
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
+import math
 
 #: (low, high, unit, description) per numeric parameter; bounds inclusive.
 PARAMETERS: dict[str, tuple[float, float, str, str]] = {

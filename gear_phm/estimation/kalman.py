@@ -1,11 +1,11 @@
 """Kalman filter on the friction parameter: x = [u, du/dt], filterpy underneath."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
-import numpy as np
 from filterpy.kalman import KalmanFilter
+import numpy as np
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,8 @@ samples are split into batches.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
+import math
 from typing import Any
 
 import numpy as np
@@ -17,9 +17,9 @@ import numpy as np
 from gear_phm import interfaces
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.estimation.powerflow import IMPOSSIBLE, classify
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
-from gear_phm.interfaces import OK, WARN, StatusOut, Vector3Out, format_value
+from gear_phm.estimation.powerflow import classify, IMPOSSIBLE
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
+from gear_phm.interfaces import format_value, OK, StatusOut, Vector3Out, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
@@ -57,8 +57,8 @@ class EstimatorPipeline:
         self.load_joint = load_joint
         self.frame_id = frame_id
         self.on_measurement = on_measurement
-        self.counts: dict[str, int] = {
-            r: 0 for r in SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS}
+        self.counts: dict[str, int] = dict.fromkeys(
+            SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS, 0)
         self.samples_seen = 0
         self.samples_used = 0
         self.samples_rejected = 0

@@ -14,8 +14,8 @@ Batch boundaries do not change the result: the open window is carried between ca
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
 import numpy as np
 

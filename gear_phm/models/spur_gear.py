@@ -145,4 +145,3 @@ class SpurGear:
 def _scalar(value: np.ndarray) -> np.ndarray | float:
     value = np.asarray(value)
     return float(value) if value.ndim == 0 else value
-

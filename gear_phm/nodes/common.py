@@ -1,23 +1,24 @@
 """Shared rclpy helpers: QoS, parameter declaration, /diagnostics, output publishing, main()."""
 from __future__ import annotations
 
-import sys
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
+import sys
 from typing import Any
 
-import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
+import rclpy
 from rclpy._rclpy_pybind11 import RCLError
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 
-from gear_phm.interfaces import (DiagnosticsOut, StatusOut, Vector3Out, format_value,
-                                 ns_to_sec_nanosec)
+from gear_phm.interfaces import (DiagnosticsOut, format_value, ns_to_sec_nanosec, StatusOut,
+                                 Vector3Out)
+
 
 def sensor_qos(depth: int = 100) -> QoSProfile:
     """qos_profile_sensor_data (best effort, volatile, keep last) with a deeper queue.

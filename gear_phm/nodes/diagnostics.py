@@ -17,11 +17,11 @@ signal handler stops spinning and ``destroy_node`` closes the bag (summary + met
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import fields, replace
 import math
 import queue
 import threading
-from collections.abc import Sequence
-from dataclasses import fields, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -33,13 +33,13 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from gear_phm.bagio import Rosbag2McapWriter
-from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, HEALTH_EFFICIENCY,
-                                 HEALTH_RUL, VECTOR3_STAMPED_TYPE, stamp_to_ns)
-from gear_phm.nodes.common import OUTPUT_QOS, ConfigError, declare, run_node, to_rclpy
-from gear_phm.prognostics import (PARAMETERS, HealthConfig, HealthStatus,
-                                  cross_field_problem, waiting_status)
+from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, HEALTH_EFFICIENCY, HEALTH_RUL,
+                                 stamp_to_ns, VECTOR3_STAMPED_TYPE)
+from gear_phm.nodes.common import ConfigError, declare, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.prognostics import (cross_field_problem, HealthConfig, HealthStatus, PARAMETERS,
+                                  waiting_status)
 from gear_phm.prognostics.config import TRENDS
-from gear_phm.prognostics.pipeline import INPUTS, HealthPipeline
+from gear_phm.prognostics.pipeline import HealthPipeline, INPUTS
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)

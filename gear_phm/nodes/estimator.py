@@ -9,23 +9,21 @@ A bad message is dropped and counted, never fatal. Parameters: config/estimator.
 """
 from __future__ import annotations
 
-import time
-
 from collections.abc import Sequence
+import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from gear_phm import interfaces
-from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import (OUTPUT_QOS, SENSOR_QOS, ConfigError, OutputPublisher,
-                                   declare, run_node, to_rclpy)
-
-from rclpy.node import Node
+from gear_phm.nodes.common import (ConfigError, declare, OUTPUT_QOS, OutputPublisher, run_node,
+                                   SENSOR_QOS, to_rclpy)
 
 STRING_PARAMETERS = {
     'motor_joint': ('motor', 'name of the motor joint in joint_states'),

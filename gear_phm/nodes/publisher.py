@@ -12,36 +12,35 @@ percentiles on /diagnostics. See docs/publisher.md.
 """
 from __future__ import annotations
 
-import math
-import threading
-import time
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
+import math
 from pathlib import Path
+import threading
+import time
 from typing import Any
 
-import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
+import numpy as np
+from rcl_interfaces.msg import SetParametersResult
+import rclpy
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from gear_phm.bagio import BagError, BagReader
-from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, JOINT_STATE_TYPE, JOINT_STATES, OK,
-                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, WARN,
-                                 decode_joint_states)
-from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare, run_node,
-                                   stamp, status_msg)
-from gear_phm.simulation import (PARAMETERS, SimulationConfig, Simulator,
-                                 config_from_parameters)
+from gear_phm.interfaces import (CLOCK, decode_joint_states, DIAGNOSTICS, JOINT_STATE_TYPE,
+                                 JOINT_STATES, OK, TRUTH_EFFICIENCY, TRUTH_FRICTION,
+                                 VECTOR3_STAMPED_TYPE, WARN)
+from gear_phm.nodes.common import (ConfigError, declare, DropCounter, OUTPUT_QOS, run_node, stamp,
+                                   status_msg)
+from gear_phm.simulation import config_from_parameters, PARAMETERS, SimulationConfig, Simulator
 
 MODES = ('simulate', 'replay')
 #: Samples generated per simulation chunk [s of simulated time].

@@ -9,22 +9,17 @@ model, :func:`summarize` reduces them to statistics and :func:`reproduce` writes
 from __future__ import annotations
 
 import csv
+from dataclasses import asdict, dataclass
 import json
 import math
-from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+import numpy as np
 
-from gear_phm.models import (
-    SpurGear,
-    eta_aiding_from_opposing,
-    eta_opposing_from_aiding,
-    min_teeth,
-    total_squared_error,
-)
+from gear_phm.models import (eta_aiding_from_opposing, eta_opposing_from_aiding, min_teeth,
+                             SpurGear, total_squared_error)
 
 DEFAULT_SEED = 20190415
 DEFAULT_SAMPLES = 500

@@ -6,8 +6,8 @@ range, same description); ``gear-phm analyze`` exposes them as ``--kebab-case`` 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
+import math
 
 #: (low, high, unit, description) per numeric parameter; bounds inclusive.
 PARAMETERS: dict[str, tuple[float, float, str, str]] = {

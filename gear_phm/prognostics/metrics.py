@@ -8,9 +8,9 @@ is the latest one made at or before t_lambda.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike

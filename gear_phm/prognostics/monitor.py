@@ -7,12 +7,12 @@ Feed every estimator update to :meth:`HealthMonitor.on_estimate` (it returns the
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
+import math
 from typing import Any
 
-from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, LEVEL_NAMES, STALE,
-                                 DiagnosticsOut, StatusOut, Vector3Out, format_value)
+from gear_phm.interfaces import (DiagnosticsOut, format_value, HEALTH_EFFICIENCY, HEALTH_RUL,
+                                 LEVEL_NAMES, STALE, StatusOut, Vector3Out)
 from gear_phm.models import eta_aiding, eta_opposing
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from gear_phm.prognostics.config import PARAMETERS, TRENDS, HealthConfig
+from gear_phm.prognostics.config import HealthConfig, PARAMETERS, TRENDS
 
 _SKIP = ('ratio', 'stale_timeout')   # analyze takes the ratio from its estimator options
 

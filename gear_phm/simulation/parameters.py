@@ -14,7 +14,7 @@ from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
 from gear_phm.simulation.sensors import Channel, Sensors
 from gear_phm.simulation.simulator import SimulationConfig
-from gear_phm.simulation.wear import WEAR_KINDS, Wear
+from gear_phm.simulation.wear import Wear, WEAR_KINDS
 
 _PLANT, _DUTY, _WEAR = Plant(), DutyCycle(), Wear()
 _SENSORS = Sensors()

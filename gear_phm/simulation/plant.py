@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.simulation._checks import non_negative, one_of, positive, real
 
 EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
