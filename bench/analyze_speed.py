@@ -1,5 +1,8 @@
-"""Benchmark (not a test): gear-phm analyze samples/s next to rosbags raw reading/decoding of
-the same bag, measured in the same run.  Usage: .venv/bin/python bench/analyze_speed.py [BAG]"""
+"""Benchmark (not a test): gear-phm analyze samples/s next to rosbags raw reading/decoding.
+
+Both are measured on the same bag in the same run.
+Usage: .venv/bin/python bench/analyze_speed.py [BAG]
+"""
 from __future__ import annotations
 
 import json

@@ -106,9 +106,11 @@ def test_missing_bag_and_existing_out(tmp_path: Path) -> None:
 
 
 def test_diagnostics_report_the_state_at_their_own_bag_time(tmp_path: Path) -> None:
-    """Each /diagnostics message of the estimator counts exactly the JointState messages
-    logged before its stamp (ticks every second of bag time, then one at the last message),
-    whatever batches the bag was read in: no state from later samples leaks into it."""
+    """Each estimator /diagnostics message counts exactly the JointState logged before it.
+
+    Ticks come every second of bag time, then one at the last message, whatever batches the
+    bag was read in: no state from later samples leaks into it.
+    """
     out = tmp_path / 'out'
     assert main(['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out),
                  '--no-progress', '--no-plot']) == 0

@@ -27,8 +27,10 @@ def _not_sources(directory: str, names: list[str]) -> set[str]:
 
 @pytest.fixture(scope='module')
 def workspace(tmp_path_factory) -> Path:
-    """Copy of the repo in <ws>/src/gear_phm (a copy, so egg-info never lands in the repo),
-    built with colcon from the venv."""
+    """Copy of the repo in <ws>/src/gear_phm, built with colcon from the venv.
+
+    A copy, so egg-info never lands in the repo.
+    """
     root = tmp_path_factory.mktemp('colcon_ws')
     shutil.copytree(REPO, root / 'src' / 'gear_phm', ignore=_not_sources)
     env = dict(os.environ, PATH=f'{VENV_BIN}{os.pathsep}{os.environ.get("PATH", "")}')

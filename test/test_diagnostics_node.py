@@ -1,5 +1,8 @@
-"""Diagnostics node as a real subprocess over DDS: keys, levels, STALE, parameter checks,
-recording closed on SIGTERM, and recovery of the recording after kill -9."""
+"""Diagnostics node as a real subprocess over DDS.
+
+Keys, levels, STALE, parameter checks, recording closed on SIGTERM, and recovery of the
+recording after kill -9.
+"""
 from __future__ import annotations
 
 import os

@@ -1,4 +1,6 @@
-"""End to end over DDS: publisher replays bags/wearing fast, the estimator runs, diagnostics
+"""End to end over DDS.
+
+The publisher replays bags/wearing fast, the estimator runs, diagnostics
 records. The recording opens with rosbags and mcap; /diagnostics goes OK -> WARN -> ERROR as
 the bag wears; killing the publisher gives STALE within stale_timeout.
 

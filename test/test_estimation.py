@@ -80,9 +80,11 @@ def test_energy_window_removes_rotor_inertia_bias() -> None:
        st.sampled_from([0.005, 0.02, 0.2]))
 def test_dropping_short_windows_early_equals_rejecting_them_later(
         seed: int, cuts: list[int], min_duration: float) -> None:
-    """The integrator's shortcut (short one-segment windows are only counted) gives the same
-    windows and counts as building every window and rejecting the short ones afterwards,
-    for any batch split. Phases flicker, with gaps, so most segments are short."""
+    """The integrator's shortcut (short one-segment windows are only counted) is exact.
+
+    It gives the same windows and counts as building every window and rejecting the short ones
+    afterwards, for any batch split. Phases flicker, with gaps, so most segments are short.
+    """
     rng = np.random.default_rng(seed)
     n = 1200
     t = np.cumsum(rng.choice([0.001, 0.001, 0.001, 0.02], n))
@@ -179,9 +181,12 @@ def test_process_covariance_is_filterpys_continuous_white_noise(dt: float, q: fl
 # --- acceptance: simplified-model plant ----------------------------------------------------
 
 def test_simplified_plant_accuracy_coverage_and_consistency() -> None:
-    """M independent seeded runs. NEES: final posterior of each run, averaged over runs, vs
-    chi2(2M)/M (NEES along one run is autocorrelated). NIS: innovations are white, so all
-    post-convergence NIS are pooled, vs chi2(K)/K. Accuracy and band coverage after 60 s."""
+    """M independent seeded runs.
+
+    NEES: final posterior of each run, averaged over runs, vs chi2(2M)/M (NEES along one run
+    is autocorrelated). NIS: innovations are white, so all post-convergence NIS are pooled,
+    vs chi2(K)/K. Accuracy and band coverage after 60 s.
+    """
     config = CONFIG.replace(process_noise=0.0)     # matched to the constant-u plant
     final_nees, nis, cover = [], [], []
     runs = 16

@@ -1,5 +1,7 @@
-"""The estimator node as a real subprocess over DDS: estimates from good messages, survives
-garbage, refuses bad parameters with a reason."""
+"""The estimator node as a real subprocess over DDS.
+
+It estimates from good messages, survives garbage, refuses bad parameters with a reason.
+"""
 from __future__ import annotations
 
 import math

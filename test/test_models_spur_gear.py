@@ -55,8 +55,10 @@ def mesh_work_efficiencies(z1: float, z2: float, module: float, pressure_angle: 
     weight = np.concatenate([p[1] for p in pieces]) / (x_end - x_start)   # time fraction
 
     def cycle(omega_1: float) -> tuple[float, float, float, float]:
-        """Mean powers per unit normal force: into wheel 1, into wheel 2 (from the contact),
-        lost in bearing 1, lost in bearing 2."""
+        """Mean powers per unit normal force.
+
+        Into wheel 1, into wheel 2 (from the contact), lost in bearing 1, lost in bearing 2.
+        """
         omega_2 = -omega_1 * r_b1 / r_b2
         v1 = _cross_z(x - o1[0], 0.0 - o1[1], omega_1)
         v2 = _cross_z(x - o2[0], 0.0 - o2[1], omega_2)
@@ -88,7 +90,7 @@ def mesh_work_efficiencies(z1: float, z2: float, module: float, pressure_angle: 
 
 @st.composite
 def geometries(draw, max_friction: float = 0.5, max_bearing_fraction: float = 0.5) -> dict:
-    """Valid gear pairs: teeth >= the undercut limit, bearing radii a fraction of pitch radius."""
+    """Draw valid gear pairs: teeth >= the undercut limit, bearing radii < pitch radius."""
     pressure_angle = math.radians(draw(st.floats(12.0, 35.0)))
     z_low = math.ceil(float(min_teeth(pressure_angle)))
     z1 = draw(st.integers(z_low, 400))
@@ -282,10 +284,12 @@ def test_undercut_limit_is_two_over_sine_squared(theta_deg: float) -> None:
 @SETTINGS
 @given(geometry=geometries(max_bearing_fraction=0.9))
 def test_motor_bearing_alone_follows_the_infinite_ratio_lever(geometry: dict) -> None:
-    """With only the motor-wheel bearing lossy, eta_I = 2 - 1/eta_D whatever z2/z1 is: the
-    limit R -> inf of eq 14. This is why the simplified model, which ties the eta_D-eta_I
-    relation to R alone, misses gears whose losses sit in the bearings (see
-    docs/paper-reproduction.md)."""
+    """With only the motor-wheel bearing lossy, eta_I = 2 - 1/eta_D whatever z2/z1 is.
+
+    That is the limit R -> inf of eq 14. This is why the simplified model, which ties the
+    eta_D-eta_I relation to R alone, misses gears whose losses sit in the bearings (see
+    docs/paper-reproduction.md).
+    """
     geometry.update(friction=0.0, bearing_radius_2=0.0)
     eta_d, eta_i = SpurGear(**geometry).efficiencies()
     assert eta_i == pytest.approx(2.0 - 1.0 / eta_d, rel=1e-12, abs=1e-12)

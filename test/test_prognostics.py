@@ -1,5 +1,7 @@
-"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics,
-wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter."""
+"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics.
+
+Also wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter.
+"""
 from __future__ import annotations
 
 import json
@@ -122,8 +124,11 @@ def test_trend_detector_chooses_linear_and_exponential() -> None:
 
 
 def test_exponential_rul_takes_the_rate_from_the_fitted_slope() -> None:
-    """The filter's constant-rate model lags accelerating wear; the exponential branch uses
-    the trend fit's slope at the newest point instead (docs/prognostics.md)."""
+    """The filter's constant-rate model lags accelerating wear.
+
+    The exponential branch uses the trend fit's slope at the newest point instead
+    (docs/prognostics.md).
+    """
     k, lagging_rate, slope = 1e-3, 1e-4, 1.5e-4
     predictor = RulPredictor(0.6)
     fitted = predictor.predict(0.1, lagging_rate, TINY, Trend('exponential', k, 0.0,
@@ -296,8 +301,10 @@ def test_truncated_real_state_file_is_refused(tmp_path) -> None:
 
 # --- acceptance: alpha-lambda on simulated wear through the real filter ----------------------
 def _run(kind: str, seed: int) -> dict:
-    """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s,
-    filtered by the estimator's FrictionFilter, scored from t_start = 60 s."""
+    """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s.
+
+    Filtered by the estimator's FrictionFilter, scored from t_start = 60 s.
+    """
     monitor = HealthMonitor(HealthConfig(trend_window=1800.0, mc_samples=500))
     wear = Wear.reaching(kind, 0.05, monitor.u_eol, 3600.0)
     kf = FrictionFilter(0.05, 0.5, 1e-3, 1e-12, 10.83, 3)

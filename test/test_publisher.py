@@ -172,10 +172,12 @@ def wait_until(condition, timeout: float, what: str) -> None:
 def run_with_listeners(ros_node, listeners: list[tuple[type, str]], timeout: float = 90.0,
                        **params: object) -> tuple[subprocess.CompletedProcess,
                                                   list[Recorder]]:
-    """Start the publisher; subscribe to ``listeners`` (topic, type) first and to joint_states
-    last, after the others matched, so that the publisher (which waits for a joint_states
-    subscriber) starts only when every listener is connected. Returns (process, recorders)
-    with the joint_states recorder first."""
+    """Start the publisher; return (process, recorders) with the joint_states recorder first.
+
+    Subscribe to ``listeners`` (topic, type) first and to joint_states last, after the others
+    matched, so that the publisher (which waits for a joint_states subscriber) starts only
+    when every listener is connected.
+    """
     from sensor_msgs.msg import JointState
     recorders = [Recorder(ros_node, msg_type, topic) for msg_type, topic in listeners]
     process = subprocess.Popen(publisher_command(**params), stdout=subprocess.PIPE,
@@ -338,7 +340,7 @@ def test_config_file_is_accepted_by_the_node() -> None:
 
 
 def write_other_formats(root: Path, count: int) -> dict[str, Path]:
-    """The same 100 Hz JointState stream as a ROS1 .bag and a sqlite3 rosbag2."""
+    """Write the same 100 Hz JointState stream as a ROS1 .bag and a sqlite3 rosbag2."""
     from rosbags.rosbag1 import Writer as Ros1Writer
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Ros2Writer

@@ -77,7 +77,7 @@ def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def truth_eol(truth: Path, u_eol: float) -> float:
-    """True end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
+    """Return the true end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
     if truth.suffix.lower() == '.csv':
         try:
             with open(truth, newline='', encoding='utf-8') as stream:

@@ -28,8 +28,11 @@ class CliError(Exception):
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The ``gear-phm`` parser; only ``command``'s module is imported (fast, and one broken
-    subcommand cannot break the others)."""
+    """Build the ``gear-phm`` parser.
+
+    Only ``command``'s module is imported (fast, and one broken subcommand cannot break the
+    others).
+    """
     parser = argparse.ArgumentParser(
         prog='gear-phm',
         description='Gearbox friction estimation and remaining useful life (gear_phm).')

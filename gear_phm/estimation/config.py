@@ -82,7 +82,7 @@ class EstimatorConfig:
                              f'got {self.backwards_policy!r}')
 
     def replace(self, **changes: float | str) -> EstimatorConfig:
-        """A validated copy with ``changes`` applied; unknown names raise ValueError."""
+        """Return a validated copy with ``changes`` applied; unknown names raise ValueError."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
             raise ValueError(f'unknown estimator parameter(s): {sorted(unknown)}')

@@ -50,7 +50,7 @@ PARAMETER_LIMITS: dict[str, tuple[float, float]] = {
 
 
 def _where_valid(valid: np.ndarray, numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """numerator / denominator where ``valid``, NaN elsewhere, without warnings."""
+    """Divide: numerator / denominator where ``valid``, NaN elsewhere, without warnings."""
     safe = np.where(valid, denominator, 1.0)
     result = np.where(valid, numerator / safe, np.nan)
     return result[()] if result.ndim == 0 else result

@@ -1,5 +1,6 @@
-"""``ros2 run gear_phm estimator``: friction estimator node (thin adapter over
-:class:`gear_phm.estimation.EstimatorPipeline`).
+"""``ros2 run gear_phm estimator``: the friction estimator node.
+
+A thin adapter over :class:`gear_phm.estimation.EstimatorPipeline`.
 
 Subscribes ``joint_states`` (sensor QoS), publishes ``gear_phm/friction``,
 ``gear_phm/friction_covariance``, ``gear_phm/efficiency``, ``gear_phm/innovation`` and
@@ -35,7 +36,7 @@ STRING_PARAMETERS = {
 
 
 def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
-    """EstimatorConfig from parameter values (ints accepted for doubles); ValueError."""
+    """Build an EstimatorConfig from parameter values (ints accepted for doubles); ValueError."""
     fields = {name: values[name] for name in PARAMETERS if name in values}
     fields['backwards_policy'] = values.get('backwards_policy', 'reset')
     return EstimatorConfig(**fields)

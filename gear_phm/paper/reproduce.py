@@ -103,7 +103,7 @@ def gears_of(samples: dict[str, np.ndarray], with_bearings: bool = True) -> Spur
 
 def evaluate_samples(samples: dict[str, np.ndarray],
                      with_bearings: bool = True) -> dict[str, np.ndarray]:
-    """Reference efficiencies and the errors of the simplified model (eqs 5, 8, 14, 15).
+    """Compute reference efficiencies and the errors of the simplified model (eqs 5, 8, 14, 15).
 
     error_aiding = eta_I,ref - eta_I(eta_D,ref) (vertical), error_opposing =
     eta_D,ref - eta_D(eta_I,ref) (horizontal); NaN where the point has no image on the curve.
@@ -252,8 +252,11 @@ def plot_surface(path: Path) -> None:
 
 
 def plot_comparison(table: dict[str, np.ndarray], path: Path) -> None:
-    """Figure 4: reference samples over the simplified surface, a parity plot of eta_I and
-    e_tot against the bearing friction radius (what drives the disagreement)."""
+    """Figure 4: reference samples over the simplified surface.
+
+    Also a parity plot of eta_I and e_tot against the bearing friction radius (what drives the
+    disagreement).
+    """
     grid = surface_grid(101)
     eta_d, eta_i, ratio = table['eta_opposing'], table['eta_aiding'], table['ratio']
     shown = (eta_d >= -1) & (eta_d <= 1) & (eta_i >= -1) & (eta_i <= 1)

@@ -76,7 +76,7 @@ class HealthConfig:
             raise ValueError(problem)
 
     def replace(self, **changes: object) -> HealthConfig:
-        """A validated copy with ``changes`` applied; unknown names raise ValueError."""
+        """Return a validated copy with ``changes`` applied; unknown names raise ValueError."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
             raise ValueError(f'unknown health parameter(s): {sorted(unknown)}')

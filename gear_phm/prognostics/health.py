@@ -97,7 +97,7 @@ def health_level(u: float, u_eol: float, eol_reason: str, eta_opposing: float, e
 
 
 def is_stale(now: float, last_arrival: float | None, timeout: float) -> bool:
-    """True when nothing arrived yet or the last input is older than ``timeout`` [s]."""
+    """Return True when nothing arrived yet or the last input is older than ``timeout`` [s]."""
     return last_arrival is None or now - last_arrival > timeout
 
 

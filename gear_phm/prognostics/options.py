@@ -36,7 +36,7 @@ def add_health_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def health_config_from_args(args: argparse.Namespace, ratio: float) -> HealthConfig:
-    """HealthConfig from parsed options and the gearbox ``ratio``; ValueError if invalid."""
+    """Build a HealthConfig from parsed options and the gearbox ``ratio``; ValueError."""
     values = {key[len('health_'):]: value for key, value in vars(args).items()
               if key.startswith('health_')}
     return HealthConfig(ratio=float(ratio), **values)

@@ -65,7 +65,7 @@ for _channel in ('velocity_motor', 'velocity_load', 'effort_motor', 'effort_load
 
 
 def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
-    """SimulationConfig from flat values (missing names take the defaults of PARAMETERS).
+    """Build a SimulationConfig from flat values (missing names take PARAMETERS' defaults).
 
     Raises ValueError naming the field and the value; unknown names are refused too.
     """
