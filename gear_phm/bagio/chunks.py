@@ -106,7 +106,8 @@ def _decompress(data: bytes, compression: str, size: int) -> bytes:
         return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
     if compression == 'lz4':
         import lz4.frame
-        return lz4.frame.decompress(data)
+        decompressed: bytes = lz4.frame.decompress(data)
+        return decompressed
     raise CorruptChunk(f'chunk compression {compression!r} is not supported')
 
 

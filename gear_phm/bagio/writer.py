@@ -13,8 +13,8 @@ import time
 from types import TracebackType
 from typing import Any
 
-from mcap.reader import StreamReader
 from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 from rosbags.typesys import get_typestore, Stores
 import yaml
 
@@ -100,7 +100,7 @@ class Rosbag2McapWriter:
                       'topic_type_hash': type_hash})
         self._topics[topic] = _Topic(topic, msgtype, channel_id, type_hash)
 
-    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+    def write_raw(self, topic: str, t_ns: int, data: bytes | memoryview) -> None:
         """Append one CDR payload at log time ``t_ns`` [ns] to a declared topic."""
         topic = absolute_topic(topic)
         entry = self._topics.get(topic)
@@ -152,7 +152,7 @@ class Rosbag2McapWriter:
                 first = t_ns
             if last is None or t_ns > last:
                 last = t_ns
-        if first is not None:
+        if first is not None and last is not None:
             self._note_times(first, last)
         self._maybe_flush()
 

@@ -96,11 +96,11 @@ def truth_eol(truth: Path, u_eol: float) -> float:
         if not values or not math.isfinite(values[-1][1]):
             raise CliError(f'{truth} holds no finite time,true_eol row')
         return values[-1][1]
-    times, values = read_vector_topic(truth, TRUTH_FRICTION)
-    crossed = np.flatnonzero(values[:, 0] >= u_eol)
+    times, vectors = read_vector_topic(truth, TRUTH_FRICTION)
+    crossed = np.flatnonzero(vectors[:, 0] >= u_eol)
     if crossed.size == 0:
         raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
-                       f'{values[:, 0].max():.4g}): no end of life to score against')
+                       f'{vectors[:, 0].max():.4g}): no end of life to score against')
     return float(times[crossed[0]])
 
 

@@ -110,4 +110,5 @@ def _named(values: Mapping[str, Any], name: str) -> float:
         Channel(sigma=values[name]) if name.startswith('noise') else Channel(bias=values[name])
     except ValueError as exc:
         raise ValueError(f'{name}: {exc}') from None
-    return values[name]
+    value: float = values[name]
+    return value

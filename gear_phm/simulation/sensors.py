@@ -52,4 +52,5 @@ class Sensors:
         """
         sigma = np.array([getattr(self, c).sigma for c in CHANNELS])
         bias = np.array([getattr(self, c).bias for c in CHANNELS])
-        return truth + bias + sigma * rng.standard_normal(truth.shape)
+        measured: np.ndarray = truth + bias + sigma * rng.standard_normal(truth.shape)
+        return measured
