@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
 EXECUTABLES = ('publisher', 'estimator', 'diagnostics', 'gear-phm')
 TOP_LEVEL_NOT_SOURCES = {'.venv', '.git', 'build', 'install', 'log', 'bags', 'out',
-                         '.hypothesis', '.pytest_cache'}
+                         '.hypothesis', '.pytest_cache', '.mypy_cache'}
 ANYWHERE_NOT_SOURCES = shutil.ignore_patterns('__pycache__', '*.egg-info')
 
 
