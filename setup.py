@@ -14,7 +14,22 @@ setup(
         ('share/' + PACKAGE_NAME, ['package.xml']),
         ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
     ],
-    install_requires=['setuptools'],
+    python_requires='>=3.11',
+    # Runtime dependencies of everything but the ROS nodes (rclpy and the message packages come
+    # from ROS, see package.xml). Ranges: from the tested minor version (.ci/requirements.txt
+    # pins the exact versions CI runs) up to the next major one.
+    install_requires=[
+        'setuptools',
+        'filterpy>=2.0,<3',
+        'lz4>=4.4,<5',
+        'matplotlib>=3.11,<4',
+        'mcap>=1.6,<2',
+        'numpy>=2.4,<3',
+        'PyYAML>=6.0,<7',
+        'rosbags>=0.11,<0.12',
+        'tqdm>=4.70,<5',
+        'zstandard>=0.25,<1',
+    ],
     zip_safe=True,
     maintainer='gear_phm maintainers',
     maintainer_email='gear_phm@example.com',

@@ -1,14 +1,14 @@
 """Shared helpers for bench/ scripts: timing and appending results to docs/benchmarks.md."""
 from __future__ import annotations
 
+from collections.abc import Callable
 import datetime as _dt
 import os
+from pathlib import Path
 import platform
 import shlex
 import sys
 import time
-from collections.abc import Callable
-from pathlib import Path
 
 BENCHMARKS_MD = Path(__file__).resolve().parent.parent / 'docs' / 'benchmarks.md'
 

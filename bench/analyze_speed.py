@@ -1,15 +1,18 @@
-"""Benchmark (not a test): gear-phm analyze samples/s next to rosbags raw reading/decoding of
-the same bag, measured in the same run.  Usage: .venv/bin/python bench/analyze_speed.py [BAG]"""
+"""Benchmark (not a test): gear-phm analyze samples/s next to rosbags raw reading/decoding.
+
+Both are measured on the same bag in the same run.
+Usage: .venv/bin/python bench/analyze_speed.py [BAG]
+"""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.cli.main import main as gear_phm
 

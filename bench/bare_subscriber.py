@@ -12,7 +12,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, DropCounter, run_node, to_rclpy
+from gear_phm.nodes.common import DropCounter, OUTPUT_QOS, run_node, SENSOR_QOS, to_rclpy
 from gear_phm.status import OK
 
 

@@ -8,14 +8,13 @@ Usage: .venv/bin/python bench/bench_models.py [--size 1000000] [--no-append]
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
+import sys
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import BENCHMARKS_MD, append_section, best_of  # noqa: E402
-
+from _report import append_section, BENCHMARKS_MD, best_of  # noqa: E402
 from gear_phm import models  # noqa: E402
 
 

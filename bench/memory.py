@@ -15,15 +15,15 @@ from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import BENCHMARKS_MD, append_section  # noqa: E402
+from _report import append_section, BENCHMARKS_MD  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
@@ -107,7 +107,7 @@ def main() -> int:
     args = parser.parse_args()
     out = None if args.no_append else BENCHMARKS_MD
     if args.mode in ('logic', 'both'):
-        append_section('Memory: both nodes\' code, one hour of 1 kHz input (in process)',
+        append_section("Memory: both nodes' code, one hour of 1 kHz input (in process)",
                        logic(args.samples, 1000.0), out=out)
     if args.mode in ('nodes', 'both'):
         append_section(f'Memory: node processes over DDS, {args.rate:.0f} Hz for '

@@ -15,15 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import BENCHMARKS_MD, append_section  # noqa: E402
+from _report import append_section, BENCHMARKS_MD  # noqa: E402
 
 BIN = Path(sys.executable).parent
 

@@ -10,16 +10,16 @@ decodes JointState, duck-typed (rclpy and rosbags objects) and straight from CDR
 """
 from __future__ import annotations
 
-import math
-import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+import math
+import struct
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
 from gear_phm.estimation.records import FrictionEstimate, JointSample
-from gear_phm.status import StatusOut, format_value
+from gear_phm.status import format_value, StatusOut
 
 if TYPE_CHECKING:
     from gear_phm.prognostics.assessor import HealthState

@@ -9,9 +9,9 @@ config dataclasses, which call :func:`check_values` first.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+import math
 from typing import Any
 
 Value = bool | int | float | str

@@ -7,8 +7,8 @@ message; the estimator and the health assessor produce it.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
 import numpy as np
 

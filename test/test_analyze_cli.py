@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -106,16 +106,18 @@ def test_missing_bag_and_existing_out(tmp_path: Path) -> None:
 
 
 def test_diagnostics_report_the_state_at_their_own_bag_time(tmp_path: Path) -> None:
-    """Each /diagnostics message of the estimator counts exactly the JointState messages
-    logged before its stamp (ticks every second of bag time, then one at the last message),
-    whatever batches the bag was read in: no state from later samples leaks into it."""
+    """Each estimator /diagnostics message counts exactly the JointState logged before it.
+
+    Ticks come every second of bag time, then one at the last message, whatever batches the
+    bag was read in: no state from later samples leaks into it.
+    """
     out = tmp_path / 'out'
     assert main(['analyze', str(HEALTHY), '--ratio', '3.0', '--out', str(out),
                  '--no-progress', '--no-plot']) == 0
     with BagReader(HEALTHY) as bag:
         logged = np.array([t for _, t, _ in bag.raw_messages(['/joint_states'])])
     with BagReader(out) as bag:
-        reports = [(t, dict((kv.key, kv.value) for kv in s.values))
+        reports = [(t, {kv.key: kv.value for kv in s.values})
                    for _, t, m in bag.messages(['/diagnostics']) for s in m.status
                    if s.name == 'gear_phm estimator: estimator']
     stamps = np.array([t for t, _ in reports])

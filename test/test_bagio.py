@@ -2,23 +2,23 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
+import numpy as np
+import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
 
-from gear_phm.bagio import TYPESTORE, BagError, BagReader, Rosbag2McapWriter, recover
-from gear_phm.interfaces import (DiagnosticsOut, StatusOut, Vector3Out, decode_joint_states,
-                                 joint_state_to_sample)
+from gear_phm.bagio import BagError, BagReader, recover, Rosbag2McapWriter, TYPESTORE
+from gear_phm.interfaces import (decode_joint_states, DiagnosticsOut, joint_state_to_sample,
+                                 StatusOut, Vector3Out)
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 
@@ -183,7 +183,7 @@ def test_truncated_bag_is_an_error_then_recoverable(tmp_path: Path) -> None:
 def test_flush_period_makes_data_durable_without_close(tmp_path: Path) -> None:
     """A writer process killed with SIGKILL loses at most the data since the last flush."""
     bag = tmp_path / 'live'
-    script = f'''
+    script = f"""
 import os, signal, time
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.interfaces import Vector3Out
@@ -193,7 +193,7 @@ for i in range(300):
     time.sleep(0.005)
 w.flush()
 os.kill(os.getpid(), signal.SIGKILL)
-'''
+"""
     result = subprocess.run([sys.executable, '-c', script], timeout=60)
     assert result.returncode == -9
     assert not (bag / 'metadata.yaml').exists()

@@ -1,9 +1,9 @@
 """Each benchmark script runs on a tiny input (the benchmarks themselves are not tests)."""
 from __future__ import annotations
 
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 

@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import shutil
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
 EXECUTABLES = ('publisher', 'estimator', 'diagnostics', 'gear-phm')
 TOP_LEVEL_NOT_SOURCES = {'.venv', '.git', 'build', 'install', 'log', 'bags', 'out',
-                         '.hypothesis', '.pytest_cache'}
+                         '.hypothesis', '.pytest_cache', '.mypy_cache'}
 ANYWHERE_NOT_SOURCES = shutil.ignore_patterns('__pycache__', '*.egg-info')
 
 
@@ -27,8 +27,10 @@ def _not_sources(directory: str, names: list[str]) -> set[str]:
 
 @pytest.fixture(scope='module')
 def workspace(tmp_path_factory) -> Path:
-    """Copy of the repo in <ws>/src/gear_phm (a copy, so egg-info never lands in the repo),
-    built with colcon from the venv."""
+    """Copy of the repo in <ws>/src/gear_phm, built with colcon from the venv.
+
+    A copy, so egg-info never lands in the repo.
+    """
     root = tmp_path_factory.mktemp('colcon_ws')
     shutil.copytree(REPO, root / 'src' / 'gear_phm', ignore=_not_sources)
     env = dict(os.environ, PATH=f'{VENV_BIN}{os.pathsep}{os.environ.get("PATH", "")}')

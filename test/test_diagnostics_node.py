@@ -1,18 +1,21 @@
-"""Diagnostics node as a real subprocess over DDS: keys, levels, STALE, parameter checks,
-recording closed on SIGTERM, and recovery of the recording after kill -9."""
+"""Diagnostics node as a real subprocess over DDS.
+
+Keys, levels, STALE, parameter checks, recording closed on SIGTERM, and recovery of the
+recording after kill -9.
+"""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from geometry_msgs.msg import Vector3Stamped  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue  # noqa: E402

@@ -1,4 +1,6 @@
-"""End to end over DDS: publisher replays bags/wearing fast, the estimator runs, diagnostics
+"""End to end over DDS.
+
+The publisher replays bags/wearing fast, the estimator runs, diagnostics
 records. The recording opens with rosbags and mcap; /diagnostics goes OK -> WARN -> ERROR as
 the bag wears; killing the publisher gives STALE within stale_timeout.
 
@@ -15,18 +17,17 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
-import pytest
-
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import Vector3Stamped  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
+import pytest
+import rclpy
 from rclpy.node import Node  # noqa: E402
 
 from gear_phm.bagio import BagReader  # noqa: E402

@@ -10,19 +10,14 @@ import inspect
 import math
 import re
 
-import pytest
 from hypothesis import find, given, settings
 from hypothesis import strategies as st
-from test_models_spur_gear import geometries, mesh_work_efficiencies
+import pytest
 
+from gear_phm.models import (eta_aiding, eta_aiding_from_opposing, eta_opposing,
+                             eta_opposing_from_aiding, SpurGear)
 import gear_phm.models.lever as lever_module
-from gear_phm.models import (
-    SpurGear,
-    eta_aiding,
-    eta_aiding_from_opposing,
-    eta_opposing,
-    eta_opposing_from_aiding,
-)
+from test_models_spur_gear import geometries, mesh_work_efficiencies
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)
 FIND_SETTINGS = settings(max_examples=500, database=None, derandomize=True)
@@ -250,8 +245,8 @@ def test_e5_printed_pitch_radius_fails() -> None:
     assert counterexample['friction'] > 0.0 or counterexample['bearing_radius_1'] > 0.0 \
         or counterexample['bearing_radius_2'] > 0.0
     # 20/60 at 20 deg, f = 0.05, a = m: printed 0.9953, physical 0.9913.
-    textbook = dict(z1=20, z2=60, module=2e-3, pressure_angle=theta, addendum=2e-3,
-                    friction=0.05, bearing_radius_1=0.0, bearing_radius_2=0.0)
+    textbook = {'z1': 20, 'z2': 60, 'module': 2e-3, 'pressure_angle': theta, 'addendum': 2e-3,
+                'friction': 0.05, 'bearing_radius_1': 0.0, 'bearing_radius_2': 0.0}
     printed = paper_spur_efficiencies(**textbook, pitch_radius_per_module_tooth=1.0)
     assert printed[0] == pytest.approx(0.99531, abs=1e-5)
     assert SpurGear(**textbook).efficiencies()[0] == pytest.approx(0.99126, abs=1e-5)
@@ -279,8 +274,9 @@ def test_e6_printed_bearing_term_fails() -> None:
                           settings=FIND_SETTINGS)
     assert counterexample is not None
     # Printed eq 7 with a lossy load bearing and nothing else: eta_I = 1 exactly (no loss).
-    geometry = dict(z1=30, z2=30, module=1e-3, pressure_angle=math.radians(20), addendum=1e-3,
-                    friction=0.0, bearing_radius_1=0.0, bearing_radius_2=5e-3)
+    geometry = {'z1': 30, 'z2': 30, 'module': 1e-3, 'pressure_angle': math.radians(20),
+                'addendum': 1e-3, 'friction': 0.0, 'bearing_radius_1': 0.0,
+                'bearing_radius_2': 5e-3}
     assert paper_spur_efficiencies(**geometry, aiding_load_bearing='rho_1')[1] == 1.0
     work = mesh_work_efficiencies(**geometry)[1]
     assert work < 0.99

@@ -3,20 +3,20 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 from scipy.stats import chi2
-from test_estimation_plant import lever_plant
 
 from gear_phm import interfaces
-from gear_phm.estimation import (EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
-                                 FrictionFilter, classify, to_measurement)
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing
+from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
+                                 FrictionFilter, to_measurement)
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear
+from test_estimation_plant import lever_plant
 
-NOISE = dict(motor_torque_noise=0.05, motor_speed_noise=0.01, load_torque_noise=0.05,
-             load_speed_noise=0.01)
+NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
+         'load_speed_noise': 0.01}
 CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
 
 
@@ -95,9 +95,11 @@ def test_energy_window_removes_rotor_inertia_bias() -> None:
        st.sampled_from([0.005, 0.02, 0.2]))
 def test_dropping_short_windows_early_equals_rejecting_them_later(
         seed: int, cuts: list[int], min_duration: float) -> None:
-    """The integrator's shortcut (short one-segment windows are only counted) gives the same
-    windows and counts as building every window and rejecting the short ones afterwards,
-    for any batch split. Phases flicker, with gaps, so most segments are short."""
+    """The integrator's shortcut (short one-segment windows are only counted) is exact.
+
+    It gives the same windows and counts as building every window and rejecting the short ones
+    afterwards, for any batch split. Phases flicker, with gaps, so most segments are short.
+    """
     rng = np.random.default_rng(seed)
     n = 1200
     t = np.cumsum(rng.choice([0.001, 0.001, 0.001, 0.02], n))
@@ -194,9 +196,12 @@ def test_process_covariance_is_filterpys_continuous_white_noise(dt: float, q: fl
 # --- acceptance: simplified-model plant ----------------------------------------------------
 
 def test_simplified_plant_accuracy_coverage_and_consistency() -> None:
-    """M independent seeded runs. NEES: final posterior of each run, averaged over runs, vs
-    chi2(2M)/M (NEES along one run is autocorrelated). NIS: innovations are white, so all
-    post-convergence NIS are pooled, vs chi2(K)/K. Accuracy and band coverage after 60 s."""
+    """M independent seeded runs.
+
+    NEES: final posterior of each run, averaged over runs, vs chi2(2M)/M (NEES along one run
+    is autocorrelated). NIS: innovations are white, so all post-convergence NIS are pooled,
+    vs chi2(K)/K. Accuracy and band coverage after 60 s.
+    """
     config = CONFIG.replace(process_noise=0.0)     # matched to the constant-u plant
     final_nees, nis, cover = [], [], []
     runs = 16
@@ -322,8 +327,8 @@ class _Msg:
 
     def __init__(self, stamp_ns: int, names, velocity, effort) -> None:
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-        self.header = type('H', (), {'stamp': type('S', (), {'sec': sec,
-                                                            'nanosec': nanosec})()})()
+        stamp = type('S', (), {'sec': sec, 'nanosec': nanosec})()
+        self.header = type('H', (), {'stamp': stamp})()
         self.name, self.position, self.velocity, self.effort = names, [], velocity, effort
 
 
@@ -350,7 +355,7 @@ def test_single_messages_count_bad_ones_and_match_batch_path() -> None:
 def test_config_validation_names_field_and_value() -> None:
     with pytest.raises(ValueError, match=r'min_window must be < window .* got 2\.0'):
         EstimatorConfig(window=1.0, min_window=2.0)
-    with pytest.raises(ValueError, match=r"ratio must be in .* got -1\.0"):
+    with pytest.raises(ValueError, match=r'ratio must be in .* got -1\.0'):
         EstimatorConfig(ratio=-1.0)
     with pytest.raises(ValueError, match='backwards_policy'):
         EstimatorConfig(backwards_policy='loop')

@@ -1,15 +1,18 @@
-"""The estimator node as a real subprocess over DDS: estimates from good messages, survives
-garbage, refuses bad parameters with a reason."""
+"""The estimator node as a real subprocess over DDS.
+
+It estimates from good messages, survives garbage, refuses bad parameters with a reason.
+"""
 from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
+
 from test_estimation_plant import lever_plant
 
 VENV_BIN = Path(sys.executable).parent

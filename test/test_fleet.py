@@ -3,9 +3,9 @@ results independent of the number of workers."""
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 

@@ -1,9 +1,9 @@
 """Vectorised JointState CDR decoding against rosbags' own deserializer, message by message."""
 from __future__ import annotations
 
-import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
 
 from gear_phm.bagio import TYPESTORE
 from gear_phm.interfaces import (BadMessage, decode_joint_state_buffer, decode_joint_states,
@@ -15,7 +15,7 @@ FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
 @st.composite
 def payloads(draw: st.DrawFn) -> bytes:
-    """A JointState CDR payload: valid with a random layout, or damaged, or random bytes."""
+    """Draw a JointState CDR payload: valid with a random layout, damaged, or random bytes."""
     kind = draw(st.sampled_from(['valid', 'valid', 'valid', 'truncated', 'big_endian',
                                  'random']))
     if kind == 'random':
@@ -44,7 +44,7 @@ def payloads(draw: st.DrawFn) -> bytes:
 
 
 def reference(raws: list[bytes]) -> tuple[list, int]:
-    """(samples, rejected count) decoded one by one with rosbags."""
+    """Return (samples, rejected count) decoded one by one with rosbags."""
     samples, rejected = [], 0
     for raw in raws:
         try:
@@ -126,9 +126,11 @@ def _simple(i: int):
 @given(st.lists(payloads(), max_size=30), st.data())
 def test_decode_once_then_cut_equals_decoding_each_part(raws: list[bytes],
                                                         data: st.DataObject) -> None:
-    """``gear-phm analyze`` decodes a whole chunk once and cuts it at /diagnostics ticks:
-    every cut must hold exactly the samples and rejection counts of decoding its messages
-    alone (bad messages included, so the estimator's drop counters tick at the same place)."""
+    """``gear-phm analyze`` decodes a whole chunk once and cuts it at /diagnostics ticks.
+
+    Every cut must hold exactly the samples and rejection counts of decoding its messages
+    alone (bad messages included, so the estimator's drop counters tick at the same place).
+    """
     whole = decode_joint_states(raws, 'motor', 'load')
     cuts = sorted(data.draw(st.lists(st.integers(0, len(raws)), max_size=4)))
     bounds = [0, *cuts, len(raws)]

@@ -1,15 +1,17 @@
-"""The indexed-MCAP fast path of BagReader.raw_batches against rosbags' reader, message by
-message, on bags from three writers and on the cases it must hand over or refuse."""
+"""The indexed-MCAP fast path of BagReader.raw_batches against rosbags' reader.
+
+Message by message, on bags from three writers and on the cases it must hand over or refuse.
+"""
 from __future__ import annotations
 
 from pathlib import Path
 
+from mcap.writer import CompressionType, IndexType, Writer
 import numpy as np
 import pytest
-from mcap.writer import CompressionType, IndexType, Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 
-from gear_phm.bagio import TYPESTORE, BagError, BagReader, Rosbag2McapWriter
+from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter, TYPESTORE
 from gear_phm.bagio.chunks import RawBatch
 from gear_phm.bagio.writer import _rebuild_metadata, vector3_stamped_cdr
 from gear_phm.interfaces import Vector3Out
@@ -54,8 +56,10 @@ def fast(bag: Path) -> tuple[dict[str, list[tuple[int, bytes]]], str]:
 
 
 def write_mcap(directory: Path, messages: list[tuple[str, int, bytes]], **writer_args) -> None:
-    """A rosbag2 directory written with mcap's Writer directly (``writer_args`` choose chunk
-    size, compression and which indexes exist)."""
+    """Write a rosbag2 directory with mcap's Writer directly.
+
+    ``writer_args`` choose chunk size, compression and which indexes exist.
+    """
     directory.mkdir()
     path = directory / f'{directory.name}_0.mcap'
     with open(path, 'wb') as stream:
@@ -75,7 +79,7 @@ def write_mcap(directory: Path, messages: list[tuple[str, int, bytes]], **writer
 
 
 def interleaved(count: int, order: np.ndarray | None = None) -> list[tuple[str, int, bytes]]:
-    """JointState at 1 kHz with a Vector3Stamped every 10th message, log times distinct."""
+    """Make JointState at 1 kHz with a Vector3Stamped every 10th message, log times distinct."""
     messages = []
     for i in range(count):
         t_ns = 10**9 + i * 10**6
@@ -108,8 +112,10 @@ def test_gear_phm_writer_bag_matches_rosbags(tmp_path: Path, compression: str | 
                                            (StoragePlugin.SQLITE3, 'rosbags')])
 def test_rosbags_writer_bags_match_rosbags(tmp_path: Path, storage: StoragePlugin,
                                            kind: str) -> None:
-    """Bags from an independent writer (rosbags): its MCAP takes the chunk path, sqlite3
-    goes through rosbags; both give what rosbags' reader gives."""
+    """Bags from an independent writer (rosbags) read as rosbags' reader reads them.
+
+    Its MCAP takes the chunk path, sqlite3 goes through rosbags.
+    """
     bag = tmp_path / 'bag'
     with Ros2Writer(bag, version=9, storage_plugin=storage) as writer:
         connections = {topic: writer.add_connection(topic, msgtype, typestore=TYPESTORE)
@@ -122,8 +128,10 @@ def test_rosbags_writer_bags_match_rosbags(tmp_path: Path, storage: StoragePlugi
 
 
 def test_out_of_order_and_overlapping_chunks_come_out_in_log_time_order(tmp_path: Path) -> None:
-    """Messages written shuffled within a window of 60 spread over chunks that overlap in
-    time: each topic still comes out sorted by log time, nothing lost or repeated."""
+    """Messages written shuffled within a window of 60 spread over overlapping chunks.
+
+    Each topic still comes out sorted by log time, nothing lost or repeated.
+    """
     rng = np.random.default_rng(7)
     count = 2000
     keys = np.arange(count * 11 // 10) + rng.uniform(0, 60, count * 11 // 10)
@@ -181,8 +189,11 @@ def test_message_index_that_disagrees_with_the_messages_is_refused(tmp_path: Pat
 @pytest.mark.parametrize('compression', ['', 'zstd', 'lz4'])
 def test_mcap_file_writer_is_read_by_mcap_with_crcs_and_summary(tmp_path: Path,
                                                                 compression: str) -> None:
-    """gear_phm's MCAP writer, read by mcap's own reader with CRC validation: every message,
-    in log-time order, and a summary whose statistics and indexes agree with the data."""
+    """Read gear_phm's MCAP writer's output with mcap's own reader and CRC validation.
+
+    Every message, in log-time order, and a summary whose statistics and indexes agree with
+    the data.
+    """
     import io
 
     from mcap.reader import make_reader
@@ -208,8 +219,8 @@ def test_mcap_file_writer_is_read_by_mcap_with_crcs_and_summary(tmp_path: Path,
     reader = make_reader(stream, validate_crcs=True)
     read = [(c.topic, m.log_time, m.publish_time, m.sequence, m.data)
             for _, c, m in reader.iter_messages(log_time_order=True)]
-    assert sorted(read, key=lambda m: (m[1], m[3])) == sorted(written, key=lambda m: (m[1],
-                                                                                    m[3]))
+    assert (sorted(read, key=lambda m: (m[1], m[3]))
+            == sorted(written, key=lambda m: (m[1], m[3])))
     summary = reader.get_summary()
     stats = summary.statistics
     assert stats.message_count == 2000 and stats.channel_count == 3 and stats.schema_count == 1

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 
-from gear_phm.models import SpurGear, min_teeth
+from gear_phm.models import min_teeth, SpurGear
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True)
 
@@ -55,8 +55,10 @@ def mesh_work_efficiencies(z1: float, z2: float, module: float, pressure_angle: 
     weight = np.concatenate([p[1] for p in pieces]) / (x_end - x_start)   # time fraction
 
     def cycle(omega_1: float) -> tuple[float, float, float, float]:
-        """Mean powers per unit normal force: into wheel 1, into wheel 2 (from the contact),
-        lost in bearing 1, lost in bearing 2."""
+        """Mean powers per unit normal force.
+
+        Into wheel 1, into wheel 2 (from the contact), lost in bearing 1, lost in bearing 2.
+        """
         omega_2 = -omega_1 * r_b1 / r_b2
         v1 = _cross_z(x - o1[0], 0.0 - o1[1], omega_1)
         v2 = _cross_z(x - o2[0], 0.0 - o2[1], omega_2)
@@ -88,7 +90,7 @@ def mesh_work_efficiencies(z1: float, z2: float, module: float, pressure_angle: 
 
 @st.composite
 def geometries(draw, max_friction: float = 0.5, max_bearing_fraction: float = 0.5) -> dict:
-    """Valid gear pairs: teeth >= the undercut limit, bearing radii a fraction of pitch radius."""
+    """Draw valid gear pairs: teeth >= the undercut limit, bearing radii < pitch radius."""
     pressure_angle = math.radians(draw(st.floats(12.0, 35.0)))
     z_low = math.ceil(float(min_teeth(pressure_angle)))
     z1 = draw(st.integers(z_low, 400))
@@ -152,9 +154,9 @@ def test_matches_numerical_work_integration(geometry: dict) -> None:
     (0.05, 0.0, 0.0), (0.3, 0.0, 0.0), (0.0, 0.004, 0.0), (0.0, 0.0, 0.01),
     (0.1, 0.003, 0.009), (0.8, 0.01, 0.03)])
 def test_matches_numerical_work_integration_concrete(friction, rho_1, rho_2) -> None:
-    geometry = dict(z1=23.0, z2=71.0, module=1.5e-3, pressure_angle=math.radians(20.0),
-                    addendum=1.5e-3, friction=friction, bearing_radius_1=rho_1,
-                    bearing_radius_2=rho_2)
+    geometry = {'z1': 23.0, 'z2': 71.0, 'module': 1.5e-3, 'pressure_angle': math.radians(20.0),
+                'addendum': 1.5e-3, 'friction': friction, 'bearing_radius_1': rho_1,
+                'bearing_radius_2': rho_2}
     expected = mesh_work_efficiencies(**geometry)
     assert SpurGear(**geometry).efficiencies() == pytest.approx(expected, rel=1e-9)
 
@@ -257,8 +259,8 @@ def test_array_pressure_angle_checks_each_wheel_against_its_own_limit() -> None:
     ('bearing_radius_2', math.nan, r'^bearing_radius_2 must be finite, got nan$'),
 ])
 def test_bad_field_raises_value_error_naming_field_and_value(field, value, message) -> None:
-    fields = dict(z1=20.0, z2=60.0, module=1e-3, pressure_angle=math.radians(20.0),
-                  friction=0.05)
+    fields = {'z1': 20.0, 'z2': 60.0, 'module': 1e-3, 'pressure_angle': math.radians(20.0),
+              'friction': 0.05}
     fields[field] = value
     with pytest.raises(ValueError, match=message):
         SpurGear(**fields)
@@ -282,10 +284,12 @@ def test_undercut_limit_is_two_over_sine_squared(theta_deg: float) -> None:
 @SETTINGS
 @given(geometry=geometries(max_bearing_fraction=0.9))
 def test_motor_bearing_alone_follows_the_infinite_ratio_lever(geometry: dict) -> None:
-    """With only the motor-wheel bearing lossy, eta_I = 2 - 1/eta_D whatever z2/z1 is: the
-    limit R -> inf of eq 14. This is why the simplified model, which ties the eta_D-eta_I
-    relation to R alone, misses gears whose losses sit in the bearings (see
-    docs/paper-reproduction.md)."""
+    """With only the motor-wheel bearing lossy, eta_I = 2 - 1/eta_D whatever z2/z1 is.
+
+    That is the limit R -> inf of eq 14. This is why the simplified model, which ties the
+    eta_D-eta_I relation to R alone, misses gears whose losses sit in the bearings (see
+    docs/paper-reproduction.md).
+    """
     geometry.update(friction=0.0, bearing_radius_2=0.0)
     eta_d, eta_i = SpurGear(**geometry).efficiencies()
     assert eta_i == pytest.approx(2.0 - 1.0 / eta_d, rel=1e-12, abs=1e-12)

@@ -1,9 +1,9 @@
 """gear-phm monitor: the three nodes in one process replay, estimate, diagnose and record."""
 from __future__ import annotations
 
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 

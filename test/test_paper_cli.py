@@ -4,15 +4,15 @@ from __future__ import annotations
 import csv
 import json
 import math
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from gear_phm.cli.main import main
-from gear_phm.models import SpurGear, min_teeth, total_squared_error
+from gear_phm.models import min_teeth, SpurGear, total_squared_error
 from gear_phm.paper.reproduce import CSV_COLUMNS, FIGURE_FILES, sample_reference_gears
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
@@ -119,7 +119,7 @@ def test_out_below_a_file_is_a_one_line_error(tmp_path, capsys) -> None:
     assert main(['paper', '--out', str(target / 'sub'), '--samples', '5']) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1
-    assert error[0].startswith(f"gear-phm paper: error: cannot create --out directory "
+    assert error[0].startswith(f'gear-phm paper: error: cannot create --out directory '
                                f"'{target / 'sub'}'")
 
 

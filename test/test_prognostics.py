@@ -1,27 +1,28 @@
-"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics,
-wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter."""
+"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics.
+
+Also wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter.
+"""
 from __future__ import annotations
 
 import json
 import math
 import os
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 from scipy.stats import chi2
 
 from gear_phm import interfaces
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.prognostics import (HealthAssessor, HealthConfig, RulPredictor, Trend,
-                                  TrendDetector, end_of_life_u, health_level)
-from gear_phm.prognostics.health import DivergenceDetector, chi_square_mean_bound
+from gear_phm.prognostics import (end_of_life_u, health_level, HealthAssessor, HealthConfig,
+                                  RulPredictor, Trend, TrendDetector)
+from gear_phm.prognostics.health import chi_square_mean_bound, DivergenceDetector
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
-from gear_phm.prognostics.state import (WearState, WearStateSaver, load_wear_state,
-                                        save_wear_state)
+from gear_phm.prognostics.state import load_wear_state, save_wear_state, WearState, WearStateSaver
 from gear_phm.simulation.wear import Wear
 from gear_phm.status import ERROR, OK, WARN
 
@@ -55,8 +56,8 @@ def test_linear_rul_exact_for_a_sharp_posterior() -> None:
     rul = RulPredictor(0.6).predict(0.1, 1e-4, TINY)
     assert rul.model == 'linear'
     assert rul.median == pytest.approx(5000.0, rel=1e-3)
-    assert rul.p5 == pytest.approx(5000.0, rel=2e-3) and rul.p95 == pytest.approx(5000.0,
-                                                                                rel=2e-3)
+    assert rul.p5 == pytest.approx(5000.0, rel=2e-3)
+    assert rul.p95 == pytest.approx(5000.0, rel=2e-3)
 
 
 def test_linear_rul_bounds_match_the_rate_quantiles() -> None:
@@ -125,8 +126,11 @@ def test_trend_detector_chooses_linear_and_exponential() -> None:
 
 
 def test_exponential_rul_takes_the_rate_from_the_fitted_slope() -> None:
-    """The filter's constant-rate model lags accelerating wear; the exponential branch uses
-    the trend fit's slope at the newest point instead (docs/prognostics.md)."""
+    """The filter's constant-rate model lags accelerating wear.
+
+    The exponential branch uses the trend fit's slope at the newest point instead
+    (docs/prognostics.md).
+    """
     k, lagging_rate, slope = 1e-3, 1e-4, 1.5e-4
     predictor = RulPredictor(0.6)
     fitted = predictor.predict(0.1, lagging_rate, TINY, Trend('exponential', k, 0.0,

@@ -1,13 +1,13 @@
 """Publisher node as a real subprocess: replay exactness and pacing, simulate mode, bad input."""
 from __future__ import annotations
 
+from collections.abc import Iterator
 import os
+from pathlib import Path
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -53,22 +53,23 @@ def broken_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 BAD_INPUTS = {
-    'missing bag': (dict(mode='replay', bag_path='/nonexistent/bag'), '/nonexistent/bag'),
-    'truncated bag': (dict(mode='replay', bag_path='{truncated}'), 'truncated'),
-    'corrupt bag': (dict(mode='replay', bag_path='{corrupt}'), 'corrupt'),
-    'bag without the topic': (dict(mode='replay', bag_path=str(HEALTHY), topic='/encoders'),
+    'missing bag': ({'mode': 'replay', 'bag_path': '/nonexistent/bag'}, '/nonexistent/bag'),
+    'truncated bag': ({'mode': 'replay', 'bag_path': '{truncated}'}, 'truncated'),
+    'corrupt bag': ({'mode': 'replay', 'bag_path': '{corrupt}'}, 'corrupt'),
+    'bag without the topic': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                               'topic': '/encoders'},
                               "no topic '/encoders'"),
-    'topic of the wrong type': (dict(mode='replay', bag_path=str(HEALTHY),
-                                     topic='/gear_phm/truth/friction'),
+    'topic of the wrong type': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                                 'topic': '/gear_phm/truth/friction'},
                                 'expected sensor_msgs/msg/JointState'),
-    'joint names not in the messages': (dict(mode='replay', bag_path=str(HEALTHY),
-                                             motor_joint='rotor'), "'rotor'"),
-    'ratio <= 0': (dict(ratio=0.0), 'parameter ratio'),
-    'negative rate': (dict(rate=-100.0), 'parameter rate'),
-    'negative rate factor': (dict(mode='replay', bag_path=str(HEALTHY), rate_factor=-2.0),
+    'joint names not in the messages': ({'mode': 'replay', 'bag_path': str(HEALTHY),
+                                         'motor_joint': 'rotor'}, "'rotor'"),
+    'ratio <= 0': ({'ratio': 0.0}, 'parameter ratio'),
+    'negative rate': ({'rate': -100.0}, 'parameter rate'),
+    'negative rate factor': ({'mode': 'replay', 'bag_path': str(HEALTHY), 'rate_factor': -2.0},
                              'parameter rate_factor'),
-    'unknown mode': (dict(mode='record'), 'parameter mode'),
-    'integer for a double': (dict(ratio=3), 'parameter ratio'),
+    'unknown mode': ({'mode': 'record'}, 'parameter mode'),
+    'integer for a double': ({'ratio': 3}, 'parameter ratio'),
 }
 
 
@@ -171,10 +172,12 @@ def wait_until(condition, timeout: float, what: str) -> None:
 def run_with_listeners(ros_node, listeners: list[tuple[type, str]], timeout: float = 90.0,
                        **params: object) -> tuple[subprocess.CompletedProcess,
                                                   list[Recorder]]:
-    """Start the publisher; subscribe to ``listeners`` (topic, type) first and to joint_states
-    last, after the others matched, so that the publisher (which waits for a joint_states
-    subscriber) starts only when every listener is connected. Returns (process, recorders)
-    with the joint_states recorder first."""
+    """Start the publisher; return (process, recorders) with the joint_states recorder first.
+
+    Subscribe to ``listeners`` (topic, type) first and to joint_states last, after the others
+    matched, so that the publisher (which waits for a joint_states subscriber) starts only
+    when every listener is connected.
+    """
     from sensor_msgs.msg import JointState
     recorders = [Recorder(ros_node, msg_type, topic) for msg_type, topic in listeners]
     process = subprocess.Popen(publisher_command(**params), stdout=subprocess.PIPE,
@@ -336,7 +339,7 @@ def test_config_file_is_accepted_by_the_node() -> None:
 
 
 def write_other_formats(root: Path, count: int) -> dict[str, Path]:
-    """The same 100 Hz JointState stream as a ROS1 .bag and a sqlite3 rosbag2."""
+    """Write the same 100 Hz JointState stream as a ROS1 .bag and a sqlite3 rosbag2."""
     from rosbags.rosbag1 import Writer as Ros1Writer
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Ros2Writer
@@ -355,8 +358,8 @@ def write_other_formats(root: Path, count: int) -> dict[str, Path]:
         with writer:
             connection = writer.add_connection('/joint_states', kind, typestore=store)
             for i in range(count):
-                fields = dict(stamp=time_type(sec=50 + i // 100, nanosec=(i % 100) * 10**7),
-                              frame_id='')
+                fields = {'stamp': time_type(sec=50 + i // 100, nanosec=(i % 100) * 10**7),
+                          'frame_id': ''}
                 if fmt == 'ros1':
                     fields['seq'] = i
                 msg = store.types[kind](header=header(**fields), name=['load', 'motor'],

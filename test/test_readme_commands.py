@@ -12,9 +12,12 @@ SIGINT as the README says, and must exit 0.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 import json
 import math
 import os
+from pathlib import Path
 import re
 import shutil
 import signal
@@ -22,9 +25,6 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from pathlib import Path
 from typing import Any
 
 import pytest

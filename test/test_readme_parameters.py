@@ -6,10 +6,10 @@ and reads the declarations back through rclpy's public API.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import re
 import subprocess
 import sys
-from pathlib import Path
 from typing import Any
 
 import pytest

@@ -3,20 +3,20 @@ from __future__ import annotations
 
 import hashlib
 import os
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
+from mcap.reader import make_reader
 import numpy as np
 import pytest
 import yaml
-from mcap.reader import make_reader
 
-from gear_phm.bagio import TYPESTORE, BagReader
+from gear_phm.bagio import BagReader, TYPESTORE
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.interfaces import decode_joint_states, stamp_to_ns
 from gear_phm.models import eta_opposing, u_from_eta_opposing
-from gear_phm.simulation import DutyCycle, SimulationConfig, Wear, sample_times, simulate
+from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
 
 REPO = Path(__file__).resolve().parents[1]
 BAGS = REPO / 'bags'
@@ -90,9 +90,9 @@ def test_mcap_reader_reads_it(bag: Path) -> None:
         summary = reader.get_summary()
         assert summary.statistics.message_count == 1800
         assert {c.topic: c.message_encoding for c in summary.channels.values()} == \
-            {t: 'cdr' for t in TOPICS}
+            dict.fromkeys(TOPICS, 'cdr')
         assert {s.name: s.encoding for s in summary.schemas.values()} == \
-            {t: 'ros2msg' for t in set(TOPICS.values())}
+            dict.fromkeys(set(TOPICS.values()), 'ros2msg')
         count, last = 0, -1
         for schema, channel, message in reader.iter_messages(topics=['/joint_states']):
             msg = TYPESTORE.deserialize_cdr(message.data, schema.name)
@@ -166,7 +166,7 @@ def test_cli_error_as_a_process_has_no_traceback(tmp_path: Path) -> None:
 
 
 def test_refuses_a_non_empty_out_directory(tmp_path: Path,
-                                          capsys: pytest.CaptureFixture[str]) -> None:
+                                           capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / 'keep.txt').write_text('data')
     assert simulate_cli(tmp_path) == 2
     assert 'exists and is not an empty directory' in capsys.readouterr().err

@@ -1,24 +1,15 @@
 """Simulator: the measured power ratio in steady phases matches the models' efficiencies."""
 from __future__ import annotations
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
+import pytest
 
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
-from gear_phm.simulation import (
-    Channel,
-    DutyCycle,
-    Plant,
-    Sensors,
-    SimulationConfig,
-    Simulator,
-    Wear,
-    sample_times,
-    simulate,
-)
+from gear_phm.simulation import (Channel, DutyCycle, Plant, sample_times, Sensors, simulate,
+                                 SimulationConfig, Simulator, Wear)
 
 RATE = 200.0
 

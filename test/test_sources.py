@@ -2,15 +2,15 @@
 from __future__ import annotations
 
 import itertools
-import threading
 from pathlib import Path
+import threading
 
 import numpy as np
 import pytest
 
 from gear_phm.bagio import BagReader
-from gear_phm.simulation import PARAMETERS, config_from_parameters, sample_times, simulate
-from gear_phm.sources import PASS_END, Recorded, Sample, SourceError, read_ahead
+from gear_phm.simulation import config_from_parameters, PARAMETERS, sample_times, simulate
+from gear_phm.sources import PASS_END, read_ahead, Recorded, Sample, SourceError
 from gear_phm.sources import replay as replay_module
 from gear_phm.sources.replay import ReplaySource
 from gear_phm.sources.simulate import SimulateSource

@@ -8,6 +8,6 @@
   ``kill -9`` (no MCAP footer, no metadata.yaml).
 """
 from gear_phm.bagio.reader import BagError, BagReader
-from gear_phm.bagio.writer import TYPESTORE, Rosbag2McapWriter, recover, to_rosbags
+from gear_phm.bagio.writer import recover, Rosbag2McapWriter, to_rosbags, TYPESTORE
 
 __all__ = ['TYPESTORE', 'BagError', 'BagReader', 'Rosbag2McapWriter', 'recover', 'to_rosbags']

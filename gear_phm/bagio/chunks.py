@@ -14,11 +14,11 @@ Messages come out in log-time order per topic, also when chunks overlap in time.
 """
 from __future__ import annotations
 
-import zlib
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
+import zlib
 
 import numpy as np
 
@@ -106,7 +106,8 @@ def _decompress(data: bytes, compression: str, size: int) -> bytes:
         return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
     if compression == 'lz4':
         import lz4.frame
-        return lz4.frame.decompress(data)
+        decompressed: bytes = lz4.frame.decompress(data)
+        return decompressed
     raise CorruptChunk(f'chunk compression {compression!r} is not supported')
 
 

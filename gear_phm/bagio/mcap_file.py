@@ -14,10 +14,11 @@ indexes (:mod:`gear_phm.bagio.chunks`).
 """
 from __future__ import annotations
 
-import struct
-import zlib
 from array import array
+from collections.abc import Callable
+import struct
 from typing import BinaryIO
+import zlib
 
 MAGIC = b'\x89MCAP0\r\n'
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE = 0x01, 0x02, 0x03, 0x04, 0x05
@@ -36,13 +37,14 @@ def _record(opcode: int, body: bytes) -> bytes:
     return struct.pack('<BQ', opcode, len(body)) + body
 
 
-def _compressor(compression: str):
+def _compressor(compression: str) -> Callable[[bytes], bytes] | None:
     if compression == 'zstd':
         import zstandard
         return zstandard.ZstdCompressor().compress
     if compression == 'lz4':
         import lz4.frame
-        return lz4.frame.compress
+        compress: Callable[[bytes], bytes] = lz4.frame.compress
+        return compress
     if compression == '':
         return None
     raise ValueError(f"compression must be '', 'zstd' or 'lz4', got {compression!r}")
@@ -71,7 +73,7 @@ class McapFileWriter:
         self._start = _U64_MAX
         self._end = 0
         self._chunk = bytearray()
-        self._index: dict[int, array] = {}       # channel -> [log time, offset, ...] of chunk
+        self._index: dict[int, array[int]] = {}       # channel -> [log time, offset, ...] of chunk
         self._finished = False
 
     def _write(self, data: bytes) -> None:

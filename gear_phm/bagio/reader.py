@@ -5,11 +5,13 @@ from collections.abc import Iterable, Iterator
 from dataclasses import fields
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, cast
 
 from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Connection
+from rosbags.rosbag2 import Reader as Rosbag2Reader
 from rosbags.rosbag2.storage_mcap import McapReader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.bagio.chunks import CorruptChunk, McapChunkReader, NotIndexed, RawBatch
 
@@ -25,7 +27,7 @@ def _to_jazzy(value: Any) -> Any:
             return [_to_jazzy(item) for item in value]
         return value
     cls = _JAZZY.types[msgtype]
-    return cls(**{f.name: _to_jazzy(getattr(value, f.name)) for f in fields(cls)})
+    return cls(**{f.name: _to_jazzy(getattr(value, f.name)) for f in fields(cast(Any, cls))})
 
 
 class BagError(Exception):
@@ -138,7 +140,7 @@ class BagReader:
                            f'expected {msgtype}')
         return topic
 
-    def _connections(self, topics: Iterable[str] | None) -> list:
+    def _connections(self, topics: Iterable[str] | None) -> list[Connection]:
         wanted = None if topics is None else {self.resolve_topic(t) for t in topics}
         return [c for c in self.reader.connections if wanted is None or c.topic in wanted]
 
@@ -214,6 +216,8 @@ class BagReader:
             return None
         files: list[Path] = []
         for bag in reader.readers:
+            if not isinstance(bag, Rosbag2Reader):
+                return None
             storage = bag.storage               # a DirectoryReader, or one storage file
             parts = getattr(storage, 'storages', [storage])
             if storage.metadata.compression_mode or not all(

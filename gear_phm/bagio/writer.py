@@ -2,25 +2,25 @@
 (:mod:`gear_phm.bagio.mcap_file`), crash-safely."""
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 import functools
 import io
 import os
+from pathlib import Path
 import struct
 import time
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-import yaml
-from mcap.reader import StreamReader
 from mcap.records import Channel, Message, Schema
-from rosbags.typesys import Stores, get_typestore
+from mcap.stream_reader import StreamReader
+from rosbags.typesys import get_typestore, Stores
+import yaml
 
 from gear_phm.bagio.mcap_file import McapFileWriter
-from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, VECTOR3_STAMPED_TYPE, DiagnosticsOut,
-                                 Vector3Out, ns_to_sec_nanosec)
+from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_sec_nanosec,
+                                 VECTOR3_STAMPED_TYPE, Vector3Out)
 
 #: rosbags typestore for ROS 2 Jazzy message types.
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -100,7 +100,7 @@ class Rosbag2McapWriter:
                       'topic_type_hash': type_hash})
         self._topics[topic] = _Topic(topic, msgtype, channel_id, type_hash)
 
-    def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
+    def write_raw(self, topic: str, t_ns: int, data: bytes | memoryview) -> None:
         """Append one CDR payload at log time ``t_ns`` [ns] to a declared topic."""
         topic = absolute_topic(topic)
         entry = self._topics.get(topic)
@@ -152,7 +152,7 @@ class Rosbag2McapWriter:
                 first = t_ns
             if last is None or t_ns > last:
                 last = t_ns
-        if first is not None:
+        if first is not None and last is not None:
             self._note_times(first, last)
         self._maybe_flush()
 
@@ -295,8 +295,8 @@ def _rebuild_metadata(directory: Path, sources: list[Path]) -> None:
                         channel.topic, schema.name, channel.id,
                         channel.metadata.get('topic_type_hash', ''))
                 entry.count += 1
-                start_ns = message.log_time if start_ns is None else min(start_ns,
-                                                                          message.log_time)
+                start_ns = (message.log_time if start_ns is None
+                            else min(start_ns, message.log_time))
                 end_ns = max(end_ns, message.log_time)
     _write_metadata(directory, [s.name for s in sources], list(topics.values()),
                     start_ns or 0, end_ns)
@@ -384,8 +384,8 @@ def to_rosbags(output: Vector3Out | DiagnosticsOut) -> Any:
     if isinstance(output, Vector3Out):
         return types[VECTOR3_STAMPED_TYPE](
             header=_header(output.stamp_ns, output.frame_id),
-            vector=types['geometry_msgs/msg/Vector3'](x=float(output.x), y=float(output.y),
-                                                       z=float(output.z)))
+            vector=types['geometry_msgs/msg/Vector3'](
+                x=float(output.x), y=float(output.y), z=float(output.z)))
     status_type = types['diagnostic_msgs/msg/DiagnosticStatus']
     key_value = types['diagnostic_msgs/msg/KeyValue']
     return types[DIAGNOSTIC_ARRAY_TYPE](

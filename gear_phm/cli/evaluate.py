@@ -20,9 +20,9 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.interfaces import HEALTH_RUL, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, stamp_to_ns
-from gear_phm.prognostics import HealthConfig, end_of_life_u
-from gear_phm.prognostics.metrics import ALPHA, LAMBDAS, evaluate
+from gear_phm.interfaces import HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE
+from gear_phm.prognostics import end_of_life_u, HealthConfig
+from gear_phm.prognostics.metrics import ALPHA, evaluate, LAMBDAS
 
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
 
@@ -78,7 +78,7 @@ def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def truth_eol(truth: Path, u_eol: float) -> float:
-    """True end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
+    """Return the true end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
     if truth.suffix.lower() == '.csv':
         try:
             with open(truth, newline='', encoding='utf-8') as stream:
@@ -97,11 +97,11 @@ def truth_eol(truth: Path, u_eol: float) -> float:
         if not values or not math.isfinite(values[-1][1]):
             raise CliError(f'{truth} holds no finite time,true_eol row')
         return values[-1][1]
-    times, values = read_vector_topic(truth, TRUTH_FRICTION)
-    crossed = np.flatnonzero(values[:, 0] >= u_eol)
+    times, vectors = read_vector_topic(truth, TRUTH_FRICTION)
+    crossed = np.flatnonzero(vectors[:, 0] >= u_eol)
     if crossed.size == 0:
         raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
-                       f'{values[:, 0].max():.4g}): no end of life to score against')
+                       f'{vectors[:, 0].max():.4g}): no end of life to score against')
     return float(times[crossed[0]])
 
 

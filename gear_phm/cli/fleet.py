@@ -7,8 +7,8 @@ unit's analysis under DIR/units/<unit>/.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
+import sys
 
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, estimator_params, health_values

@@ -7,15 +7,15 @@ Each subcommand module exposes ``HELP`` (one line), ``add_arguments(parser)`` an
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 import importlib
 import sys
-from collections.abc import Sequence
 
 #: name -> (module, one-line help). Only the module of the command being run is imported.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'paper': ('gear_phm.cli.paper', "regenerate the paper's figures 3, 4, 6 and samples.csv"),
     'simulate': ('gear_phm.cli.simulate', 'write a simulated rosbag2 MCAP bag'),
-    'analyze': ('gear_phm.cli.analyze', 'run the live nodes\' code over a recorded bag'),
+    'analyze': ('gear_phm.cli.analyze', "run the live nodes' code over a recorded bag"),
     'evaluate': ('gear_phm.cli.evaluate', 'score RUL predictions with prognostic metrics'),
     'monitor': ('gear_phm.cli.monitor', 'run publisher, estimator and diagnostics in one '
                                         'process'),
@@ -30,8 +30,11 @@ class CliError(Exception):
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The ``gear-phm`` parser; only ``command``'s module is imported (fast, and one broken
-    subcommand cannot break the others)."""
+    """Build the ``gear-phm`` parser.
+
+    Only ``command``'s module is imported (fast, and one broken subcommand cannot break the
+    others).
+    """
     parser = argparse.ArgumentParser(
         prog='gear-phm',
         description='Gearbox friction estimation and remaining useful life (gear_phm).')

@@ -13,8 +13,10 @@ HELP = 'reproduce the paper figures (simplified vs spur-gear model) with statist
 
 
 def _bounded(convert: type, low: float, high: float | None = None) -> Callable[[str], Any]:
-    """argparse type: ``convert(text)`` (int or float) within [low, high] (no upper bound if
-    ``high`` is None), with a one-line reason otherwise."""
+    """Make an argparse type: ``convert(text)`` (int or float) within [low, high].
+
+    No upper bound if ``high`` is None; a one-line reason otherwise.
+    """
     kind = 'a whole number' if convert is int else 'a number'
 
     def parse(text: str) -> Any:

@@ -9,19 +9,19 @@ for the same arguments (no wall-clock time is written; see docs/publisher.md).
 from __future__ import annotations
 
 import argparse
-import math
 from dataclasses import replace
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from gear_phm.bagio import TYPESTORE, BagError, Rosbag2McapWriter
+from gear_phm.bagio import BagError, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import (JOINT_STATE_TYPE, TRUTH_EFFICIENCY, TRUTH_FRICTION,
-                                 VECTOR3_STAMPED_TYPE, JOINT_STATES, ns_to_sec_nanosec)
-from gear_phm.simulation import (PARAMETERS, SimulationConfig, SimulationResult, Simulator,
-                                 Wear, config_from_parameters)
+from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, ns_to_sec_nanosec,
+                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.simulation import (config_from_parameters, PARAMETERS, SimulationConfig,
+                                 SimulationResult, Simulator, Wear)
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
 

@@ -6,12 +6,12 @@
 - :mod:`.kalman`: filterpy Kalman filter on [u, du/dt] with gating.
 - :mod:`.pipeline`: the whole estimator over batches of samples.
 """
-from gear_phm.estimation.config import PARAMETERS, EstimatorConfig
+from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.kalman import FrictionFilter, UpdateResult
 from gear_phm.estimation.pipeline import EstimatorPipeline
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 
 __all__ = ['PARAMETERS', 'EnergyIntegrator', 'EstimatorConfig', 'EstimatorPipeline',
            'FrictionEstimate', 'FrictionFilter', 'JointSample', 'Measurement', 'UpdateResult',

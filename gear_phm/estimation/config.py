@@ -1,10 +1,10 @@
 """Named estimator parameters with units, limits and validation (no ROS imports)."""
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
+import math
 
-from gear_phm.parameters import ParamSpec, check_values, defaults
+from gear_phm.parameters import check_values, defaults, ParamSpec
 
 #: The estimator's parameters (node parameters of the same names, config/estimator.yaml).
 PARAMETERS: tuple[ParamSpec, ...] = (
@@ -87,7 +87,7 @@ class EstimatorConfig:
                              f'got {self.min_window!r}')
 
     def replace(self, **changes: float | str) -> EstimatorConfig:
-        """A validated copy with ``changes`` applied; unknown names raise ValueError."""
+        """Return a validated copy with ``changes`` applied; unknown names raise ValueError."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
             raise ValueError(f'unknown estimator parameter(s): {sorted(unknown)}')

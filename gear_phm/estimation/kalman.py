@@ -1,11 +1,11 @@
 """Kalman filter on the friction parameter: x = [u, du/dt], filterpy underneath."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
-import numpy as np
 from filterpy.kalman import KalmanFilter
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -25,9 +25,11 @@ def transition(dt: float) -> np.ndarray:
 
 
 def process_covariance(dt: float, spectral_density: float) -> np.ndarray:
-    """Discretised continuous white noise on d2u/dt2 over ``dt`` [s] (q [1/s^3]):
+    """Discretised continuous white noise on d2u/dt2 over ``dt`` [s] (q [1/s^3]).
+
     q [[dt^3/3, dt^2/2], [dt^2/2, dt]], the matrix of filterpy's ``Q_continuous_white_noise``
-    (dim=2) written out, which is 50 times cheaper per call (the tests check they agree)."""
+    (dim=2) written out, which is 50 times cheaper per call (the tests check they agree).
+    """
     if dt <= 0.0 or spectral_density == 0.0:
         return np.zeros((2, 2))
     q = float(spectral_density)

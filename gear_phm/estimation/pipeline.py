@@ -8,20 +8,20 @@ are split into batches. Time comes from the sample stamps only.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
+import math
 from typing import Any
 
 import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
-from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.powerflow import classify
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window, to_measurement
+from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies
 from gear_phm.models.power_flow import IMPOSSIBLE
-from gear_phm.status import OK, WARN, StatusOut, format_value
+from gear_phm.status import format_value, OK, StatusOut, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
@@ -44,8 +44,8 @@ class EstimatorPipeline:
                  on_measurement: Callable[[Measurement, bool], None] | None = None) -> None:
         self.config = config
         self.on_measurement = on_measurement
-        self.counts: dict[str, int] = {
-            r: 0 for r in SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS}
+        self.counts: dict[str, int] = dict.fromkeys(
+            SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS, 0)
         self.samples_seen = 0
         self.samples_used = 0
         self.samples_rejected = 0

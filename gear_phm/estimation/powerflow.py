@@ -9,8 +9,9 @@ from gear_phm.models.power_flow import AIDING, IDLE, IMPOSSIBLE, OPPOSING, SELF_
 
 def classify(p_motor: ArrayLike, p_load: ArrayLike, motor_velocity: ArrayLike,
              power_threshold: float = 0.0, speed_threshold: float = 0.0) -> np.ndarray:
-    """Power-flow code per sample (int8): 0 idle, 1 opposing, 2 aiding, 3 self-locking,
-    -1 impossible.
+    """Power-flow code per sample (int8).
+
+    0 idle, 1 opposing, 2 aiding, 3 self-locking, -1 impossible.
 
     A sample is idle when ``|w_m| <= speed_threshold`` [rad/s] or when either power is inside
     the deadband ``|P| <= power_threshold`` [W]; otherwise the signs of P_m and P_l decide:

@@ -2,8 +2,8 @@
 (:class:`FrictionEstimate`). No ROS, SI units."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
 
 @dataclass(frozen=True, slots=True)

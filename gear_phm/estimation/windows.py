@@ -14,14 +14,14 @@ Batch boundaries do not change the result: the open window is carried between ca
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 
 import numpy as np
 
-from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
 from gear_phm.models import d_u_d_eta_aiding, d_u_d_eta_opposing
 from gear_phm.models import u_from_eta_aiding, u_from_eta_opposing
+from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from gear_phm.models.lever import (
     u_from_eta_aiding,
     u_from_eta_opposing,
 )
-from gear_phm.models.spur_gear import SpurGear, min_teeth
+from gear_phm.models.spur_gear import min_teeth, SpurGear
 
 __all__ = [
     'SpurGear', 'd_u_d_eta_aiding', 'd_u_d_eta_opposing', 'efficiencies', 'eta_aiding',

@@ -58,7 +58,7 @@ def _eta_i_terms(u: Any, ratio: Any) -> tuple[Any, Any]:
 
 
 def _where_valid(valid: np.ndarray, numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """numerator / denominator where ``valid``, NaN elsewhere, without warnings."""
+    """Divide: numerator / denominator where ``valid``, NaN elsewhere, without warnings."""
     safe = np.where(valid, denominator, 1.0)
     result = np.where(valid, numerator / safe, np.nan)
     return result[()] if result.ndim == 0 else result

@@ -43,7 +43,9 @@ from gear_phm.models._validation import at_least, in_open_interval, non_negative
 
 def min_teeth(pressure_angle: ArrayLike, addendum_over_module: ArrayLike = 1.0) -> np.ndarray:
     """Fewest teeth an involute wheel can have without undercut: 2 (a/m) / sin^2(theta) [-]."""
-    return 2.0 * np.asarray(addendum_over_module) / np.sin(np.asarray(pressure_angle)) ** 2
+    teeth: np.ndarray = (2.0 * np.asarray(addendum_over_module)
+                         / np.sin(np.asarray(pressure_angle)) ** 2)
+    return teeth
 
 
 @dataclass(frozen=True)
@@ -64,7 +66,7 @@ class SpurGear:
     friction: ArrayLike = 0.0
     bearing_radius_1: ArrayLike = 0.0
     bearing_radius_2: ArrayLike = 0.0
-    _geometry: dict = field(init=False, repr=False, compare=False)
+    _geometry: dict[str, np.ndarray] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         module = positive('module', self.module)
@@ -86,14 +88,15 @@ class SpurGear:
     @property
     def ratio(self) -> np.ndarray | float:
         """Transmission ratio R = z2 / z1 [-] (ideal torque gain load/motor)."""
-        return np.asarray(self.z2) / np.asarray(self.z1)
+        ratio: np.ndarray = np.asarray(self.z2) / np.asarray(self.z1)
+        return ratio
 
-    def _contact_geometry(self) -> dict:
+    def _contact_geometry(self) -> dict[str, np.ndarray]:
         cos_t, sin_t = np.cos(self.pressure_angle), np.sin(self.pressure_angle)
-        geometry = {}
+        geometry: dict[str, np.ndarray] = {}
         for wheel, teeth in (('1', self.z1), ('2', self.z2)):
-            pitch = 0.5 * self.module * np.asarray(teeth)
-            tip, base = pitch + self.addendum, pitch * cos_t
+            pitch = 0.5 * np.asarray(self.module) * np.asarray(teeth)
+            tip, base = pitch + np.asarray(self.addendum), pitch * cos_t
             geometry['r_b' + wheel] = base
             geometry['d_p' + wheel] = pitch * sin_t
             geometry['reach' + wheel] = np.sqrt(tip ** 2 - base ** 2)
@@ -105,7 +108,9 @@ class SpurGear:
     def contact_ratio(self) -> np.ndarray | float:
         """Transverse contact ratio (A + B) / (pi m cos(theta)) [-]."""
         g = self._geometry
-        return (g['A'] + g['B']) / (np.pi * self.module * np.cos(self.pressure_angle))
+        ratio: np.ndarray = (g['A'] + g['B']) / (np.pi * np.asarray(self.module)
+                                                 * np.cos(self.pressure_angle))
+        return ratio
 
     def torques(self) -> dict[str, np.ndarray]:
         """Torques per unit normal force [N m / N] = [m]: T_M_D, T_U_D, T_M_I, T_U_I."""
@@ -134,4 +139,3 @@ class SpurGear:
 def _scalar(value: np.ndarray) -> np.ndarray | float:
     value = np.asarray(value)
     return float(value) if value.ndim == 0 else value
-

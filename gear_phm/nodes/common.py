@@ -1,24 +1,24 @@
 """Shared rclpy helpers: QoS, parameter declaration, /diagnostics, output publishing, main()."""
 from __future__ import annotations
 
-import sys
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
+import sys
 from typing import Any
 
-import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+import rclpy
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 
-from gear_phm.interfaces import DiagnosticsOut, Vector3Out, ns_to_sec_nanosec
+from gear_phm.interfaces import DiagnosticsOut, ns_to_sec_nanosec, Vector3Out
 from gear_phm.parameters import ParamSpec
-from gear_phm.status import StatusOut, format_value
+from gear_phm.status import format_value, StatusOut
 
 def sensor_qos(depth: int = 100) -> QoSProfile:
     """qos_profile_sensor_data (best effort, volatile, keep last) with a deeper queue.

@@ -17,11 +17,11 @@ signal handler stops spinning and ``destroy_node`` closes the bag (summary + met
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import fields, replace
 import math
 import queue
 import threading
-from collections.abc import Sequence
-from dataclasses import fields, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -31,14 +31,13 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from gear_phm.bagio import Rosbag2McapWriter
-from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, ESTIMATOR_TOPICS,
-                                 HEALTH_EFFICIENCY, HEALTH_RUL, VECTOR3_STAMPED_TYPE,
-                                 DiagnosticsOut, health_status)
-from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, declare_parameters, run_node,
-                                   to_rclpy)
+from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
+                                 ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL, health_status,
+                                 VECTOR3_STAMPED_TYPE)
+from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
 from gear_phm.parameters import ParamSpec
-from gear_phm.prognostics import (PARAMETERS, HealthAssessor, HealthConfig, HealthState,
+from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
 from gear_phm.status import STALE
 

@@ -1,5 +1,6 @@
-"""``ros2 run gear_phm estimator``: friction estimator node (thin adapter over
-:class:`gear_phm.estimation.EstimatorPipeline`).
+"""``ros2 run gear_phm estimator``: the friction estimator node.
+
+A thin adapter over :class:`gear_phm.estimation.EstimatorPipeline`.
 
 Takes JointState in and publishes each :class:`~gear_phm.estimation.FrictionEstimate` through
 the live transport (:mod:`gear_phm.nodes.transport`; topics in docs/architecture.md), stamped
@@ -9,10 +10,9 @@ A bad message is dropped and counted, never fatal. Parameters: config/estimator.
 """
 from __future__ import annotations
 
-import time
-
 from collections.abc import Sequence
 from dataclasses import fields
+import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -20,10 +20,9 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 
 from gear_phm import interfaces
-from gear_phm.estimation import PARAMETERS, EstimatorConfig, EstimatorPipeline, JointSample
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, JointSample, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, declare_parameters, run_node,
-                                   to_rclpy)
+from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.transport import EstimatePublisher, subscribe_joint_states
 from gear_phm.parameters import ParamSpec
 

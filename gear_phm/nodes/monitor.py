@@ -7,8 +7,8 @@ returns once the publisher has finished and ``linger`` seconds have passed for t
 """
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
+import time
 
 import rclpy
 from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor

@@ -17,37 +17,35 @@ percentiles on /diagnostics. See docs/publisher.md.
 """
 from __future__ import annotations
 
-import math
-import sys
-import threading
-import time
 from collections import deque
 from collections.abc import Sequence
 from contextlib import closing
 from dataclasses import replace
 from itertools import chain
+import math
+import sys
+import threading
+import time
 from typing import Any
 
-import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
+import numpy as np
+from rcl_interfaces.msg import SetParametersResult
+import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import CLOCK, DIAGNOSTICS, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION
-from gear_phm.nodes.common import (OUTPUT_QOS, ConfigError, DropCounter, declare_parameters,
-                                   run_node,
-                                   stamp, status_msg)
+from gear_phm.nodes.common import (ConfigError, declare_parameters, DropCounter, OUTPUT_QOS,
+                                   run_node, stamp, status_msg)
 from gear_phm.parameters import ParamSpec
 from gear_phm.simulation import PARAMETERS
-from gear_phm.sources import (PassEnd, Recorded, Sample, Source, SourceError, one_line,
-                              read_ahead)
+from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
 from gear_phm.sources.replay import ReplaySource
 from gear_phm.sources.simulate import SimulateSource
 from gear_phm.status import OK, WARN

@@ -17,16 +17,16 @@ messages logged before it, as the nodes would have published it.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from contextlib import nullcontext
+from dataclasses import dataclass, fields
 import json
 import math
+from pathlib import Path
 import shutil
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
-from contextlib import nullcontext
-from dataclasses import dataclass, fields
-from pathlib import Path
 from typing import Any
 
 import numpy as np

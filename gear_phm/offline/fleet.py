@@ -15,14 +15,14 @@ A unit that cannot be analysed (no recording, a corrupt bag, bad options) gets a
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 import csv
+from dataclasses import dataclass
 import json
 import math
+from pathlib import Path
 import resource
 import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np

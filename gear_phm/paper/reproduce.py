@@ -9,22 +9,19 @@ model, :func:`summarize` reduces them to statistics and :func:`reproduce` writes
 from __future__ import annotations
 
 import csv
+from dataclasses import asdict, dataclass
 import json
 import math
-from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
-import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+import numpy as np
 
-from gear_phm.models import (
-    SpurGear,
-    eta_aiding_from_opposing,
-    eta_opposing_from_aiding,
-    min_teeth,
-    total_squared_error,
-)
+from gear_phm.models import (eta_aiding_from_opposing, eta_opposing_from_aiding, min_teeth,
+                             SpurGear, total_squared_error)
 
 DEFAULT_SEED = 20190415
 DEFAULT_SAMPLES = 500
@@ -108,7 +105,7 @@ def gears_of(samples: dict[str, np.ndarray], with_bearings: bool = True) -> Spur
 
 def evaluate_samples(samples: dict[str, np.ndarray],
                      with_bearings: bool = True) -> dict[str, np.ndarray]:
-    """Reference efficiencies and the errors of the simplified model (eqs 5, 8, 14, 15).
+    """Compute reference efficiencies and the errors of the simplified model (eqs 5, 8, 14, 15).
 
     error_aiding = eta_I,ref - eta_I(eta_D,ref) (vertical), error_opposing =
     eta_D,ref - eta_D(eta_I,ref) (horizontal); NaN where the point has no image on the curve.
@@ -116,8 +113,8 @@ def evaluate_samples(samples: dict[str, np.ndarray],
     gear = gears_of(samples, with_bearings)
     eta_d, eta_i = (np.asarray(x, dtype=float) for x in gear.efficiencies())
     ratio = np.asarray(gear.ratio, dtype=float)
-    simplified_i = eta_aiding_from_opposing(eta_d, ratio)
-    simplified_d = eta_opposing_from_aiding(eta_i, ratio)
+    simplified_i = np.asarray(eta_aiding_from_opposing(eta_d, ratio), dtype=float)
+    simplified_d = np.asarray(eta_opposing_from_aiding(eta_i, ratio), dtype=float)
     table = dict(samples)
     table.update({
         'ratio': ratio, 'eta_opposing': eta_d, 'eta_aiding': eta_i,
@@ -157,7 +154,7 @@ def _by_bearing_fraction(table: dict[str, np.ndarray]) -> dict[str, dict[str, fl
     return result
 
 
-def summarize(table: dict[str, np.ndarray]) -> dict:
+def summarize(table: dict[str, np.ndarray]) -> dict[str, Any]:
     """Statistics of e_tot and of the absolute efficiency errors (all finite numbers)."""
     e_tot = table['e_tot']
     finite = np.isfinite(e_tot)
@@ -212,9 +209,11 @@ def surface_grid(points: int = 161) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 LEVELS = np.linspace(-1.0, 1.0, 21)
 NORM = Normalize(-1.0, 1.0)
 CMAP = 'viridis'
+#: (eta_D, R, eta_I) on a meshgrid.
+Grid = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def _contour_panel(fig: Figure, axes, grid) -> None:
+def _contour_panel(fig: Figure, axes: Axes, grid: Grid) -> None:
     grid_d, grid_r, eta_i = grid
     filled = axes.contourf(grid_d, grid_r, eta_i, levels=LEVELS, cmap=CMAP, norm=NORM)
     lines = axes.contour(grid_d, grid_r, eta_i, levels=[-0.5, 0.0, 0.5, 0.9], colors='k',
@@ -228,7 +227,7 @@ def _contour_panel(fig: Figure, axes, grid) -> None:
     fig.colorbar(filled, ax=axes, label=r'aiding-load efficiency $\eta_I$ [-]')
 
 
-def _surface_panel(axes, grid, alpha: float = 0.85) -> None:
+def _surface_panel(axes: Any, grid: Grid, alpha: float = 0.85) -> None:
     grid_d, grid_r, eta_i = grid
     axes.plot_surface(grid_d, np.log10(grid_r), eta_i, cmap=CMAP, norm=NORM, alpha=alpha,
                       linewidth=0, antialiased=True, rcount=60, ccount=60)
@@ -257,8 +256,11 @@ def plot_surface(path: Path) -> None:
 
 
 def plot_comparison(table: dict[str, np.ndarray], path: Path) -> None:
-    """Figure 4: reference samples over the simplified surface, a parity plot of eta_I and
-    e_tot against the bearing friction radius (what drives the disagreement)."""
+    """Figure 4: reference samples over the simplified surface.
+
+    Also a parity plot of eta_I and e_tot against the bearing friction radius (what drives the
+    disagreement).
+    """
     grid = surface_grid(101)
     eta_d, eta_i, ratio = table['eta_opposing'], table['eta_aiding'], table['ratio']
     shown = (eta_d >= -1) & (eta_d <= 1) & (eta_i >= -1) & (eta_i <= 1)
@@ -322,7 +324,7 @@ def plot_error_histogram(table: dict[str, np.ndarray], path: Path) -> None:
     low = math.floor(math.log10(positive.min())) if positive.size else -12
     high = math.ceil(math.log10(positive.max())) if positive.size else 0
     bins = np.logspace(low, max(high, low + 1), 4 * (max(high, low + 1) - low) + 1)
-    axes.hist(positive, bins=bins, color='tab:blue', edgecolor='white')
+    axes.hist(positive, bins=bins.tolist(), color='tab:blue', edgecolor='white')
     axes.set_xscale('log')
     median = float(np.median(e_tot)) if e_tot.size else math.nan
     axes.axvline(median, color='tab:red', label=f'median {median:.2g}')
@@ -337,7 +339,7 @@ def plot_error_histogram(table: dict[str, np.ndarray], path: Path) -> None:
 
 
 def reproduce(out_dir: Path, seed: int = DEFAULT_SEED, samples: int = DEFAULT_SAMPLES,
-              ranges: SamplingRanges = SamplingRanges()) -> dict:
+              ranges: SamplingRanges = SamplingRanges()) -> dict[str, Any]:
     """Write the three figures, samples.csv and summary.json into ``out_dir``; return summary."""
     out_dir.mkdir(parents=True, exist_ok=True)
     drawn = sample_reference_gears(samples, seed, ranges)

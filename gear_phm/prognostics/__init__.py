@@ -5,7 +5,7 @@
 stamps; nothing reads a clock.
 """
 from gear_phm.prognostics.assessor import HealthAssessor, HealthState, waiting_state
-from gear_phm.prognostics.config import PARAMETERS, HealthConfig, cross_field_problem
+from gear_phm.prognostics.config import cross_field_problem, HealthConfig, PARAMETERS
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, health_level
 from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend, TrendDetector

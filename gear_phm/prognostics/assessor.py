@@ -8,8 +8,8 @@ divergence and the level. STALE is applied by the caller's clock with
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
+import math
 
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies

@@ -6,10 +6,9 @@ range, same description); ``gear-phm analyze`` exposes them as ``--kebab-case`` 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
 
-from gear_phm.parameters import ParamSpec, check_values, defaults
+from gear_phm.parameters import check_values, defaults, ParamSpec
 
 TRENDS = ('auto', 'linear', 'exponential')
 
@@ -84,7 +83,7 @@ class HealthConfig:
             raise ValueError(problem)
 
     def replace(self, **changes: object) -> HealthConfig:
-        """A validated copy with ``changes`` applied; unknown names raise ValueError."""
+        """Return a validated copy with ``changes`` applied; unknown names raise ValueError."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
             raise ValueError(f'unknown health parameter(s): {sorted(unknown)}')

@@ -11,7 +11,7 @@ U_SELF_LOCKING = 1.0
 
 def end_of_life_thresholds(ratio: float, eta_opposing_min: float, self_locking_eol: bool = True,
                            u_max: float = 0.0) -> dict[str, float]:
-    """Enabled end-of-life criteria as {name: u threshold [-]}.
+    """Return the enabled end-of-life criteria as {name: u threshold [-]}.
 
     ``eta_opposing_min``: u where eta_D falls to it (eq 13), always enabled.
     ``self_locking_eol``: u = 1, where eta_I = 0. ``u_max`` > 0: u = u_max.

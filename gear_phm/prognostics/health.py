@@ -12,8 +12,8 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 """
 from __future__ import annotations
 
-import math
 from collections import deque
+import math
 from statistics import NormalDist
 
 from gear_phm.status import ERROR, OK, WARN

@@ -8,9 +8,9 @@ is the latest one made at or before t_lambda.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -84,8 +84,11 @@ def alpha_lambda(t: ArrayLike, rul: ArrayLike, t_eol: float, lam: float, alpha: 
 
 def prognostic_horizon(t: ArrayLike, rul: ArrayLike, t_eol: float, alpha: float = ALPHA,
                        t_start: float | None = None) -> float:
-    """PH [s] = t_eol - t_i, t_i the first prediction time from which every prediction up to
-    t_eol stays within r*(t) +/- alpha (t_eol - t_start). 0 if the last one is outside."""
+    """Prognostic horizon PH [s] = t_eol - t_i.
+
+    t_i is the first prediction time from which every prediction up to t_eol stays within
+    r*(t) +/- alpha (t_eol - t_start). 0 if the last one is outside.
+    """
     times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
     keep = (times >= start) & (times < t_eol)
     times, values = times[keep], values[keep]

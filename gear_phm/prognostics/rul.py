@@ -39,9 +39,9 @@ quantile is inf. Already worn (u >= u_eol): every quantile is 0.
 """
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass
+import math
 
 import numpy as np
 

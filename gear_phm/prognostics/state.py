@@ -12,10 +12,10 @@ inconsistent file gives ``(None, reason)`` -- the caller logs the reason and sta
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np

@@ -10,20 +10,15 @@ Usage::
 See docs/publisher.md for the physics, the defaults and their units.
 """
 from gear_phm.simulation.duty_cycle import DutyCycle
+from gear_phm.simulation.parameters import config_from_parameters, PARAMETERS
 from gear_phm.simulation.plant import (
     EFFICIENCY_MODELS,
     Plant,
 )
-from gear_phm.simulation.parameters import PARAMETERS, config_from_parameters
-from gear_phm.simulation.sensors import CHANNELS, Channel, Sensors
-from gear_phm.simulation.simulator import (
-    SimulationConfig,
-    SimulationResult,
-    Simulator,
-    sample_times,
-    simulate,
-)
-from gear_phm.simulation.wear import WEAR_KINDS, Wear
+from gear_phm.simulation.sensors import Channel, CHANNELS, Sensors
+from gear_phm.simulation.simulator import (sample_times, simulate, SimulationConfig,
+                                           SimulationResult, Simulator)
+from gear_phm.simulation.wear import Wear, WEAR_KINDS
 
 __all__ = [
     'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PARAMETERS', 'Plant', 'Sensors',

@@ -9,12 +9,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from gear_phm.parameters import ParamSpec, check_values, defaults
+from gear_phm.parameters import check_values, defaults, ParamSpec
 from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
 from gear_phm.simulation.sensors import Channel, Sensors
 from gear_phm.simulation.simulator import SimulationConfig
-from gear_phm.simulation.wear import WEAR_KINDS, Wear
+from gear_phm.simulation.wear import Wear, WEAR_KINDS
 
 _PLANT, _DUTY, _WEAR = Plant(), DutyCycle(), Wear()
 _SENSORS = Sensors()
@@ -72,7 +72,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 
 
 def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
-    """SimulationConfig from flat values (missing names take the defaults of PARAMETERS).
+    """Build a SimulationConfig from flat values (missing names take PARAMETERS' defaults).
 
     Raises ValueError naming the field and the value; unknown names are refused too.
     """
@@ -101,4 +101,5 @@ def _named(values: Mapping[str, Any], name: str) -> float:
         Channel(sigma=values[name]) if name.startswith('noise') else Channel(bias=values[name])
     except ValueError as exc:
         raise ValueError(f'{name}: {exc}') from None
-    return values[name]
+    value: float = values[name]
+    return value

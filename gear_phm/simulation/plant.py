@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models import SpurGear, eta_aiding, eta_opposing, u_from_eta_opposing
+from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
 from gear_phm.simulation._checks import non_negative, one_of, positive, real
 
@@ -75,7 +75,7 @@ class Plant:
             self.spur_gear(0.0)  # geometry errors surface now, naming the field
 
     def spur_gear(self, friction: ArrayLike) -> SpurGear:
-        """The spur stage (pinion ``pinion_teeth``, wheel ``ratio * pinion_teeth``)."""
+        """Return the spur stage (pinion ``pinion_teeth``, wheel ``ratio * pinion_teeth``)."""
         pinion = positive('pinion_teeth', self.pinion_teeth)
         return SpurGear(z1=pinion, z2=self.ratio * pinion, module=self.module,
                         pressure_angle=self.pressure_angle, friction=friction,
@@ -83,7 +83,7 @@ class Plant:
                         bearing_radius_2=self.bearing_radius_2)
 
     def efficiencies(self, friction: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(true lever u, eta_D, eta_I) [-] for the plant friction value(s) [-]."""
+        """Return (true lever u, eta_D, eta_I) [-] for the plant friction value(s) [-]."""
         friction = np.asarray(friction, dtype=float)
         if self.efficiency_model == 'lever':
             u = friction
@@ -95,8 +95,10 @@ class Plant:
         return u, eta_d, eta_i
 
     def output_torque(self, position: ArrayLike, acceleration: ArrayLike) -> np.ndarray:
-        """Torque the gearbox applies to the load, tau_out [N m], at load position [rad]
-        and load acceleration [rad/s^2]."""
+        """Torque the gearbox applies to the load, tau_out [N m].
+
+        At load position [rad] and load acceleration [rad/s^2].
+        """
         position = np.asarray(position, dtype=float)
         return (self.load_inertia * np.asarray(acceleration, dtype=float)
                 + self.air_load_preload + self.air_load_stiffness * position)

@@ -46,8 +46,11 @@ class Sensors:
         return cls(*(Channel() for _ in CHANNELS))
 
     def measure(self, truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Measured channels, shape (n, 4), from true channels ``truth`` (n, 4), in CHANNELS
-        order. Draws exactly 4 n normals, row by row, so chunked calls equal one big call."""
+        """Measured channels, shape (n, 4), from true channels ``truth`` (n, 4), CHANNELS order.
+
+        Draws exactly 4 n normals, row by row, so chunked calls equal one big call.
+        """
         sigma = np.array([getattr(self, c).sigma for c in CHANNELS])
         bias = np.array([getattr(self, c).bias for c in CHANNELS])
-        return truth + bias + sigma * rng.standard_normal(truth.shape)
+        measured: np.ndarray = truth + bias + sigma * rng.standard_normal(truth.shape)
+        return measured

@@ -35,9 +35,12 @@ class SimulationConfig:
 
 @dataclass(frozen=True)
 class SimulationResult:
-    """Arrays of equal length n. Measured: position_*, velocity_*, effort_* (as published on
-    joint_states). True: true_velocity_*, true_effort_*, u, friction, eta_opposing,
-    eta_aiding, phase (power-flow code of docs/architecture.md). SI units."""
+    """Arrays of equal length n, SI units.
+
+    Measured: position_*, velocity_*, effort_* (as published on joint_states).
+    True: true_velocity_*, true_effort_*, u, friction, eta_opposing, eta_aiding, phase
+    (power-flow code of docs/architecture.md).
+    """
 
     t: np.ndarray
     position_motor: np.ndarray
@@ -62,8 +65,11 @@ class SimulationResult:
 
 
 class Simulator:
-    """Stateful only in its noise generator: ``sample`` over consecutive chunks of t gives the
-    same result as one call over the concatenated t."""
+    """Stateful only in its noise generator.
+
+    ``sample`` over consecutive chunks of t gives the same result as one call over the
+    concatenated t.
+    """
 
     def __init__(self, config: SimulationConfig) -> None:
         if not isinstance(config, SimulationConfig):

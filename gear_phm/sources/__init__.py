@@ -19,10 +19,10 @@ Both check their configuration when built and raise :class:`SourceError` with on
 """
 from __future__ import annotations
 
-import queue
-import threading
 from collections.abc import Generator, Iterator, Sequence
 from dataclasses import dataclass
+import queue
+import threading
 from typing import Any, Literal, Protocol, TypeVar
 
 #: Output of a recorded message: joint states, or one of the two truth topics.

@@ -9,17 +9,17 @@ pass and yields the recorded CDR bytes unchanged.
 from __future__ import annotations
 
 from array import array
-from itertools import count
 from collections.abc import Generator, Sequence
+from itertools import count
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
-from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
-                                 TRUTH_FRICTION, VECTOR3_STAMPED_TYPE, decode_joint_states)
-from gear_phm.sources import PASS_END, Channel, Item, Recorded, SourceError, one_line
+from gear_phm.interfaces import (decode_joint_states, JOINT_STATE_TYPE, JOINT_STATES,
+                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.sources import Channel, Item, one_line, PASS_END, Recorded, SourceError
 
 #: JointState messages decoded together while checking a bag (bounds the memory of the check).
 CHECK_BATCH = 10_000

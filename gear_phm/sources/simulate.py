@@ -1,14 +1,14 @@
 """Simulate source: the seeded plant of :mod:`gear_phm.simulation` at a fixed sample rate."""
 from __future__ import annotations
 
-import math
 from collections.abc import Generator, Mapping, Sequence
+import math
 from typing import Any
 
 import numpy as np
 
-from gear_phm.simulation import PARAMETERS, SimulationConfig, Simulator, config_from_parameters
-from gear_phm.sources import Item, Sample, SourceError, one_line
+from gear_phm.simulation import config_from_parameters, PARAMETERS, SimulationConfig, Simulator
+from gear_phm.sources import Item, one_line, Sample, SourceError
 
 #: Samples generated per simulation chunk [s of simulated time].
 SIM_CHUNK_S = 0.5
