@@ -147,15 +147,6 @@ class JointBatch:
                           rejected=_count_reasons(kept_rejects),
                           message_index=self.message_index[lo:hi], rejected_at=kept_rejects)
 
-    @classmethod
-    def from_samples(cls, samples: Sequence[JointSample],
-                     rejected: dict[str, int] | None = None) -> JointBatch:
-        """Stack JointSample records into columns."""
-        columns = {name: np.array([getattr(s, name) for s in samples],
-                                  dtype=np.int64 if name == 'stamp_ns' else float)
-                   for name in _COLUMNS}
-        return cls(**columns, rejected=dict(rejected or {}))
-
 
 _COLUMNS = ('stamp_ns', 'motor_position', 'motor_velocity', 'motor_effort', 'load_position',
             'load_velocity', 'load_effort')
@@ -219,8 +210,9 @@ def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]]:
         offset += 8 * length
     if 4 + offset > len(raw):
         raise BadMessage('truncated', f'JointState CDR needs {4 + offset} bytes, has {len(raw)}')
-    layout = _Layout(len(raw), 4 + names_start, 4 + names_end, tuple(words), tuple(offsets),
-                     tuple(lengths))
+    layout = _Layout(len(raw), 4 + names_start, 4 + names_end,
+                     (words[0], words[1], words[2]), (offsets[0], offsets[1], offsets[2]),
+                     (lengths[0], lengths[1], lengths[2]))
     return layout, names
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 import sys
-from typing import Any
+from typing import Any, TypeVar
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -19,6 +19,9 @@ from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from gear_phm.interfaces import DiagnosticsOut, ns_to_sec_nanosec, Vector3Out
 from gear_phm.parameters import ParamSpec
 from gear_phm.status import format_value, StatusOut
+
+NodeT = TypeVar('NodeT', bound=Node)
+
 
 def sensor_qos(depth: int = 100) -> QoSProfile:
     """qos_profile_sensor_data (best effort, volatile, keep last) with a deeper queue.
@@ -167,13 +170,13 @@ def stopped_by_signal(exc: BaseException) -> bool:
     return isinstance(exc, RuntimeError) and not rclpy.ok()
 
 
-def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None,
-             spin: Callable[[Node], None] | None = None) -> int:
+def run_node(factory: Callable[[], NodeT], args: Sequence[str] | None = None,
+             spin: Callable[[NodeT], None] | None = None) -> int:
     """Jazzy main(): init, build, spin, clean shutdown. ConfigError at start -> one line, exit 2.
 
     ``spin`` replaces ``rclpy.spin(node)`` (e.g. a node that finishes by itself).
     """
-    rclpy.init(args=args)
+    rclpy.init(args=None if args is None else list(args))
     node = None
     try:
         node = factory()

@@ -12,6 +12,7 @@ import time
 
 import rclpy
 from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.node import Node
 
 from gear_phm.nodes.common import ConfigError, stopped_by_signal
 from gear_phm.nodes.diagnostics import DiagnosticsNode
@@ -37,7 +38,7 @@ def run_monitor(ros_args: Sequence[str], with_publisher: bool = True, executor: 
     Start-up problems and a publisher that stopped on an error raise ConfigError (one line).
     """
     rclpy.init(args=['gear-phm-monitor', '--ros-args', *ros_args])
-    nodes: list = []
+    nodes: list[Node] = []
     publisher = None
     try:
         if with_publisher:

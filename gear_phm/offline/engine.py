@@ -73,7 +73,8 @@ class EstimateHistory:
     @property
     def u_sigma(self) -> np.ndarray:
         """Standard deviation of u [-]."""
-        return np.sqrt(np.maximum(self.p_uu, 0.0))
+        sigma: np.ndarray = np.sqrt(np.maximum(self.p_uu, 0.0))
+        return sigma
 
     @classmethod
     def of(cls, estimates: Sequence[FrictionEstimate]) -> EstimateHistory:
@@ -214,8 +215,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
         if target is not None:
             target.parent.mkdir(parents=True, exist_ok=True)
             staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
-        analysis = run.execute(bags, None if staging is None else staging / target.name,
-                               progress)
+        analysis = run.execute(bags, None if staging is None or target is None
+                               else staging / target.name, progress)
         if target is not None and staging is not None:
             written = staging / target.name
             (written / 'summary.json').write_text(

@@ -76,7 +76,7 @@ def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
 
     Raises ValueError naming the field and the value; unknown names are refused too.
     """
-    v = {**defaults(PARAMETERS), **check_values(PARAMETERS, values)}
+    v: dict[str, Any] = {**defaults(PARAMETERS), **check_values(PARAMETERS, values)}
     plant = Plant(ratio=v['ratio'], motor_inertia=v['motor_inertia'],
                   load_inertia=v['load_inertia'], air_load_preload=v['air_load_preload'],
                   air_load_stiffness=v['air_load_stiffness'], efficiency_model=v['plant'],
