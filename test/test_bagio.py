@@ -105,8 +105,10 @@ def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:
-    write_bag(tmp_path / 'a', 300)
-    write_bag(tmp_path / 'b', 300)
+    """Same calls, same bytes: without a flush period no clock decides where chunks end (with
+    one, a slow machine closes chunks elsewhere)."""
+    write_bag(tmp_path / 'a', 300, flush_period_s=None, chunk_size=4096)
+    write_bag(tmp_path / 'b', 300, flush_period_s=None, chunk_size=4096)
     files_a = sorted(p.name for p in (tmp_path / 'a').iterdir())
     assert files_a == ['a_0.mcap', 'metadata.yaml']
     assert (tmp_path / 'a' / 'a_0.mcap').read_bytes() == (tmp_path / 'b' / 'b_0.mcap').read_bytes()
