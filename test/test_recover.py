@@ -24,6 +24,7 @@ from gear_phm.interfaces import Vector3Out
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 CONFORMANCE = Path(__file__).resolve().parents[1].parent / 'shared' / 'mcap-conformance'
 CONFORMANCE_FILES = sorted(CONFORMANCE.glob('*/*.mcap'))
+SCHEMALESS = CONFORMANCE / 'OneSchemalessMessage' / 'OneSchemalessMessage-ch-chx-mx-st-sum.mcap'
 needs_conformance = pytest.mark.skipif(not CONFORMANCE_FILES,
                                        reason=f'no MCAP conformance files in {CONFORMANCE}')
 
@@ -235,8 +236,7 @@ def test_schemaless_and_attachment_files(tmp_path: Path) -> None:
         assert cut.read_bytes() == before
         assert read_records(tmp_path / 'out.mcap') == expected_records(source)
         (tmp_path / 'out.mcap').unlink()
-    messages, _, _ = expected_records(CONFORMANCE / 'OneSchemalessMessage' /
-                                      'OneSchemalessMessage-ch-chx-mx-st-sum.mcap')
+    messages, _, _ = expected_records(SCHEMALESS)
     assert messages[0][2] is None                       # it really has no schema
 
 
@@ -244,8 +244,7 @@ def test_schemaless_and_attachment_files(tmp_path: Path) -> None:
 def test_non_ros_mcap_cannot_become_a_rosbag2_directory(tmp_path: Path) -> None:
     bag = tmp_path / 'bag'
     bag.mkdir()
-    cut_at_data_end(CONFORMANCE / 'OneSchemalessMessage' /
-                    'OneSchemalessMessage-ch-chx-mx-st-sum.mcap', bag / 'bag_0.mcap')
+    cut_at_data_end(SCHEMALESS, bag / 'bag_0.mcap')
     before = listing(bag)
     done = cli('recover', str(bag))
     assert done.returncode == 2 and done.stdout == ''
