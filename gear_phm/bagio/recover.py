@@ -162,6 +162,8 @@ class Dropped:
 
     def describe(self) -> str:
         """One line: what, where, which log times, how many messages, why."""
+        if self.what == 'messages':             # no byte range: their definition was lost
+            return self.reason
         text = f'{self.what} at bytes {self.start}-{self.end}'
         if self.log_start_ns is not None and self.log_end_ns is not None:
             text += (f', log time {self.log_start_ns * 1e-9:.3f}-'
