@@ -1,4 +1,5 @@
-"""bagio: rosbag2 MCAP writing read back by rosbags and by mcap's own reader; errors; recovery."""
+"""bagio: rosbag2 MCAP writing (mcap's Writer) read back by rosbags and by mcap's own reader;
+errors; the crash-safety contract (flushed chunks survive kill -9) and recovery."""
 from __future__ import annotations
 
 import math
@@ -10,11 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 import numpy as np
+import numpy as np
+import pytest
 import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 from rosbags.typesys import get_typestore, Stores
+import yaml
 
 from gear_phm.bagio import BagError, BagReader, recover, Rosbag2McapWriter, TYPESTORE
 from gear_phm.interfaces import (decode_joint_states, DiagnosticsOut, joint_state_to_sample,
@@ -103,8 +107,10 @@ def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:
-    write_bag(tmp_path / 'a', 300)
-    write_bag(tmp_path / 'b', 300)
+    """Same calls, same bytes: without a flush period no clock decides where chunks end (with
+    one, a slow machine closes chunks elsewhere)."""
+    write_bag(tmp_path / 'a', 300, flush_period_s=None, chunk_size=4096)
+    write_bag(tmp_path / 'b', 300, flush_period_s=None, chunk_size=4096)
     files_a = sorted(p.name for p in (tmp_path / 'a').iterdir())
     assert files_a == ['a_0.mcap', 'metadata.yaml']
     assert (tmp_path / 'a' / 'a_0.mcap').read_bytes() == (tmp_path / 'b' / 'b_0.mcap').read_bytes()
@@ -170,14 +176,22 @@ def test_truncated_bag_is_an_error_then_recoverable(tmp_path: Path) -> None:
     mcap_file = next(bag.glob('*.mcap'))
     data = mcap_file.read_bytes()
     mcap_file.write_bytes(data[:len(data) * 3 // 4])
-    with pytest.raises(BagError, match='cannot read bag'):
+    with pytest.raises(BagError, match='cannot read bag') as info:
         with BagReader(bag) as reader:
             list(reader.raw_messages())
-    recovered = recover(bag)
-    assert 1200 < recovered < 2000
+    assert f'{mcap_file.name}: it has no footer' in str(info.value)
+    assert f'run: gear-phm recover {bag}' in str(info.value)
+    result = recover(bag)
+    assert 1200 < result.messages < 2000
+    assert result.backups == [bag / f'{mcap_file.name}.orig', bag / 'metadata.yaml.orig']
+    assert (bag / f'{mcap_file.name}.orig').read_bytes() == data[:len(data) * 3 // 4]
+    [(_, dropped)] = result.dropped
+    assert dropped.what in ('end of file', 'tail') and dropped.end == len(data) * 3 // 4
     with BagReader(bag) as reader:
         stamps = [t for _, t, _ in reader.raw_messages(['joint_states'])]
+        assert reader.message_count() == result.messages
     assert stamps == [10**10 + i * 10**6 for i in range(len(stamps))]
+    assert len(stamps) == result.messages
 
 
 def test_flush_period_makes_data_durable_without_close(tmp_path: Path) -> None:
@@ -197,7 +211,7 @@ os.kill(os.getpid(), signal.SIGKILL)
     result = subprocess.run([sys.executable, '-c', script], timeout=60)
     assert result.returncode == -9
     assert not (bag / 'metadata.yaml').exists()
-    assert recover(bag) == 300
+    assert recover(bag).messages == 300
     with BagReader(bag) as reader:
         values = [m.vector.x for _, _, m in reader.messages()]
     assert values == [float(i) for i in range(300)]
@@ -212,7 +226,80 @@ def test_recover_cli(tmp_path: Path) -> None:
                         timeout=60)
     assert ok.returncode == 0, ok.stderr
     assert 'recovered 102 messages on 3 topics' in ok.stdout
+    assert sorted(p.name for p in bag.iterdir()) == ['bag_0.mcap', 'metadata.yaml']
+    again = subprocess.run([str(exe), 'recover', str(bag)], capture_output=True, text=True,
+                           timeout=60)
+    assert again.returncode == 0, again.stderr
+    assert 'complete and intact (102 messages on 3 topics); nothing to recover' in again.stdout
     bad = subprocess.run([str(exe), 'recover', str(tmp_path / 'nope')], capture_output=True,
                          text=True, timeout=60)
     assert bad.returncode == 2
-    assert bad.stderr.strip() == f'gear-phm recover: error: not a directory: {tmp_path / "nope"}'
+    assert bad.stderr.strip() == f'gear-phm recover: error: not found: {tmp_path / "nope"}'
+
+
+@pytest.mark.parametrize('compression', [None, 'zstd', 'lz4'])
+def test_writer_output_is_read_by_mcap_with_crcs_and_summary(tmp_path: Path,
+                                                             compression: str | None) -> None:
+    """Through mcap's reader with CRC validation: every message (any log-time order, any
+    payload), and a summary whose statistics and indexes agree with the data; a flush closes
+    the open chunk."""
+    rng = np.random.default_rng(3)
+    bag = tmp_path / 'bag'
+    written = []
+    with Rosbag2McapWriter(bag, compression=compression, chunk_size=1500,
+                           flush_period_s=None) as writer:
+        for i in range(3):
+            writer.add_topic(f't{i}', 'std_msgs/msg/String')
+        for sequence in range(2000):
+            topic = f'/t{int(rng.integers(3))}'
+            t_ns = int(rng.integers(0, 10**9))
+            data = rng.bytes(int(rng.integers(0, 40)))
+            writer.write_raw(topic, t_ns, data)
+            written.append((topic, t_ns, data))
+            if sequence == 1000:
+                size = writer.mcap_path.stat().st_size
+                writer.flush()
+                assert writer.mcap_path.stat().st_size > size   # the open chunk is written
+    with open(bag / 'bag_0.mcap', 'rb') as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        read = [(c.topic, m.log_time, m.data) for _, c, m in reader.iter_messages()]
+        summary = reader.get_summary()
+    assert sorted(read) == sorted(written)
+    stats = summary.statistics
+    assert stats.message_count == 2000 and stats.channel_count == 3 and stats.schema_count == 1
+    assert stats.chunk_count == len(summary.chunk_indexes) > 10
+    assert stats.message_start_time == min(m[1] for m in written)
+    assert stats.message_end_time == max(m[1] for m in written)
+    assert all(index.compression == (compression or '') for index in summary.chunk_indexes)
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['message_count'] == 2000
+    assert info['starting_time']['nanoseconds_since_epoch'] == stats.message_start_time
+    assert info['duration']['nanoseconds'] == stats.message_end_time - stats.message_start_time
+    assert {t['topic_metadata']['name']: t['message_count']
+            for t in info['topics_with_message_count']} == {
+        f'/t{i}': sum(1 for topic, _, _ in written if topic == f'/t{i}') for i in range(3)}
+
+
+def test_offered_qos_profiles_reach_metadata_yaml(tmp_path: Path) -> None:
+    profile = {'history': 'keep_last', 'depth': 10, 'reliability': 'reliable',
+               'durability': 'volatile', 'deadline': {'sec': 0, 'nsec': 0},
+               'lifespan': {'sec': 0, 'nsec': 0}, 'liveliness': 'automatic',
+               'liveliness_lease_duration': {'sec': 0, 'nsec': 0},
+               'avoid_ros_namespace_conventions': False}
+    qos = yaml.safe_dump([profile])
+    with Rosbag2McapWriter(tmp_path / 'bag') as writer:
+        writer.add_topic('chatter', 'std_msgs/msg/String', offered_qos_profiles=qos)
+        writer.write_raw('chatter', 5, bytes(TYPESTORE.serialize_cdr(
+            TYPESTORE.types['std_msgs/msg/String'](data='hi'), 'std_msgs/msg/String')))
+    info = yaml.safe_load((tmp_path / 'bag' / 'metadata.yaml').read_text())
+    [topic] = info['rosbag2_bagfile_information']['topics_with_message_count']
+    assert topic['topic_metadata']['offered_qos_profiles'] == [profile]
+    with AnyReader([tmp_path / 'bag'], default_typestore=TYPESTORE) as reader:
+        [(connection, t_ns, raw)] = list(reader.messages())
+        assert reader.deserialize(raw, connection.msgtype).data == 'hi' and t_ns == 5
+        assert connection.ext.offered_qos_profiles[0].depth == 10
+    with Rosbag2McapWriter(tmp_path / 'partial') as writer:      # not all keys: not listed
+        writer.add_topic('chatter', 'std_msgs/msg/String', offered_qos_profiles='- depth: 1')
+    info = yaml.safe_load((tmp_path / 'partial' / 'metadata.yaml').read_text())
+    [topic] = info['rosbag2_bagfile_information']['topics_with_message_count']
+    assert topic['topic_metadata']['offered_qos_profiles'] == []

@@ -34,7 +34,7 @@ from gear_phm.bagio import BagReader  # noqa: E402
 from gear_phm.interfaces import DIAGNOSTICS, ESTIMATOR_TOPICS  # noqa: E402
 from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 BIN = Path(sys.executable).parent
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'wearing'
 STALE_TIMEOUT = 1.0

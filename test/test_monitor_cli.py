@@ -38,6 +38,7 @@ def test_monitor_replays_estimates_and_records_in_one_process(tmp_path: Path) ->
     assert statuses[-1].level == 3
 
 
+@pytest.mark.integration             # the bad bag is found once the nodes exist
 @pytest.mark.parametrize('argv, message', [
     (['--linger', '-1'], '--linger must be >= 0'),
     (['--ros-args', '-p', 'publisher:mode:=replay', '-p', 'publisher:bag_path:=/no/bag'],

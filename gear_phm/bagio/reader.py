@@ -39,22 +39,34 @@ def _one_line(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
+def _recover_advice(files: list[Path], command: str) -> str:
+    """' (<file>: it has no footer ...; run: gear-phm recover <command>)' when one of the MCAP
+    ``files`` really lacks its footer or summary, else ''."""
+    from gear_phm.bagio.recover import unfinished
+    for file in files:
+        reason = unfinished(file)
+        if reason:
+            return f' ({file.name}: {reason}; run: gear-phm recover {command})'
+    return ''
+
+
 def _bag_paths(path: Path) -> list[Path]:
     """Paths to hand to AnyReader: a rosbag2 directory, or a ROS1 .bag file."""
     if not path.exists():
         raise BagError(f'bag not found: {path}')
     if path.is_dir():
         if not (path / 'metadata.yaml').exists():
-            raise BagError(f'{path} is a directory without metadata.yaml: not a rosbag2 bag '
-                           f'(after a crash, run: gear-phm recover {path})')
+            raise BagError(f'{path} is a directory without metadata.yaml: not a rosbag2 bag'
+                           f'{_recover_advice(sorted(path.glob("*.mcap")), str(path))}')
         return [path]
     if path.suffix in ('.mcap', '.db3') and (path.parent / 'metadata.yaml').exists():
         return [path.parent]
     if path.suffix == '.bag':
         return [path]
     if path.suffix == '.mcap':
-        raise BagError(f'{path}: bare .mcap files need their rosbag2 directory (metadata.yaml); '
-                       f'run: gear-phm recover {path.parent}')
+        advice = _recover_advice([path], f'{path} --out NEW_BAG_DIR')
+        raise BagError(f'{path}: a bare .mcap file without metadata.yaml beside it is not a '
+                       f'rosbag2 bag{advice or "; give its rosbag2 directory"}')
     raise BagError(f'{path}: not a bag (expected a rosbag2 directory, .mcap, .db3 or .bag)')
 
 
@@ -78,7 +90,9 @@ class BagReader:
                 paths, default_typestore=_JAZZY if ros2 else None)
             self._reader.open()
         except Exception as exc:  # rosbags raises many types for corrupt input
-            raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}') from exc
+            files = sorted(paths[0].glob('*.mcap')) if paths[0].is_dir() else []
+            raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}'
+                           f'{_recover_advice(files, str(self.path))}') from exc
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,

@@ -1,24 +1,31 @@
-"""Write rosbag2 (version 9, Jazzy) MCAP directories with gear_phm's MCAP writer
-(:mod:`gear_phm.bagio.mcap_file`), crash-safely."""
+"""Write rosbag2 (version 9, Jazzy) MCAP directories, crash-safely, with mcap's ``Writer``.
+
+:class:`Rosbag2McapWriter` is the one adapter between gear_phm and :class:`mcap.writer.Writer`:
+it declares ROS 2 topics (``ros2msg`` schema, CDR channel with the rosbag2 channel metadata),
+closes the open chunk and flushes the file every ``flush_period_s`` (so a ``kill -9`` loses at
+most that much; :func:`gear_phm.bagio.recover` rebuilds the rest) and writes ``metadata.yaml``
+on close. The CDR packers below serialize gear_phm's output records without rosbags' generic
+serializer.
+"""
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from dataclasses import dataclass, field
 import functools
-import io
 import os
+from pathlib import Path
 from pathlib import Path
 import struct
 import time
 from types import TracebackType
 from typing import Any
 
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, LIBRARY_IDENTIFIER, Writer
 from rosbags.typesys import get_typestore, Stores
 import yaml
 
-from gear_phm.bagio.mcap_file import McapFileWriter
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_sec_nanosec,
                                  VECTOR3_STAMPED_TYPE, Vector3Out)
 
@@ -26,7 +33,10 @@ from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_se
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
 ROSBAG2_VERSION = 9
-_COMPRESSION = {None: '', '': '', 'zstd': 'zstd', 'lz4': 'lz4'}
+#: The MCAP header's library field of the files written here.
+LIBRARY = f'gear_phm; {LIBRARY_IDENTIFIER}'
+_COMPRESSION = {None: CompressionType.NONE, '': CompressionType.NONE,
+                'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4}
 
 
 def absolute_topic(topic: str) -> str:
@@ -35,22 +45,28 @@ def absolute_topic(topic: str) -> str:
 
 
 @dataclass
-class _Topic:
+class TopicInfo:
+    """One topic of a rosbag2 bag as metadata.yaml lists it."""
+
     name: str
     msgtype: str
     channel_id: int
     type_hash: str
     count: int = 0
+    #: offered QoS profiles as rosbag2 version 9 lists them (list of dicts).
+    qos: list[Any] = field(default_factory=list)
 
 
 class Rosbag2McapWriter:
     """A rosbag2 directory ``<dir>/metadata.yaml`` + ``<dir>/<dir name>_0.mcap``.
 
-    ``flush_period_s``: the open chunk is written and the file flushed (and fsync'd when
-    ``fsync``) at least this often while messages arrive, and on :meth:`flush`; after a crash
-    everything older is recoverable with :func:`recover`. ``compression``: None, 'zstd', 'lz4'
-    (per MCAP chunk; rosbag2 reads chunk compression transparently). Output is deterministic
-    for the same input (no wall-clock times are written).
+    ``flush_period_s`` [s]: while messages arrive, the open chunk is closed and written and
+    the file flushed (and fsync'd when ``fsync``) at least this often, and on :meth:`flush`;
+    after a crash everything older is recoverable with :func:`gear_phm.bagio.recover`.
+    None: chunks close only at ``chunk_size`` [bytes of uncompressed records] and on close.
+    ``compression``: None, 'zstd' or 'lz4' (per MCAP chunk; rosbag2 reads it transparently).
+    Output is deterministic for the same calls when ``flush_period_s`` is None (no clock
+    value is written).
     """
 
     def __init__(self, directory: str | Path, compression: str | None = 'zstd',
@@ -66,9 +82,10 @@ class Rosbag2McapWriter:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.mcap_path = self.directory / f'{self.directory.name}_0.mcap'
         self._file = open(self.mcap_path, 'wb')  # noqa: SIM115 (closed in close())
-        self._writer = McapFileWriter(self._file, chunk_size=chunk_size,
-                                      compression=_COMPRESSION[compression])
-        self._topics: dict[str, _Topic] = {}
+        self._writer = Writer(self._file, chunk_size=chunk_size,
+                              compression=_COMPRESSION[compression])
+        self._writer.start(profile='ros2', library=LIBRARY)
+        self._topics: dict[str, TopicInfo] = {}
         self._schemas: dict[str, int] = {}
         self._start_ns: int | None = None
         self._end_ns = 0
@@ -82,6 +99,7 @@ class Rosbag2McapWriter:
         """Declare ``topic`` of ``msgtype`` (e.g. 'sensor_msgs/msg/JointState'); idempotent.
 
         Relative names are stored absolute ('joint_states' -> '/joint_states'), as rosbag2 does.
+        ``offered_qos_profiles`` is rosbag2's YAML text of the publishers' QoS profiles.
         """
         topic = absolute_topic(topic)
         if topic in self._topics:
@@ -98,7 +116,8 @@ class Rosbag2McapWriter:
             topic=topic, message_encoding='cdr', schema_id=self._schemas[msgtype],
             metadata={'offered_qos_profiles': offered_qos_profiles,
                       'topic_type_hash': type_hash})
-        self._topics[topic] = _Topic(topic, msgtype, channel_id, type_hash)
+        self._topics[topic] = TopicInfo(topic, msgtype, channel_id, type_hash,
+                                        qos=qos_list(offered_qos_profiles))
 
     def write_raw(self, topic: str, t_ns: int, data: bytes | memoryview) -> None:
         """Append one CDR payload at log time ``t_ns`` [ns] to a declared topic."""
@@ -107,8 +126,7 @@ class Rosbag2McapWriter:
         if entry is None:
             raise KeyError(f'topic {topic!r} was not added')
         t_ns = int(t_ns)
-        self._writer.add_message(channel_id=entry.channel_id, log_time=t_ns, data=bytes(data),
-                                 publish_time=t_ns, sequence=entry.count)
+        self._writer.add_message(entry.channel_id, t_ns, bytes(data), t_ns, entry.count)
         entry.count += 1
         self._note_times(t_ns, t_ns)
         self._maybe_flush()
@@ -134,7 +152,7 @@ class Rosbag2McapWriter:
         ``gear-phm analyze``: the same records as :meth:`write_output`, with the per-message
         bookkeeping done once per call)."""
         add_message = self._writer.add_message
-        entries: dict[str, _Topic] = {}
+        entries: dict[str, TopicInfo] = {}
         first, last = None, None
         for output in outputs:
             if not isinstance(output, Vector3Out):
@@ -168,7 +186,8 @@ class Rosbag2McapWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Finish the open chunk and push it to the file (and disk, with ``fsync``)."""
+        """Close the open chunk (if it holds a message), write it with its message indexes,
+        and push the file to the OS (and to disk, with ``fsync``)."""
         if self._closed:
             return
         self._writer.flush()
@@ -186,12 +205,16 @@ class Rosbag2McapWriter:
         if self._closed:
             return
         self._closed = True
-        self._writer.finish()
-        self._file.flush()
-        os.fsync(self._file.fileno())
-        self._file.close()
-        _write_metadata(self.directory, [self.mcap_path.name], list(self._topics.values()),
-                        self._start_ns or 0, self._end_ns)
+        try:
+            self._writer.finish()
+            self._file.flush()
+            os.fsync(self._file.fileno())
+        finally:
+            self._file.close()
+        start_ns = self._start_ns or 0
+        end_ns = max(start_ns, self._end_ns)
+        write_metadata(self.directory, [(self.mcap_path.name, start_ns, end_ns,
+                                         self.message_count)], list(self._topics.values()))
 
     def __enter__(self) -> Rosbag2McapWriter:
         return self
@@ -201,29 +224,55 @@ class Rosbag2McapWriter:
         self.close()
 
 
-def _write_metadata(directory: Path, files: list[str], topics: list[_Topic], start_ns: int,
-                    end_ns: int) -> None:
-    count = sum(t.count for t in topics)
-    duration = max(0, end_ns - start_ns)
+_QOS_KEYS = frozenset(('history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan',
+                       'liveliness', 'liveliness_lease_duration',
+                       'avoid_ros_namespace_conventions'))
+
+
+def qos_list(offered_qos_profiles: str) -> list[Any]:
+    """rosbag2's QoS YAML text (MCAP channel metadata) as the list that metadata.yaml version
+    9 holds; [] when empty, not YAML, or not a list of complete profiles."""
+    if not offered_qos_profiles:
+        return []
+    try:
+        value = yaml.safe_load(offered_qos_profiles)
+    except yaml.YAMLError:
+        return []
+    if isinstance(value, list) and all(isinstance(item, dict) and _QOS_KEYS <= set(item)
+                                       for item in value):
+        return value
+    return []
+
+
+def write_metadata(directory: Path, files: Sequence[tuple[str, int, int, int]],
+                   topics: Sequence[TopicInfo], custom_data: dict[str, str] | None = None
+                   ) -> None:
+    """Write a rosbag2 version 9 ``metadata.yaml`` (atomically: temporary file, rename).
+
+    ``files``: (name, first log time [ns], last log time [ns], message count) per file.
+    """
+    timed = [(start, end) for _, start, end, count in files if count]
+    start_ns = min((start for start, _ in timed), default=0)
+    end_ns = max((end for _, end in timed), default=0)
     info = {
         'version': ROSBAG2_VERSION,
         'storage_identifier': 'mcap',
-        'duration': {'nanoseconds': duration},
+        'duration': {'nanoseconds': max(0, end_ns - start_ns)},
         'starting_time': {'nanoseconds_since_epoch': start_ns},
-        'message_count': count,
+        'message_count': sum(t.count for t in topics),
         'topics_with_message_count': [
             {'topic_metadata': {'name': t.name, 'type': t.msgtype,
-                                'serialization_format': 'cdr', 'offered_qos_profiles': [],
+                                'serialization_format': 'cdr', 'offered_qos_profiles': t.qos,
                                 'type_description_hash': t.type_hash},
              'message_count': t.count}
             for t in topics],
         'compression_format': '',
         'compression_mode': '',
-        'relative_file_paths': files,
-        'files': [{'path': name, 'starting_time': {'nanoseconds_since_epoch': start_ns},
-                   'duration': {'nanoseconds': duration}, 'message_count': count}
-                  for name in files],
-        'custom_data': {},
+        'relative_file_paths': [name for name, *_ in files],
+        'files': [{'path': name, 'starting_time': {'nanoseconds_since_epoch': start},
+                   'duration': {'nanoseconds': max(0, end - start)}, 'message_count': count}
+                  for name, start, end, count in files],
+        'custom_data': dict(custom_data or {}),
         'ros_distro': 'jazzy',
     }
     text = yaml.safe_dump({'rosbag2_bagfile_information': info}, sort_keys=False)
@@ -232,74 +281,11 @@ def _write_metadata(directory: Path, files: list[str], topics: list[_Topic], sta
     os.replace(tmp, directory / 'metadata.yaml')
 
 
-def recover(directory: str | Path) -> int:
-    """Rebuild a rosbag2 directory whose writer died (kill -9): complete MCAP + metadata.yaml.
-
-    Reads every complete record of the truncated ``.mcap`` file(s) with mcap's stream reader,
-    stops at the first incomplete one, rewrites the file with a summary and footer, and writes
-    metadata.yaml. Returns the number of messages recovered. A directory that is already
-    complete is rewritten identically in content.
-    """
-    directory = Path(directory)
-    sources = sorted(directory.glob('*.mcap'))
-    if not sources:
-        raise FileNotFoundError(f'no .mcap file in {directory}')
-    total = 0
-    for source in sources:
-        data = source.read_bytes()
-        schemas: dict[int, Schema] = {}
-        channels: dict[int, Channel] = {}
-        messages: list[Message] = []
-        try:
-            for record in StreamReader(io.BytesIO(data), skip_magic=False,
-                                       emit_chunks=False).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
-                elif isinstance(record, Message):
-                    messages.append(record)
-        except (EOFError, struct.error, ValueError, Exception):  # noqa: BLE001 truncated tail
-            pass
-        tmp = source.with_suffix('.mcap.recovering')
-        with open(tmp, 'wb') as stream:
-            writer = McapFileWriter(stream, compression='zstd')
-            schema_ids = {old: writer.register_schema(schema.name, schema.encoding, schema.data)
-                          for old, schema in sorted(schemas.items())}
-            channel_ids = {old: writer.register_channel(
-                channel.topic, channel.message_encoding,
-                schema_ids.get(channel.schema_id, 0), channel.metadata)
-                for old, channel in sorted(channels.items())}
-            for message in sorted(messages, key=lambda m: m.log_time):
-                if message.channel_id in channel_ids:
-                    writer.add_message(channel_ids[message.channel_id], message.log_time,
-                                       message.data, message.publish_time, message.sequence)
-            writer.finish()
-        os.replace(tmp, source)
-        total += writer.message_count
-    _rebuild_metadata(directory, sources)
-    return total
-
-
 def _rebuild_metadata(directory: Path, sources: list[Path]) -> None:
-    from mcap.reader import make_reader
-    topics: dict[str, _Topic] = {}
-    start_ns, end_ns = None, 0
-    for source in sources:
-        with open(source, 'rb') as stream:
-            reader = make_reader(stream)
-            for schema, channel, message in reader.iter_messages():
-                entry = topics.get(channel.topic)
-                if entry is None:
-                    entry = topics[channel.topic] = _Topic(
-                        channel.topic, schema.name, channel.id,
-                        channel.metadata.get('topic_type_hash', ''))
-                entry.count += 1
-                start_ns = (message.log_time if start_ns is None
-                            else min(start_ns, message.log_time))
-                end_ns = max(end_ns, message.log_time)
-    _write_metadata(directory, [s.name for s in sources], list(topics.values()),
-                    start_ns or 0, end_ns)
+    """Write ``metadata.yaml`` for complete MCAP ``sources`` in ``directory`` (for tests and
+    tools that write MCAP with another library)."""
+    from gear_phm.bagio.recover import metadata_from_files
+    metadata_from_files(directory, sources)
 
 
 # --- gear_phm output records -> rosbags messages -------------------------------------------

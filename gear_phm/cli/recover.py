@@ -1,28 +1,55 @@
-"""``gear-phm recover DIR``: make a recording readable again after a crash (kill -9)."""
+"""``gear-phm recover PATH [--out OUT]``: make a recording readable again after a crash
+(``kill -9``) or damage, without rewriting the original and without laundering bad bytes.
+
+PATH is a rosbag2 directory (recovered in place, each replaced file kept as ``<name>.orig``,
+or into the new directory ``--out``) or one ``.mcap`` file (recovered into ``--out``, by
+default ``<stem>.recovered.mcap`` beside it; an ``--out`` without ``.mcap`` suffix becomes a
+rosbag2 directory). Every dropped range is printed on stderr with its byte offsets, log times
+and message count; the exit status is 0 when the output was written or nothing was needed,
+2 (one-line error, nothing written) when the input is not MCAP or the output is in the way.
+"""
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+import sys
 
-from gear_phm.bagio import BagError, BagReader, recover
+from gear_phm.bagio import recover, RecoverError
 from gear_phm.cli.main import CliError
 
-HELP = 'rebuild a rosbag2 MCAP directory whose writer was killed (footer, metadata.yaml)'
+HELP = 'rebuild a recording after a crash or damage (originals kept, bad chunks dropped)'
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('directory', type=Path, help='rosbag2 directory holding the .mcap file')
+    parser.add_argument('path', type=Path,
+                        help='rosbag2 directory holding the .mcap file(s), or one .mcap file')
+    parser.add_argument('--out', type=Path, default=None,
+                        help='write the recovered bag here (a new directory, or a .mcap file '
+                             'for a .mcap input) instead of in place with .orig backups')
 
 
 def run(args: argparse.Namespace) -> int:
-    directory: Path = args.directory
-    if not directory.is_dir():
-        raise CliError(f'not a directory: {directory}')
+    path: Path = args.path
+    if not path.exists():
+        raise CliError(f'not found: {path}')
     try:
-        count = recover(directory)
-        with BagReader(directory) as bag:
-            topics = bag.topics
-    except (FileNotFoundError, BagError) as exc:
-        raise CliError(str(exc)) from exc
-    print(f'recovered {count} messages on {len(topics)} topics into {directory}')
+        result = recover(path, args.out)
+    except RecoverError as exc:
+        raise CliError(' '.join(str(exc).split())) from None
+    except OSError as exc:
+        raise CliError(f'cannot recover {path}: {exc.strerror or exc}') from None
+    for source, dropped in result.dropped:
+        print(f'{source.name}: dropped {dropped.describe()}', file=sys.stderr)
+    unchecked = sum(s.unchecked_chunks for s in result.scans)
+    if unchecked:
+        print(f'{path}: {unchecked} chunks carry no CRC; their content could not be checked',
+              file=sys.stderr)
+    if result.nothing_to_do:
+        print(f'{path}: complete and intact ({result.messages} messages on {result.topics} '
+              f'topics); nothing to recover, nothing written')
+        return 0
+    kept = f' (originals kept as {", ".join(p.name for p in result.backups)})' \
+        if result.backups else ''
+    print(f'recovered {result.messages} messages on {result.topics} topics into '
+          f'{result.output}{kept}')
     return 0
