@@ -11,7 +11,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import Stores, get_typestore
 
-from gear_phm.bagio.chunks import CorruptChunk, McapChunkReader, NotIndexed, RawBatch
+from gear_phm.bagio.chunks import CorruptChunk, McapBatchReader, RawBatch
 
 
 _JAZZY = get_typestore(Stores.ROS2_JAZZY)
@@ -37,22 +37,58 @@ def _one_line(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
+_MCAP_MAGIC = b'\x89MCAP0\r\n'
+_MCAP_FOOTER = 1 + 8 + 20          # footer record: op, length, two u64 offsets, u32 crc
+
+
+def _lacks_footer(path: Path) -> bool:
+    """True if the MCAP file ``path`` does not end with a footer record and the end magic,
+    as a recording killed before it closed leaves it."""
+    with open(path, 'rb') as stream:
+        size = stream.seek(0, 2)
+        if size < 2 * len(_MCAP_MAGIC) + _MCAP_FOOTER:
+            return True
+        stream.seek(size - _MCAP_FOOTER - len(_MCAP_MAGIC))
+        tail = stream.read()
+    return tail[-8:] != _MCAP_MAGIC or tail[0] != 0x02 or tail[1:9] != (20).to_bytes(8, 'little')
+
+
+def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
+    """A BagError with the recover advice if one of ``files`` (MCAP) really lacks its
+    footer, else None."""
+    for file in sorted(files):
+        if file.suffix == '.mcap' and _lacks_footer(file):
+            return BagError(f'cannot read bag {bag}: {file.name} ends without an MCAP footer, '
+                            f'so it looks truncated (e.g. a recording that was killed); run: '
+                            f'gear-phm recover {file.parent}')
+    return None
+
+
 def _bag_paths(path: Path) -> list[Path]:
-    """Paths to hand to AnyReader: a rosbag2 directory, or a ROS1 .bag file."""
+    """Paths to hand to AnyReader: a rosbag2 directory, its storage files (.mcap, .db3)
+    when it has no metadata.yaml, or a ROS1 .bag file."""
     if not path.exists():
         raise BagError(f'bag not found: {path}')
     if path.is_dir():
-        if not (path / 'metadata.yaml').exists():
-            raise BagError(f'{path} is a directory without metadata.yaml: not a rosbag2 bag '
-                           f'(after a crash, run: gear-phm recover {path})')
-        return [path]
+        if (path / 'metadata.yaml').exists():
+            return [path]
+        files = sorted([*path.glob('*.mcap'), *path.glob('*.db3')])
+        if not files:
+            raise BagError(f'{path} is a directory without metadata.yaml and without .mcap or '
+                           f'.db3 files: not a rosbag2 bag')
+        error = _truncation_error(path, files)
+        if error is not None:
+            raise error
+        return files
     if path.suffix in ('.mcap', '.db3') and (path.parent / 'metadata.yaml').exists():
         return [path.parent]
-    if path.suffix == '.bag':
+    if path.suffix in ('.bag', '.db3'):
         return [path]
     if path.suffix == '.mcap':
-        raise BagError(f'{path}: bare .mcap files need their rosbag2 directory (metadata.yaml); '
-                       f'run: gear-phm recover {path.parent}')
+        error = _truncation_error(path, [path])
+        if error is not None:
+            raise error
+        return [path]
     raise BagError(f'{path}: not a bag (expected a rosbag2 directory, .mcap, .db3 or .bag)')
 
 
@@ -65,8 +101,12 @@ class BagReader:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self._reader: AnyReader | None = None
-        #: How :meth:`raw_batches` read the bag: 'mcap-chunks' or 'rosbags'.
+        #: How :meth:`raw_batches` read the bag: 'mcap-chunks' (the fast chunk reader),
+        #: 'mcap-scan' (mcap's linear reader, where the fast one declined), 'mcap-chunks+scan'
+        #: or 'rosbags' (sqlite3, ROS1, compressed rosbag2 files).
         self.reader_kind = ''
+        #: Why the fast chunk reader declined, if it did.
+        self.fallback_reason = ''
 
     def __enter__(self) -> BagReader:
         paths = _bag_paths(self.path)
@@ -76,7 +116,10 @@ class BagReader:
                 paths, default_typestore=_JAZZY if ros2 else None)
             self._reader.open()
         except Exception as exc:  # rosbags raises many types for corrupt input
-            raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}') from exc
+            files = [file for part in paths for file in (
+                sorted(part.glob('*.mcap')) if part.is_dir() else [part])]
+            error = _truncation_error(self.path, files)
+            raise (error or BagError(f'cannot read bag {self.path}: {_one_line(exc)}')) from exc
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
@@ -174,27 +217,27 @@ class BagReader:
                     batch_size: int = 20000) -> Iterator[RawBatch]:
         """Yield :class:`RawBatch` es of ``topics``, each in log-time order within its topic.
 
-        rosbag2 MCAP bags with chunk and message indexes (what rosbag2 and gear_phm write)
-        are read chunk by chunk without per-message Python work (:mod:`.chunks`); everything
-        else (sqlite3, ROS1, unindexed MCAP) goes through rosbags, ``batch_size`` messages per
-        batch. :attr:`reader_kind` says which was used.
+        MCAP storage with chunk and message indexes (what ros2 bag, rosbags, mcap and gear_phm
+        write) is read chunk by chunk without per-message Python work; MCAP files that the
+        fast reader cannot prove complete (no index, channels only in the data section, an
+        index that disagrees with the content or with the bag's metadata) are read with mcap's
+        linear reader instead (:class:`~.chunks.McapBatchReader`). sqlite3, ROS1 and
+        compressed rosbag2 files go through rosbags, ``batch_size`` messages per batch.
+        :attr:`reader_kind` says which was used.
         """
-        names = {self.resolve_topic(t) for t in topics}
-        files = self._indexed_mcap_files()
-        chunks = None
+        names = sorted({self.resolve_topic(t) for t in topics})
+        files = self._plain_mcap_files()
         if files is not None:
+            mcap = McapBatchReader(files)
+            expected = {name: self.message_count(name) for name in names}
             try:
-                chunks = McapChunkReader(files)
-            except NotIndexed:
-                pass                            # read through rosbags below
-        if chunks is not None:
-            self.reader_kind = 'mcap-chunks'
-            with chunks:
-                try:
-                    yield from chunks.batches(names)
-                except CorruptChunk as exc:
-                    raise BagError(f'bag {self.path} is truncated or corrupt: '
-                                   f'{_one_line(exc)}') from exc
+                for batch in mcap.batches(names, batch_size, expected):
+                    self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
+                    yield batch
+            except CorruptChunk as exc:
+                raise BagError(f'bag {self.path} is truncated or corrupt: '
+                               f'{_one_line(exc)}') from exc
+            self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
             return
         self.reader_kind = 'rosbags'
         pending: dict[str, list[tuple[int, bytes]]] = {}
@@ -206,7 +249,7 @@ class BagReader:
         for topic, messages in pending.items():
             yield RawBatch.from_messages(topic, messages)
 
-    def _indexed_mcap_files(self) -> list[Path] | None:
+    def _plain_mcap_files(self) -> list[Path] | None:
         """The .mcap files of a rosbag2 bag stored as plain MCAP (no file/message compression),
         else None."""
         reader = self.reader
