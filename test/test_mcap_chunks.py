@@ -346,7 +346,7 @@ def test_corrupt_chunk_is_a_one_line_bag_error(tmp_path: Path) -> None:
     data[at + 40] ^= 0xFF                      # inside a payload: the chunk CRC no longer fits
     path.write_bytes(bytes(data))
     with BagReader(path) as reader:
-        with pytest.raises(BagError, match='truncated or corrupt.*checksum') as info:
+        with pytest.raises(BagError, match='is corrupt: .*checksum') as info:
             by_topic(reader.raw_batches(TOPICS))
     assert '\n' not in str(info.value) and str(path) in str(info.value)
 

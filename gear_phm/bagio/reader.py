@@ -235,8 +235,8 @@ class BagReader:
                     self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
                     yield batch
             except CorruptChunk as exc:
-                raise BagError(f'bag {self.path} is truncated or corrupt: '
-                               f'{_one_line(exc)}') from exc
+                raise (_truncation_error(self.path, files) or BagError(
+                    f'bag {self.path} is corrupt: {_one_line(exc)}')) from exc
             self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
             return
         self.reader_kind = 'rosbags'
