@@ -550,22 +550,31 @@ def scan_batches(paths: Iterable[str | Path], topics: Iterable[str],
     from mcap.reader import NonSeekingReader
 
     wanted = set(topics)
-    found: dict[str, list[tuple[int, bytes]]] = {}
+    found: dict[str, tuple[bytearray, list[int], list[int]]] = {}   # buffer, times, sizes
     for path in paths:
         try:
             with open(path, 'rb') as stream:
                 for _, channel, message in NonSeekingReader(
                         stream, validate_crcs=True).iter_messages(
                             topics=wanted, log_time_order=False):
-                    found.setdefault(channel.topic, []).append((message.log_time,
-                                                                message.data))
+                    buffer, times, sizes = found.setdefault(channel.topic,
+                                                            (bytearray(), [], []))
+                    buffer += message.data
+                    times.append(message.log_time)
+                    sizes.append(len(message.data))
         except Exception as exc:  # mcap raises many types for damaged input
             text = ' '.join(str(exc).split()) or type(exc).__name__
             raise CorruptChunk(f'{Path(path).name}: {text}') from exc
-    for topic, messages in found.items():
-        messages.sort(key=lambda message: message[0])           # stable: file order on ties
-        for start in range(0, len(messages), batch_size):
-            yield RawBatch.from_messages(topic, messages[start:start + batch_size])
+    for topic, (buffer, times, sizes) in found.items():
+        lengths = np.array(sizes, dtype=np.int64)
+        offsets = np.zeros(lengths.size, dtype=np.int64)
+        np.cumsum(lengths[:-1], out=offsets[1:])
+        everything = RawBatch(topic, np.array(times, dtype=np.int64), bytes(buffer), offsets,
+                              lengths)
+        del buffer[:]
+        order = np.argsort(everything.log_time_ns, kind='stable')    # file order on ties
+        for start in range(0, order.size, batch_size):
+            yield everything.take(order[start:start + batch_size])
 
 
 class _Fingerprint:
