@@ -27,7 +27,7 @@ import zlib
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -117,7 +117,8 @@ class _Part:
     def take(self, index: np.ndarray) -> _Part:
         return _Part(self.batch.take(index), self.keys[index])
 
-    def sorted(self) -> _Part:
+    def in_order(self) -> _Part:
+        """Sorted by (log time, file order)."""
         times = self.batch.log_time_ns
         step = np.diff(times)
         if (step < 0).any() or ((step == 0) & (np.diff(self.keys) < 0)).any():
@@ -392,7 +393,7 @@ class McapChunkReader:
                 if topic in carry:
                     previous = carry.pop(topic)
                     part = _Part(concatenate(previous.batch, part.batch),
-                                 np.concatenate((previous.keys, part.keys))).sorted()
+                                 np.concatenate((previous.keys, part.keys))).in_order()
                 times = part.batch.log_time_ns
                 if following is not None and len(times) and times[-1] >= following.start_ns:
                     first_key = following.number << _KEY_SHIFT
@@ -432,8 +433,8 @@ class McapChunkReader:
             if records.min() < 0 or records.max() + 9 + _MESSAGE_HEADER > len(data):
                 raise IndexMismatch(f'{chunk.where}: message index out of bounds')
             # one row copy per message from a sliding window over the chunk's bytes
-            head = sliding_window_view(raw, _RECORD_HEAD.itemsize)[records]
-            head = head.view(_RECORD_HEAD)[:, 0]
+            rows = sliding_window_view(raw, _RECORD_HEAD.itemsize)[records]
+            head: Any = rows.view(_RECORD_HEAD)[:, 0]
             lengths = head['length'].astype(np.int64)
             if ((head['op'] != _MESSAGE_OP).any() or (head['channel'] != cids).any()
                     or (head['log_time'].astype(np.int64) != times).any()
@@ -465,7 +466,7 @@ class McapChunkReader:
             offsets = records[mine] + 9 + _MESSAGE_HEADER
             batch = RawBatch(topic, times[mine], data, offsets,
                              lengths[mine] - _MESSAGE_HEADER)
-            parts[topic] = _Part(batch, (chunk.number << _KEY_SHIFT) + records[mine]).sorted()
+            parts[topic] = _Part(batch, (chunk.number << _KEY_SHIFT) + records[mine]).in_order()
         return parts
 
     @staticmethod
@@ -583,7 +584,7 @@ class _Fingerprint:
 
     def __init__(self) -> None:
         self.count = 0
-        self.value = (0, 0, 0)
+        self.value: tuple[int, ...] = (0, 0, 0)
 
     def add(self, times: np.ndarray, lengths: np.ndarray) -> None:
         position = np.arange(self.count, self.count + times.size, dtype=np.uint64) + 1
