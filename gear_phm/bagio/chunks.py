@@ -1,40 +1,61 @@
-"""Batches of raw messages, and a fast reader for indexed MCAP files.
+"""Batches of raw messages, and a fast reader for indexed MCAP files that declines the rest.
 
 :class:`RawBatch` holds many serialized messages of one topic as one buffer plus spans, so a
 decoder can gather fields of all of them with numpy. :class:`McapChunkReader` builds such
 batches straight from MCAP chunks: it reads each chunk with one ``read``, decompresses it
-once, and locates the wanted topic's messages through the chunk's message index records
-(arrays of (log time, offset) pairs, read with ``numpy.frombuffer``). There is no Python work
-per message, and chunks holding only other topics are never read.
+once, and locates the messages through the chunk's message index records (arrays of
+(log time, offset) pairs, read with ``numpy.frombuffer``). There is no Python work per
+message, and chunks holding only other topics are skipped when the file's statistics prove
+that they hold none of the wanted channels.
 
-It takes MCAP files that have a summary section with chunk indexes and message indexes,
-as rosbag2's MCAP storage plugin and :class:`~gear_phm.bagio.Rosbag2McapWriter` write them.
-Anything else raises :class:`NotIndexed`, and the caller reads the file through rosbags.
-Messages come out in log-time order per topic, also when chunks overlap in time.
+The fast reader only answers when it can prove its answer complete. Before yielding anything
+it checks the file's own structure: a footer and a summary with chunk indexes and channels,
+no message or chunk outside the indexed chunks, message index records that match the chunk
+indexes, and statistics (when present) that count what the indexes list. Each chunk is then
+checked against its content as it is read: checksum, every indexed record is the message the
+index says, and the indexed records and the schema/channel records between them tile the
+chunk (a message the index missed is read from the chunk itself). Whatever it cannot prove
+raises :class:`NotIndexed` (:class:`IndexMismatch` when the file contradicts itself), and
+:class:`McapBatchReader` then reads the files linearly with mcap's own reader.
+
+Messages come out per topic in log-time order, several channels of one topic merged, equal
+log times in file order (as mcap's reader orders them); also when chunks overlap in time.
 """
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 import zlib
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
-from gear_phm.interfaces import gather_values
-
-_CHUNK_OP, _MESSAGE_OP, _MESSAGE_INDEX_OP = 0x06, 0x05, 0x07
+_MAGIC = b'\x89MCAP0\r\n'
+_HEADER_OP, _FOOTER_OP, _SCHEMA_OP, _CHANNEL_OP = 0x01, 0x02, 0x03, 0x04
+_MESSAGE_OP, _CHUNK_OP, _MESSAGE_INDEX_OP = 0x05, 0x06, 0x07
+_SUMMARY_OPS = {0x08, 0x0A, 0x0B, 0x0D, 0x0E}     # chunk/attachment/metadata index, stats, offset
 _COMPRESSIONS = ('', 'zstd', 'lz4')
 _MESSAGE_HEADER = 22               # channel id u16, sequence u32, log time u64, publish u64
+_FOOTER_SIZE = 1 + 8 + 20          # op, length, summary start, summary offset start, crc
+_KEY_SHIFT = 40                    # sort key: chunk number << 40 | record offset in the chunk
+# op u8, record length u64, channel id u16, sequence u32, log time u64: a message record's head
+_RECORD_HEAD = np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
+                         ('sequence', '<u4'), ('log_time', '<u8')])
 
 
 class NotIndexed(Exception):
-    """The file has no usable chunk/message index: read it another way."""
+    """The fast reader cannot prove a complete answer for this file: read it another way."""
+
+
+class IndexMismatch(NotIndexed):
+    """The file's index (chunk/message indexes, statistics) disagrees with its content."""
 
 
 class CorruptChunk(Exception):
-    """A chunk or its index is inconsistent (checksum, bounds, record types)."""
+    """A chunk or record is damaged (checksum, bounds, record types): no reader should trust
+    its bytes."""
 
 
 @dataclass(frozen=True)
@@ -86,16 +107,49 @@ def concatenate(first: RawBatch, second: RawBatch) -> RawBatch:
                     np.concatenate((first.lengths, second.lengths)))
 
 
-@dataclass(frozen=True)
+@dataclass
+class _Part:
+    """A batch plus each message's file-order key (ties in log time keep file order)."""
+
+    batch: RawBatch
+    keys: np.ndarray
+
+    def take(self, index: np.ndarray) -> _Part:
+        return _Part(self.batch.take(index), self.keys[index])
+
+    def in_order(self) -> _Part:
+        """Sorted by (log time, file order)."""
+        times = self.batch.log_time_ns
+        step = np.diff(times)
+        if (step < 0).any() or ((step == 0) & (np.diff(self.keys) < 0)).any():
+            order = np.lexsort((self.keys, times))
+            batch = self.batch
+            return _Part(RawBatch(batch.topic, times[order], batch.buffer,
+                                  batch.offsets[order], batch.lengths[order]),
+                         self.keys[order])
+        return self
+
+
+@dataclass
 class _Chunk:
     stream: BinaryIO
+    path: Path
+    number: int                          # position in file order over all files
     start_offset: int
     length: int
     index_length: int
     compression: str
+    compressed_size: int
     uncompressed_size: int
     start_ns: int
-    index_offsets: dict[int, int]       # channel id -> file offset of its MessageIndex
+    end_ns: int
+    index_offsets: dict[int, int]        # channel id -> file offset of its MessageIndex
+    counts: dict[int, int] = field(default_factory=dict)    # channel id -> indexed messages
+    topics: dict[int, str] = field(default_factory=dict)    # channel id -> topic (its file)
+
+    @property
+    def where(self) -> str:
+        return f'{self.path.name}: chunk at byte {self.start_offset}'
 
 
 def _decompress(data: bytes, compression: str, size: int) -> bytes:
@@ -111,42 +165,53 @@ def _decompress(data: bytes, compression: str, size: int) -> bytes:
     raise CorruptChunk(f'chunk compression {compression!r} is not supported')
 
 
+def _u(data: bytes | memoryview, at: int, size: int) -> int:
+    return int.from_bytes(data[at:at + size], 'little')
+
+
+def _string(data: bytes | memoryview, at: int) -> tuple[str, int]:
+    """(UTF-8 string with u32 length prefix at ``at``, offset after it)."""
+    size = _u(data, at, 4)
+    return bytes(data[at + 4:at + 4 + size]).decode('utf-8', 'replace'), at + 4 + size
+
+
+def _walk(data: bytes, start: int, end: int, where: str) -> Iterator[tuple[int, int, int]]:
+    """(op, record offset, body length) of the records in ``data[start:end]``."""
+    at = start
+    while at < end:
+        if at + 9 > end:
+            raise CorruptChunk(f'{where}: a record overruns the chunk')
+        length = _u(data, at + 1, 8)
+        if at + 9 + length > end:
+            raise CorruptChunk(f'{where}: a record overruns the chunk')
+        yield data[at], at, length
+        at += 9 + length
+
+
 class McapChunkReader:
-    """Reads the chunks of one or more MCAP files (the parts of one rosbag2 bag)."""
+    """Reads the chunks of one or more MCAP files (the parts of one rosbag2 bag).
+
+    Raises :class:`NotIndexed` from the constructor when a file lacks what the fast path
+    needs or contradicts itself, and from :meth:`batches` when a chunk's content contradicts
+    its index in a way it cannot read around (then some batches may have been yielded).
+    """
 
     def __init__(self, paths: Iterable[str | Path]) -> None:
-        from mcap.exceptions import McapError
-        from mcap.reader import make_reader
-
         self._streams: list[BinaryIO] = []
-        self.topics: dict[int, dict[int, str]] = {}     # stream index -> channel id -> topic
-        self._chunks: list[tuple[int, _Chunk]] = []
+        self._chunks: list[_Chunk] = []
+        #: Whether the statistics prove that the message indexes list every message, so
+        #: chunks without a wanted channel in their index can be skipped.
+        self.complete = True
+        self._counts: dict[str, int] | None = {}    # topic -> indexed messages (all files)
         try:
-            for number, path in enumerate(paths):
+            for path in paths:
                 stream = open(path, 'rb')  # noqa: SIM115 (closed in close())
                 self._streams.append(stream)
-                try:
-                    summary = make_reader(stream).get_summary()
-                except (McapError, EOFError, ValueError) as exc:
-                    raise NotIndexed(f'{path}: no readable summary ({exc})') from exc
-                if summary is None or (not summary.chunk_indexes and summary.statistics
-                                       and summary.statistics.message_count):
-                    raise NotIndexed(f'{path}: no chunk index')
-                self.topics[number] = {cid: ch.topic for cid, ch in summary.channels.items()}
-                for index in summary.chunk_indexes:
-                    if index.compression not in _COMPRESSIONS:
-                        raise NotIndexed(f'{path}: chunk compression {index.compression!r}')
-                    chunk = _Chunk(stream, index.chunk_start_offset, index.chunk_length,
-                                   index.message_index_length, index.compression,
-                                   index.uncompressed_size, index.message_start_time,
-                                   dict(index.message_index_offsets))
-                    if not chunk.index_offsets:     # unindexed (or definitions only)
-                        raise NotIndexed(f'{path}: a chunk has no message index')
-                    self._chunks.append((number, chunk))
+                self._index_file(Path(path), stream)
         except BaseException:
             self.close()
             raise
-        self._chunks.sort(key=lambda item: (item[1].start_ns, item[0], item[1].start_offset))
+        self._chunks.sort(key=lambda chunk: (chunk.start_ns, chunk.number))
 
     def close(self) -> None:
         for stream in self._streams:
@@ -159,64 +224,291 @@ class McapChunkReader:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def message_counts(self, topics: Iterable[str]) -> dict[str, int] | None:
+        """Messages per topic that the indexes list, or None when a chunk has no message
+        index (then the count is only known after reading)."""
+        if self._counts is None:
+            return None
+        return {topic: self._counts.get(topic, 0) for topic in topics}
+
+    # --- the file's structure, checked before anything is read ---------------------------
+
+    def _index_file(self, path: Path, stream: BinaryIO) -> None:
+        from mcap.exceptions import McapError
+        from mcap.reader import make_reader
+
+        size = stream.seek(0, 2)
+        stream.seek(0)
+        if size < 2 * len(_MAGIC) + _FOOTER_SIZE or stream.read(8) != _MAGIC:
+            raise NotIndexed(f'{path}: not an MCAP file')
+        stream.seek(size - _FOOTER_SIZE - len(_MAGIC))
+        footer = stream.read(_FOOTER_SIZE + len(_MAGIC))
+        if footer[-8:] != _MAGIC or footer[0] != _FOOTER_OP or _u(footer, 1, 8) != 20:
+            raise NotIndexed(f'{path}: no MCAP footer (truncated?)')
+        summary_start = _u(footer, 9, 8)
+        if summary_start == 0:
+            raise NotIndexed(f'{path}: no summary section')
+        if not 8 < summary_start <= size - _FOOTER_SIZE - len(_MAGIC):
+            raise IndexMismatch(f'{path}: summary offset {summary_start} is outside the file')
+        try:
+            stream.seek(0)
+            summary = make_reader(stream).get_summary()
+        except (McapError, EOFError, ValueError, KeyError) as exc:
+            raise NotIndexed(f'{path}: no readable summary ({exc})') from exc
+        if summary is None or not summary.chunk_indexes:
+            raise NotIndexed(f'{path}: no chunk index')
+        if not summary.channels:
+            raise NotIndexed(f'{path}: the summary does not repeat the channels')
+        topics = {cid: channel.topic for cid, channel in summary.channels.items()}
+        chunks = []
+        for index in sorted(summary.chunk_indexes, key=lambda i: i.chunk_start_offset):
+            if index.compression not in _COMPRESSIONS:
+                raise NotIndexed(f'{path}: chunk compression {index.compression!r}')
+            chunks.append(_Chunk(
+                stream, path, 0, index.chunk_start_offset, index.chunk_length,
+                index.message_index_length, index.compression, index.compressed_size,
+                index.uncompressed_size, index.message_start_time, index.message_end_time,
+                dict(index.message_index_offsets), topics=topics))
+        self._check_data_section(path, stream, chunks, summary_start, topics)
+        indexed_all = True
+        for chunk in chunks:
+            chunk.number = len(self._chunks)
+            self._chunks.append(chunk)
+            if not chunk.index_offsets:
+                indexed_all = False
+                if chunk.index_length:
+                    raise IndexMismatch(f'{chunk.where}: message index records that the '
+                                        f'chunk index does not list')
+                continue
+            self._check_message_indexes(chunk, topics)
+        counts: dict[int, int] = {}
+        for chunk in chunks:
+            for cid, count in chunk.counts.items():
+                counts[cid] = counts.get(cid, 0) + count
+        stats = summary.statistics
+        if stats is not None and indexed_all:
+            if (stats.chunk_count != len(chunks) or stats.message_count != sum(counts.values())
+                    or (stats.channel_message_counts
+                        and {c: n for c, n in stats.channel_message_counts.items() if n}
+                        != {c: n for c, n in counts.items() if n})):
+                raise IndexMismatch(f'{path}: the statistics ({stats.message_count} messages '
+                                    f'in {stats.chunk_count} chunks) disagree with the '
+                                    f'indexes ({sum(counts.values())} in {len(chunks)})')
+        else:
+            self.complete = False
+        if not indexed_all:
+            self._counts = None
+        elif self._counts is not None:
+            for cid, count in counts.items():
+                self._counts[topics[cid]] = self._counts.get(topics[cid], 0) + count
+
+    @staticmethod
+    def _check_data_section(path: Path, stream: BinaryIO, chunks: list[_Chunk],
+                            summary_start: int, topics: dict[int, str]) -> None:
+        """No message, chunk or stray message index outside the indexed chunks, and every
+        channel record agrees with the summary (reads only the records between chunks)."""
+        at = 8
+        first = True
+        for chunk in [*chunks, None]:
+            end = summary_start if chunk is None else chunk.start_offset
+            if at > end:
+                raise IndexMismatch(f'{path}: chunk indexes overlap or point into records')
+            while at < end:
+                stream.seek(at)
+                head = stream.read(9)
+                if len(head) < 9 or at + 9 + _u(head, 1, 8) > end:
+                    raise IndexMismatch(f'{path}: the record at byte {at} overruns an indexed '
+                                        f'chunk or the summary')
+                op, length = head[0], _u(head, 1, 8)
+                if op in (_MESSAGE_OP, _CHUNK_OP, _MESSAGE_INDEX_OP) or op in _SUMMARY_OPS \
+                        or op == _FOOTER_OP or (op == _HEADER_OP and not first):
+                    raise IndexMismatch(f'{path}: a record of type {op:#04x} at byte {at} is '
+                                        f'outside the indexed chunks')
+                if op == _CHANNEL_OP:
+                    body = stream.read(min(length, 1 << 16))
+                    cid = _u(body, 0, 2)
+                    if cid not in topics or _string(body, 4)[0] != topics[cid]:
+                        raise IndexMismatch(f'{path}: channel {cid} of the data section is '
+                                            f'not in the summary')
+                first = False
+                at += 9 + length
+            if chunk is not None:
+                stream.seek(chunk.start_offset)
+                head = stream.read(9)
+                if len(head) < 9 or head[0] != _CHUNK_OP or chunk.length < 41 \
+                        or 9 + _u(head, 1, 8) != chunk.length:
+                    raise IndexMismatch(f'{chunk.where}: no chunk record of the indexed '
+                                        f'length there')
+                at = chunk.start_offset + chunk.length + chunk.index_length
+                first = False
+
+    @staticmethod
+    def _check_message_indexes(chunk: _Chunk, topics: dict[int, str]) -> None:
+        """The message index records after ``chunk`` are those its chunk index lists, with
+        log times inside its time range; fills ``chunk.counts``."""
+        start = chunk.start_offset + chunk.length
+        chunk.stream.seek(start)
+        region = chunk.stream.read(chunk.index_length)
+        if len(region) != chunk.index_length:
+            raise IndexMismatch(f'{chunk.where}: message indexes past the end of the file')
+        found: dict[int, int] = {}
+        for op, at, length in _walk(region, 0, len(region), chunk.where):
+            if op != _MESSAGE_INDEX_OP or length < 6:
+                raise IndexMismatch(f'{chunk.where}: a record of type {op:#04x} among its '
+                                    f'message indexes')
+            cid, size = _u(region, at + 9, 2), _u(region, at + 11, 4)
+            if size % 16 or 6 + size > length or cid in found:
+                raise IndexMismatch(f'{chunk.where}: malformed message index')
+            found[cid] = start + at
+            if size:
+                entries = np.frombuffer(region, dtype='<u8', count=size // 8, offset=at + 15)
+                times = entries[0::2]
+                if int(times.min()) < chunk.start_ns or int(times.max()) > chunk.end_ns:
+                    raise IndexMismatch(f'{chunk.where}: message index times outside the '
+                                        f'chunk\'s time range')
+                chunk.counts[cid] = size // 16
+        if found != chunk.index_offsets:
+            raise IndexMismatch(f'{chunk.where}: the message index records differ from the '
+                                f'chunk index')
+        unknown = set(found) - set(topics)
+        if unknown:
+            raise NotIndexed(f'{chunk.where}: channels {sorted(unknown)} are not in the '
+                             f'summary')
+
+    # --- reading ---------------------------------------------------------------------------
+
     def batches(self, topics: Iterable[str]) -> Iterator[RawBatch]:
         """RawBatch per topic and chunk, in log-time order per topic (a message that a later
         chunk could precede is held back and merged into that chunk's batch)."""
         wanted = set(topics)
         plan = []
-        for number, chunk in self._chunks:
-            channels = {cid: topic for cid, topic in self.topics[number].items()
-                        if topic in wanted and cid in chunk.index_offsets}
-            if channels:
-                plan.append((chunk, channels))
-        carry: dict[str, RawBatch] = {}
+        for chunk in self._chunks:
+            channels = {cid: topic for cid, topic in chunk.topics.items() if topic in wanted}
+            if self.complete and not any(chunk.counts.get(cid) for cid in channels):
+                continue                     # the statistics prove: none of ours here
+            plan.append((chunk, channels))   # else read it: its content may hold some
+        carry: dict[str, _Part] = {}
         for position, (chunk, channels) in enumerate(plan):
-            next_start = plan[position + 1][0].start_ns if position + 1 < len(plan) else None
-            for batch in self._read(chunk, channels):
-                if batch.topic in carry:
-                    batch = concatenate(carry.pop(batch.topic), batch)
-                    order = np.argsort(batch.log_time_ns, kind='stable')
-                    batch = batch.take(order)
-                if next_start is not None and len(batch) \
-                        and batch.log_time_ns[-1] > next_start:
-                    later = batch.log_time_ns > next_start
-                    carry[batch.topic] = batch.take(np.flatnonzero(later))
-                    batch = batch.take(np.flatnonzero(~later))
-                if len(batch):
-                    yield batch
-        for batch in carry.values():
-            yield batch
+            following = plan[position + 1][0] if position + 1 < len(plan) else None
+            for topic, part in self._read(chunk, channels).items():
+                if topic in carry:
+                    previous = carry.pop(topic)
+                    part = _Part(concatenate(previous.batch, part.batch),
+                                 np.concatenate((previous.keys, part.keys))).in_order()
+                times = part.batch.log_time_ns
+                if following is not None and len(times) and times[-1] >= following.start_ns:
+                    first_key = following.number << _KEY_SHIFT
+                    later = (times > following.start_ns) | (
+                        (times == following.start_ns) & (part.keys > first_key))
+                    if later.any():
+                        carry[topic] = part.take(np.flatnonzero(later))
+                        part = part.take(np.flatnonzero(~later))
+                if len(part.batch):
+                    yield part.batch
+        for part in carry.values():
+            yield part.batch
 
-    def _read(self, chunk: _Chunk, channels: dict[int, str]) -> list[RawBatch]:
-        """Batches of ``channels`` in one chunk, each sorted by log time."""
+    def _read(self, chunk: _Chunk, channels: dict[int, str]) -> dict[str, _Part]:
+        """The messages of ``channels`` in one chunk, per topic, sorted by (log time, file
+        order). The message indexes are checked against the records they point at, and the
+        records must tile the chunk; messages the index missed are read from the chunk."""
         block, data = self._decompressed(chunk)
         raw = np.frombuffer(data, dtype=np.uint8)
-        batches = []
-        for cid, topic in channels.items():
-            at = chunk.index_offsets[cid] - chunk.start_offset
-            if block[at] != _MESSAGE_INDEX_OP or \
-                    int.from_bytes(block[at + 9:at + 11], 'little') != cid:
-                raise CorruptChunk(f'chunk at byte {chunk.start_offset}: bad message index')
-            count = int.from_bytes(block[at + 11:at + 15], 'little') // 16
+        parts_cid, parts_time, parts_offset = [], [], []
+        base = chunk.start_offset
+        for cid, offset in chunk.index_offsets.items():
+            at = offset - base
+            count = _u(block, at + 11, 4) // 16
             entries = np.frombuffer(block, dtype='<u8', count=2 * count,
                                     offset=at + 15).reshape(count, 2)
-            times = entries[:, 0].astype(np.int64)
-            records = entries[:, 1].astype(np.int64)
-            if count and (records.max() + 9 + _MESSAGE_HEADER > len(data)):
-                raise CorruptChunk(f'chunk at byte {chunk.start_offset}: index out of bounds')
-            lengths = _integers(raw, records + 1, '<u8') - _MESSAGE_HEADER
-            offsets = records + 9 + _MESSAGE_HEADER
-            if count and ((raw[records] != _MESSAGE_OP).any()
-                          or (_integers(raw, records + 9, '<u2') != cid).any()
-                          or (_integers(raw, records + 15, '<u8') != times).any()
-                          or (lengths < 0).any() or (offsets + lengths > len(data)).any()):
-                raise CorruptChunk(f'chunk at byte {chunk.start_offset}: message index does '
-                                   f'not match the messages')
-            if count > 1 and (np.diff(times) < 0).any():
-                order = np.argsort(times, kind='stable')
-                times, offsets, lengths = times[order], offsets[order], lengths[order]
-            batches.append(RawBatch(topic, times, data, offsets, lengths))
-        return batches
+            parts_cid.append(np.full(count, cid, dtype=np.int64))
+            parts_time.append(entries[:, 0].astype(np.int64))
+            parts_offset.append(entries[:, 1].astype(np.int64))
+        if parts_offset:
+            cids = np.concatenate(parts_cid)
+            times = np.concatenate(parts_time)
+            records = np.concatenate(parts_offset)
+        else:
+            cids = times = records = np.zeros(0, dtype=np.int64)
+        if records.size:
+            if records.min() < 0 or records.max() + 9 + _MESSAGE_HEADER > len(data):
+                raise IndexMismatch(f'{chunk.where}: message index out of bounds')
+            # one row copy per message from a sliding window over the chunk's bytes
+            rows = sliding_window_view(raw, _RECORD_HEAD.itemsize)[records]
+            head: Any = rows.view(_RECORD_HEAD)[:, 0]
+            lengths = head['length'].astype(np.int64)
+            if ((head['op'] != _MESSAGE_OP).any() or (head['channel'] != cids).any()
+                    or (head['log_time'].astype(np.int64) != times).any()
+                    or (lengths < _MESSAGE_HEADER).any()
+                    or (records + 9 + lengths > len(data)).any()):
+                raise IndexMismatch(f'{chunk.where}: message index does not match the '
+                                    f'messages')
+        else:
+            lengths = np.zeros(0, dtype=np.int64)
+        extra = self._unindexed(chunk, data, records, lengths)
+        if extra:
+            cids = np.concatenate((cids, np.array([e[0] for e in extra], dtype=np.int64)))
+            times = np.concatenate((times, np.array([e[1] for e in extra], dtype=np.int64)))
+            records = np.concatenate((records, np.array([e[2] for e in extra], dtype=np.int64)))
+            lengths = np.concatenate((lengths, np.array([e[3] for e in extra],
+                                                        dtype=np.int64)))
+            if times.min() < chunk.start_ns or times.max() > chunk.end_ns:
+                raise IndexMismatch(f'{chunk.where}: unindexed messages outside the chunk\'s '
+                                    f'time range')
+        by_topic: dict[str, list[int]] = {}
+        for cid, topic in channels.items():
+            by_topic.setdefault(topic, []).append(cid)
+        parts = {}
+        for topic, ids in by_topic.items():
+            ours = np.isin(cids, ids)
+            mine = np.arange(cids.size) if ours.all() else np.flatnonzero(ours)
+            if mine.size == 0:
+                continue
+            offsets = records[mine] + 9 + _MESSAGE_HEADER
+            batch = RawBatch(topic, times[mine], data, offsets,
+                             lengths[mine] - _MESSAGE_HEADER)
+            parts[topic] = _Part(batch, (chunk.number << _KEY_SHIFT) + records[mine]).in_order()
+        return parts
+
+    @staticmethod
+    def _unindexed(chunk: _Chunk, data: bytes, records: np.ndarray,
+                   lengths: np.ndarray) -> list[tuple[int, int, int, int]]:
+        """Check that the indexed message records and the records between them tile the
+        chunk; return the messages that no index lists as (channel, log time, record
+        offset, record length)."""
+        if records.size:
+            order = np.argsort(records, kind='stable') if (np.diff(records) < 0).any() \
+                else np.arange(records.size)
+            starts = records[order]
+            ends = starts + 9 + lengths[order]
+            if (ends[:-1] > starts[1:]).any():
+                raise IndexMismatch(f'{chunk.where}: message index entries overlap')
+            gap = np.flatnonzero(ends[:-1] < starts[1:])
+            gaps = [(0, int(starts[0]))] if starts[0] > 0 else []
+            gaps += [(int(ends[i]), int(starts[i + 1])) for i in gap.tolist()]
+            if ends[-1] < len(data):
+                gaps.append((int(ends[-1]), len(data)))
+        else:
+            gaps = [(0, len(data))]
+        extra = []
+        for begin, end in gaps:
+            for op, at, length in _walk(data, begin, end, chunk.where):
+                if op == _CHANNEL_OP:
+                    cid = _u(data, at + 9, 2)
+                    topic = chunk.topics.get(cid)
+                    if topic is None or _string(data, at + 13)[0] != topic:
+                        raise NotIndexed(f'{chunk.where}: channel {cid} is not in the '
+                                         f'summary')
+                elif op == _MESSAGE_OP:
+                    if length < _MESSAGE_HEADER:
+                        raise CorruptChunk(f'{chunk.where}: a message record is too short')
+                    cid = _u(data, at + 9, 2)
+                    if cid not in chunk.topics:
+                        raise NotIndexed(f'{chunk.where}: channel {cid} is not in the summary')
+                    extra.append((cid, _u(data, at + 15, 8), at, length))
+                elif op != _SCHEMA_OP and op < 0x80:
+                    raise CorruptChunk(f'{chunk.where}: a record of type {op:#04x} inside it')
+        return extra
 
     def _decompressed(self, chunk: _Chunk) -> tuple[bytes, bytes]:
         """(chunk record + its message indexes as read, decompressed records)."""
@@ -224,22 +516,159 @@ class McapChunkReader:
         stream.seek(chunk.start_offset)
         block = stream.read(chunk.length + chunk.index_length)
         if len(block) < chunk.length + chunk.index_length or block[0] != _CHUNK_OP:
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset} is truncated or not a '
-                               f'chunk record')
+            raise CorruptChunk(f'{chunk.where} is truncated or not a chunk record')
         # chunk: op, u64 len, u64 start, u64 end, u64 uncompressed size, u32 crc,
         # string compression, u64 records length, records
-        crc = int.from_bytes(block[33:37], 'little')
-        name_length = int.from_bytes(block[37:41], 'little')
+        if 9 + _u(block, 1, 8) != chunk.length:
+            raise IndexMismatch(f'{chunk.where}: its length differs from the chunk index')
+        crc = _u(block, 33, 4)
+        name_length = _u(block, 37, 4)
         body = 41 + name_length + 8
-        size = int.from_bytes(block[body - 8:body], 'little')
+        size = _u(block, body - 8, 8)
         if body + size > chunk.length:
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: records overrun the chunk')
-        data = _decompress(block[body:body + size], chunk.compression, chunk.uncompressed_size)
+            raise CorruptChunk(f'{chunk.where}: records overrun the chunk')
+        if (_u(block, 9, 8), _u(block, 17, 8), _u(block, 25, 8), size,
+                bytes(block[41:41 + name_length]).decode('utf-8', 'replace')) != (
+                chunk.start_ns, chunk.end_ns, chunk.uncompressed_size, chunk.compressed_size,
+                chunk.compression):
+            raise IndexMismatch(f'{chunk.where}: its header differs from the chunk index')
+        try:
+            data = _decompress(block[body:body + size], chunk.compression,
+                               chunk.uncompressed_size)
+        except CorruptChunk:
+            raise
+        except Exception as exc:  # zstd/lz4 raise their own types on damaged input
+            raise CorruptChunk(f'{chunk.where}: cannot decompress ({exc})') from exc
         if len(data) != chunk.uncompressed_size or (crc and zlib.crc32(data) != crc):
-            raise CorruptChunk(f'chunk at byte {chunk.start_offset}: checksum or size mismatch')
+            raise CorruptChunk(f'{chunk.where}: checksum or size mismatch')
         return block, data
 
 
-def _integers(raw: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
-    """Little-endian integers of type ``dtype`` at byte offsets ``starts`` (int64 out)."""
-    return gather_values(raw, starts, dtype).astype(np.int64)
+def scan_batches(paths: Iterable[str | Path], topics: Iterable[str],
+                 batch_size: int = 20000) -> Iterator[RawBatch]:
+    """Every message of ``topics`` in ``paths``, read linearly with mcap's own reader (chunk
+    checksums checked), per topic in log-time order with equal times in file order. Needs no
+    index or summary; holds the wanted messages in memory to sort them."""
+    from mcap.reader import NonSeekingReader
+
+    wanted = set(topics)
+    found: dict[str, tuple[bytearray, list[int], list[int]]] = {}   # buffer, times, sizes
+    for path in paths:
+        try:
+            with open(path, 'rb') as stream:
+                for _, channel, message in NonSeekingReader(
+                        stream, validate_crcs=True).iter_messages(
+                            topics=wanted, log_time_order=False):
+                    buffer, times, sizes = found.setdefault(channel.topic,
+                                                            (bytearray(), [], []))
+                    buffer += message.data
+                    times.append(message.log_time)
+                    sizes.append(len(message.data))
+        except Exception as exc:  # mcap raises many types for damaged input
+            text = ' '.join(str(exc).split()) or type(exc).__name__
+            raise CorruptChunk(f'{Path(path).name}: {text}') from exc
+    for topic, (buffer, times, sizes) in found.items():
+        lengths = np.array(sizes, dtype=np.int64)
+        offsets = np.zeros(lengths.size, dtype=np.int64)
+        np.cumsum(lengths[:-1], out=offsets[1:])
+        everything = RawBatch(topic, np.array(times, dtype=np.int64), bytes(buffer), offsets,
+                              lengths)
+        del buffer[:]
+        order = np.argsort(everything.log_time_ns, kind='stable')    # file order on ties
+        for start in range(0, order.size, batch_size):
+            yield everything.take(order[start:start + batch_size])
+
+
+class _Fingerprint:
+    """Count, log times and sizes of the messages of one topic yielded so far (to check that
+    a fallback reader agrees with what the fast reader already gave)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.value: tuple[int, ...] = (0, 0, 0)
+
+    def add(self, times: np.ndarray, lengths: np.ndarray) -> None:
+        position = np.arange(self.count, self.count + times.size, dtype=np.uint64) + 1
+        t = times.astype(np.uint64)
+        with np.errstate(over='ignore'):
+            terms = (int(t.sum()), int((t * position).sum()),
+                     int((lengths.astype(np.uint64) * position).sum()))
+        self.value = tuple((a + b) % (1 << 64) for a, b in zip(self.value, terms))
+        self.count += int(times.size)
+
+
+class McapBatchReader:
+    """Raw batches from MCAP files: :class:`McapChunkReader` when it can prove its answer,
+    else mcap's linear reader (:func:`scan_batches`). :attr:`kind` says which was used:
+    'mcap-chunks', 'mcap-scan', or 'mcap-chunks+scan' when a chunk contradicted its index
+    after batches were yielded (the scan then continues where the fast reader stopped,
+    after checking that it agrees with what was yielded); :attr:`reason` why it fell back.
+    """
+
+    def __init__(self, paths: Iterable[str | Path]) -> None:
+        self.paths = [Path(p) for p in paths]
+        self.kind = ''
+        self.reason = ''
+
+    def batches(self, topics: Iterable[str], batch_size: int = 20000,
+                expected: Mapping[str, int] | None = None) -> Iterator[RawBatch]:
+        """RawBatches of ``topics``, per topic in log-time order. ``expected``: message
+        counts per topic known from elsewhere (rosbag2 metadata); indexes that count
+        differently are not trusted."""
+        wanted = sorted(set(topics))
+        try:
+            reader = McapChunkReader(self.paths)
+        except NotIndexed as exc:
+            yield from self._scan(wanted, batch_size, str(exc))
+            return
+        with reader:
+            counts = reader.message_counts(wanted)
+            if expected is not None and counts is not None:
+                differ = {t: (counts[t], n) for t, n in expected.items()
+                          if t in counts and counts[t] != n}
+                if differ:
+                    reader.close()
+                    yield from self._scan(wanted, batch_size,
+                                          f'index counts (index, metadata) {differ}')
+                    return
+            self.kind = 'mcap-chunks'
+            given = {topic: _Fingerprint() for topic in wanted}
+            try:
+                for batch in reader.batches(wanted):
+                    given[batch.topic].add(batch.log_time_ns, batch.lengths)
+                    yield batch
+                return
+            except NotIndexed as exc:
+                reason = str(exc)
+        if not any(fingerprint.count for fingerprint in given.values()):
+            yield from self._scan(wanted, batch_size, reason)
+            return
+        self.kind, self.reason = 'mcap-chunks+scan', reason
+        yield from _resume(scan_batches(self.paths, wanted, batch_size), given, reason)
+
+    def _scan(self, topics: list[str], batch_size: int, reason: str) -> Iterator[RawBatch]:
+        self.kind, self.reason = 'mcap-scan', reason
+        yield from scan_batches(self.paths, topics, batch_size)
+
+
+def _resume(batches: Iterator[RawBatch], given: dict[str, _Fingerprint],
+            reason: str) -> Iterator[RawBatch]:
+    """``batches`` without the messages already yielded per topic (``given``), after checking
+    that they are the same messages."""
+    seen = {topic: _Fingerprint() for topic in given}
+    for batch in batches:
+        done, check = given[batch.topic], seen[batch.topic]
+        skip = min(done.count - check.count, len(batch))
+        if skip > 0:
+            check.add(batch.log_time_ns[:skip], batch.lengths[:skip])
+            if check.count == done.count and check.value != done.value:
+                raise CorruptChunk(f'{reason}; the messages read so far disagree with a full '
+                                   f'read')
+            if skip == len(batch):
+                continue
+            batch = batch.take(np.arange(skip, len(batch)))
+        yield batch
+    short = [t for t in given if seen[t].count < given[t].count]
+    if short:
+        raise CorruptChunk(f'{reason}; a full read has fewer messages of {short} than were '
+                           f'already read')

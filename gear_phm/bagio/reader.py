@@ -13,7 +13,7 @@ from rosbags.rosbag2 import Reader as Rosbag2Reader
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import get_typestore, Stores
 
-from gear_phm.bagio.chunks import CorruptChunk, McapChunkReader, NotIndexed, RawBatch
+from gear_phm.bagio.chunks import CorruptChunk, McapBatchReader, RawBatch
 
 
 _JAZZY = get_typestore(Stores.ROS2_JAZZY)
@@ -39,34 +39,44 @@ def _one_line(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
-def _recover_advice(files: list[Path], command: str) -> str:
-    """' (<file>: it has no footer ...; run: gear-phm recover <command>)' when one of the MCAP
-    ``files`` really lacks its footer or summary, else ''."""
+def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
+    """A BagError with the recover advice if one of ``files`` (MCAP) really lacks its
+    footer or summary (:func:`gear_phm.bagio.recover.unfinished`), else None."""
     from gear_phm.bagio.recover import unfinished
-    for file in files:
-        reason = unfinished(file)
+    for file in sorted(files):
+        reason = unfinished(file) if file.suffix == '.mcap' else None
         if reason:
-            return f' ({file.name}: {reason}; run: gear-phm recover {command})'
-    return ''
+            return BagError(f'cannot read bag {bag}: {file.name} looks truncated ({reason}; '
+                            f'e.g. a recording that was killed); run: '
+                            f'gear-phm recover {file.parent}')
+    return None
 
 
 def _bag_paths(path: Path) -> list[Path]:
-    """Paths to hand to AnyReader: a rosbag2 directory, or a ROS1 .bag file."""
+    """Paths to hand to AnyReader: a rosbag2 directory, its storage files (.mcap, .db3)
+    when it has no metadata.yaml, or a ROS1 .bag file."""
     if not path.exists():
         raise BagError(f'bag not found: {path}')
     if path.is_dir():
-        if not (path / 'metadata.yaml').exists():
-            raise BagError(f'{path} is a directory without metadata.yaml: not a rosbag2 bag'
-                           f'{_recover_advice(sorted(path.glob("*.mcap")), str(path))}')
-        return [path]
+        if (path / 'metadata.yaml').exists():
+            return [path]
+        files = sorted([*path.glob('*.mcap'), *path.glob('*.db3')])
+        if not files:
+            raise BagError(f'{path} is a directory without metadata.yaml and without .mcap or '
+                           f'.db3 files: not a rosbag2 bag')
+        error = _truncation_error(path, files)
+        if error is not None:
+            raise error
+        return files
     if path.suffix in ('.mcap', '.db3') and (path.parent / 'metadata.yaml').exists():
         return [path.parent]
-    if path.suffix == '.bag':
+    if path.suffix in ('.bag', '.db3'):
         return [path]
     if path.suffix == '.mcap':
-        advice = _recover_advice([path], f'{path} --out NEW_BAG_DIR')
-        raise BagError(f'{path}: a bare .mcap file without metadata.yaml beside it is not a '
-                       f'rosbag2 bag{advice or "; give its rosbag2 directory"}')
+        error = _truncation_error(path, [path])
+        if error is not None:
+            raise error
+        return [path]
     raise BagError(f'{path}: not a bag (expected a rosbag2 directory, .mcap, .db3 or .bag)')
 
 
@@ -79,8 +89,12 @@ class BagReader:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self._reader: AnyReader | None = None
-        #: How :meth:`raw_batches` read the bag: 'mcap-chunks' or 'rosbags'.
+        #: How :meth:`raw_batches` read the bag: 'mcap-chunks' (the fast chunk reader),
+        #: 'mcap-scan' (mcap's linear reader, where the fast one declined), 'mcap-chunks+scan'
+        #: or 'rosbags' (sqlite3, ROS1, compressed rosbag2 files).
         self.reader_kind = ''
+        #: Why the fast chunk reader declined, if it did.
+        self.fallback_reason = ''
 
     def __enter__(self) -> BagReader:
         paths = _bag_paths(self.path)
@@ -90,9 +104,10 @@ class BagReader:
                 paths, default_typestore=_JAZZY if ros2 else None)
             self._reader.open()
         except Exception as exc:  # rosbags raises many types for corrupt input
-            files = sorted(paths[0].glob('*.mcap')) if paths[0].is_dir() else []
-            raise BagError(f'cannot read bag {self.path}: {_one_line(exc)}'
-                           f'{_recover_advice(files, str(self.path))}') from exc
+            files = [file for part in paths for file in (
+                sorted(part.glob('*.mcap')) if part.is_dir() else [part])]
+            error = _truncation_error(self.path, files)
+            raise (error or BagError(f'cannot read bag {self.path}: {_one_line(exc)}')) from exc
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
@@ -190,27 +205,27 @@ class BagReader:
                     batch_size: int = 20000) -> Iterator[RawBatch]:
         """Yield :class:`RawBatch` es of ``topics``, each in log-time order within its topic.
 
-        rosbag2 MCAP bags with chunk and message indexes (what rosbag2 and gear_phm write)
-        are read chunk by chunk without per-message Python work (:mod:`.chunks`); everything
-        else (sqlite3, ROS1, unindexed MCAP) goes through rosbags, ``batch_size`` messages per
-        batch. :attr:`reader_kind` says which was used.
+        MCAP storage with chunk and message indexes (what ros2 bag, rosbags, mcap and gear_phm
+        write) is read chunk by chunk without per-message Python work; MCAP files that the
+        fast reader cannot prove complete (no index, channels only in the data section, an
+        index that disagrees with the content or with the bag's metadata) are read with mcap's
+        linear reader instead (:class:`~.chunks.McapBatchReader`). sqlite3, ROS1 and
+        compressed rosbag2 files go through rosbags, ``batch_size`` messages per batch.
+        :attr:`reader_kind` says which was used.
         """
-        names = {self.resolve_topic(t) for t in topics}
-        files = self._indexed_mcap_files()
-        chunks = None
+        names = sorted({self.resolve_topic(t) for t in topics})
+        files = self._plain_mcap_files()
         if files is not None:
+            mcap = McapBatchReader(files)
+            expected = {name: self.message_count(name) for name in names}
             try:
-                chunks = McapChunkReader(files)
-            except NotIndexed:
-                pass                            # read through rosbags below
-        if chunks is not None:
-            self.reader_kind = 'mcap-chunks'
-            with chunks:
-                try:
-                    yield from chunks.batches(names)
-                except CorruptChunk as exc:
-                    raise BagError(f'bag {self.path} is truncated or corrupt: '
-                                   f'{_one_line(exc)}') from exc
+                for batch in mcap.batches(names, batch_size, expected):
+                    self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
+                    yield batch
+            except CorruptChunk as exc:
+                raise (_truncation_error(self.path, files) or BagError(
+                    f'bag {self.path} is corrupt: {_one_line(exc)}')) from exc
+            self.reader_kind, self.fallback_reason = mcap.kind, mcap.reason
             return
         self.reader_kind = 'rosbags'
         pending: dict[str, list[tuple[int, bytes]]] = {}
@@ -222,7 +237,7 @@ class BagReader:
         for topic, messages in pending.items():
             yield RawBatch.from_messages(topic, messages)
 
-    def _indexed_mcap_files(self) -> list[Path] | None:
+    def _plain_mcap_files(self) -> list[Path] | None:
         """The .mcap files of a rosbag2 bag stored as plain MCAP (no file/message compression),
         else None."""
         reader = self.reader
