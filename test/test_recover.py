@@ -310,14 +310,16 @@ def test_advice_only_for_files_without_footer(tmp_path: Path) -> None:
                 pass
         return str(info.value)
 
-    assert 'recover' not in message(bag) and 'recover' not in message(loose)
-    assert 'give its rosbag2 directory' in message(loose)
+    for complete in (bag, loose):                 # complete files are read, no advice
+        with BagReader(complete) as reader:
+            assert reader.message_count() == 1
     data = mcap_file.read_bytes()
     mcap_file.write_bytes(data[:-40])
     loose.write_bytes(data[:-40])
-    assert message(bag).endswith(f'({mcap_file.name}: it has no footer (the writer did not '
-                                 f'finish); run: gear-phm recover {bag})')
-    assert message(loose).endswith(f'run: gear-phm recover {loose} --out NEW_BAG_DIR)')
+    for path in (bag, loose):
+        text = message(path)
+        assert 'it has no footer (the writer did not finish)' in text
+        assert text.endswith(f'run: gear-phm recover {path}'), text
     result = recover(loose, tmp_path / 'new_bag')
     assert result.messages == 1
     with BagReader(tmp_path / 'new_bag') as reader:

@@ -46,9 +46,9 @@ def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
     for file in sorted(files):
         reason = unfinished(file) if file.suffix == '.mcap' else None
         if reason:
-            return BagError(f'cannot read bag {bag}: {file.name} looks truncated ({reason}; '
-                            f'e.g. a recording that was killed); run: '
-                            f'gear-phm recover {file.parent}')
+            return BagError(f'cannot read bag {bag}: {file.name}: {reason}, so it looks '
+                            f'truncated (e.g. a recording that was killed); run: '
+                            f'gear-phm recover {bag}')
     return None
 
 
