@@ -103,8 +103,11 @@ def joint_state_to_sample(msg: Any, motor_joint: str, load_joint: str) -> JointS
 
 
 def sample_or_reason(msg: Any, motor_joint: str, load_joint: str) -> JointSample | str:
-    """The sample of one JointState, or the reason it has none (a drop-counter key): the
-    :class:`BadMessage` reasons, or ``bad_message`` for an object that is no JointState."""
+    """Return the sample of one JointState, or the reason it has none (a drop-counter key).
+
+    The reasons are the :class:`BadMessage` ones, or ``bad_message`` for an object that is no
+    JointState.
+    """
     try:
         return joint_state_to_sample(msg, motor_joint, load_joint)
     except BadMessage as exc:
@@ -136,9 +139,11 @@ class JointBatch:
         return int(self.stamp_ns.shape[0])
 
     def messages(self, begin: int, end: int) -> JointBatch:
-        """The part of this batch that came from input messages ``begin..end-1``: the same
-        samples and rejection counts as decoding those messages alone (decode once, cut
-        many times)."""
+        """Return the part of this batch that came from input messages ``begin..end-1``.
+
+        It has the same samples and rejection counts as decoding those messages alone (decode
+        once, cut many times).
+        """
         if self.message_index is None:
             raise ValueError('messages() needs a batch from decode_joint_state_buffer')
         lo, hi = np.searchsorted(self.message_index, (begin, end), side='left')
@@ -165,8 +170,11 @@ def _read_string(raw: bytes, offset: int) -> tuple[str, int]:
 
 @dataclass(frozen=True)
 class _Layout:
-    """Byte offsets of the fields of one JointState CDR layout, from the start of the payload
-    (the 4-byte encapsulation header included; CDR alignment counts from the end of it)."""
+    """Byte offsets of the fields of one JointState CDR layout.
+
+    Offsets count from the start of the payload (the 4-byte encapsulation header included;
+    CDR alignment counts from the end of it).
+    """
 
     size: int
     names_start: int
@@ -176,8 +184,11 @@ class _Layout:
     array_lengths: tuple[int, int, int]
 
     def signature(self) -> np.ndarray:
-        """Offsets of the bytes that fix this layout: encapsulation, frame_id length, names,
-        array lengths. Two payloads of equal size that agree there share every offset."""
+        """Return the offsets of the bytes that fix this layout.
+
+        These are encapsulation, frame_id length, names and array lengths. Two payloads of
+        equal size that agree there share every offset.
+        """
         spans = [(0, 4), (12, 16), (self.names_start, self.names_end)]
         spans += [(w, w + 4) for w in self.length_words]
         return np.concatenate([np.arange(a, b) for a, b in spans])
@@ -248,8 +259,10 @@ def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str
 def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
                               lengths: np.ndarray, motor_joint: str,
                               load_joint: str) -> JointBatch:
-    """Decode the JointState CDR payloads ``buffer[offsets[i]:offsets[i] + lengths[i]]`` into
-    columns, in order: stamps [ns], positions [rad], speeds [rad/s], torques [N m].
+    """Decode JointState CDR payloads into columns.
+
+    The payloads are ``buffer[offsets[i]:offsets[i] + lengths[i]]``; the columns, in order:
+    stamps [ns], positions [rad], speeds [rad/s], torques [N m].
 
     Payloads that share a layout (size, frame_id length, joint names, array lengths; a
     recording from one driver has one) are decoded together by numpy gathers straight from
@@ -316,8 +329,10 @@ def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarra
 
 
 def gather_values(data: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarray:
-    """One value of ``dtype`` (e.g. '<f8') at each byte offset ``starts`` of the uint8 array
-    ``data``, unaligned reads allowed (a numpy gather, no Python loop)."""
+    """Read one value of ``dtype`` (e.g. '<f8') at each byte offset ``starts`` of ``data``.
+
+    ``data`` is a uint8 array; unaligned reads are allowed (a numpy gather, no Python loop).
+    """
     size = np.dtype(dtype).itemsize
     return data[starts[:, None] + np.arange(size)].view(dtype)[:, 0]
 
@@ -361,7 +376,10 @@ class DiagnosticsOut:
 # --- domain records <-> layouts ----------------------------------------------------------------
 
 def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vector3Out]:
-    """The five estimator topics of one update, in publishing order (docs/architecture.md)."""
+    """Return the five estimator topics of one update, in publishing order.
+
+    The order is the one of docs/architecture.md.
+    """
     e = estimate
     stamp = e.stamp_ns
     p_uu, p_ur, p_rr = e.covariance
@@ -390,7 +408,8 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
     """Rebuild an update from its estimator topics (``{topic: object with .x .y .z}``).
 
     Friction and covariance are required (KeyError otherwise); a missing efficiency or
-    innovation gives NaN fields, missing counts give zeros."""
+    innovation gives NaN fields, missing counts give zeros.
+    """
     u, rate, _ = _xyz(vectors[FRICTION])
     eta_d, eta_i, measured = _xyz(vectors.get(EFFICIENCY))
     innovation, variance, nis = _xyz(vectors.get(INNOVATION))
@@ -415,7 +434,7 @@ STATUS_KEYS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s'
 
 
 def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
-    """KeyValue pairs with exactly :data:`STATUS_KEYS` (decimal strings, ``inf``)."""
+    """Return KeyValue pairs with exactly :data:`STATUS_KEYS` (decimal strings, ``inf``)."""
     values = (state.u, state.u_sigma, state.eta_opposing, state.eta_aiding, state.rul.median,
               state.rul.p5, state.rul.p95, state.power_flow, state.samples_used,
               state.samples_rejected)
@@ -423,6 +442,6 @@ def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
 
 
 def health_status(state: HealthState, transmission_name: str, hardware_id: str) -> StatusOut:
-    """The diagnostics node's DiagnosticStatus ``gear_phm: <transmission_name>``."""
+    """Return the diagnostics node's DiagnosticStatus ``gear_phm: <transmission_name>``."""
     return StatusOut(state.level, f'gear_phm: {transmission_name}', state.message,
                      hardware_id, health_key_values(state))

@@ -42,12 +42,14 @@ class ParamSpec:
 
     @property
     def text(self) -> str:
-        """Description with its unit, e.g. ``prior std dev of u [-]``."""
+        """Return the description with its unit, e.g. ``prior std dev of u [-]``."""
         return f'{self.description} [{self.unit}]' if self.unit else self.description
 
     def check(self, value: Any) -> Value:
-        """``value`` converted to this parameter's type (an int is a float), or ValueError
-        naming the parameter, the rule and the value."""
+        """Return ``value`` converted to this parameter's type (an int is a float).
+
+        Raises ValueError naming the parameter, the rule and the value.
+        """
         kind = self.kind
         if kind is bool:
             if not isinstance(value, bool):
@@ -79,7 +81,7 @@ class ParamSpec:
         return int(value) if kind is int else float(value)
 
     def parse(self, text: str) -> Value:
-        """A command-line or YAML string as this parameter's type, checked."""
+        """Parse a command-line or YAML string as this parameter's type, checked."""
         kind = self.kind
         try:
             if kind is bool:
@@ -110,8 +112,10 @@ def spec_map(specs: Iterable[ParamSpec]) -> dict[str, ParamSpec]:
 
 
 def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[str, Value]:
-    """Each value of ``values`` checked by the spec of its name (ValueError on an unknown
-    name or a bad value)."""
+    """Check each value of ``values`` by the spec of its name.
+
+    Raises ValueError on an unknown name or a bad value.
+    """
     table = spec_map(specs)
     unknown = sorted(set(values) - set(table))
     if unknown:

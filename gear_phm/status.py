@@ -18,8 +18,11 @@ LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
 
 @dataclass(frozen=True)
 class StatusOut:
-    """One DiagnosticStatus: level (:data:`LEVEL_NAMES`), name, message, hardware id and
-    KeyValue pairs (decimal strings, see :func:`format_value`)."""
+    """One DiagnosticStatus.
+
+    Level (:data:`LEVEL_NAMES`), name, message, hardware id and KeyValue pairs (decimal
+    strings, see :func:`format_value`).
+    """
 
     level: int
     name: str
@@ -29,7 +32,7 @@ class StatusOut:
 
 
 def format_value(value: float | int | str) -> str:
-    """KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
+    """Format a KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
     if isinstance(value, str):
         return value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool):

@@ -1,5 +1,8 @@
-"""gear-phm simulate --fleet and gear-phm fleet: units in parallel on Dask, bad units reported,
-results independent of the number of workers."""
+"""Test gear-phm simulate --fleet and gear-phm fleet.
+
+Units run in parallel on Dask, bad units are reported, results are independent of the number
+of workers.
+"""
 from __future__ import annotations
 
 import csv

@@ -1,5 +1,7 @@
-"""The ratio is set on the estimator and on the diagnostics node; a mismatch is an ERROR with
-its reason, not a silently wrong end of life."""
+"""Test the ratio set on the estimator and on the diagnostics node.
+
+A mismatch is an ERROR with its reason, not a silently wrong end of life.
+"""
 from __future__ import annotations
 
 import pytest

@@ -53,7 +53,7 @@ def readme_section(title: str) -> str:
 
 
 def readme_commands(title: str) -> list[str]:
-    """The commands of the section's ```bash blocks, in order, without the NOT_RUN parts."""
+    """Return the commands of the section's ```bash blocks, in order, without NOT_RUN parts."""
     commands = []
     for block in re.findall(r'^```bash\n(.*?)^```', readme_section(title), re.M | re.S):
         for line in block.replace('\\\n', ' ').splitlines():
@@ -66,7 +66,7 @@ def readme_commands(title: str) -> list[str]:
 
 @pytest.fixture
 def workdir(tmp_path: Path) -> Path:
-    """A fresh directory with copies of bags/ and config/ and .venv -> this environment."""
+    """Make a fresh directory with copies of bags/ and config/ and .venv -> this environment."""
     for name in ('bags', 'config'):
         shutil.copytree(REPO / name, tmp_path / name)
     (tmp_path / '.venv').symlink_to(Path(sys.executable).parent.parent,
@@ -85,7 +85,7 @@ def run_one_shot(command: str, cwd: Path) -> subprocess.CompletedProcess:
 # --- what each finishing command must leave behind -------------------------------------------
 
 def check_quick_start_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
-    """The outputs and the health history that the quick start describes."""
+    """Check the outputs and the health history that the quick start describes."""
     out = cwd / 'out' / 'wearing'
     printed = done.stdout + done.stderr
     assert re.search(r'u = 0\.\d+ \+/- ', printed), printed                  # the final estimate
@@ -121,8 +121,10 @@ def check_evaluate(cwd: Path, done: subprocess.CompletedProcess) -> None:
 
 
 def check_regenerate(cwd: Path, done: subprocess.CompletedProcess) -> None:
-    """The three sample bags are rewritten in place with the committed topics and counts
-    (the byte-for-byte comparison is test_simulate_cli's)."""
+    """Check the in-place rewrite of the three sample bags: committed topics and counts.
+
+    The byte-for-byte comparison is test_simulate_cli's.
+    """
     for name in ('healthy', 'wearing', 'fault'):
         with BagReader(cwd / 'bags' / name) as new, BagReader(REPO / 'bags' / name) as old:
             assert new.topics == old.topics
@@ -157,8 +159,10 @@ CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], .
 
 
 def run_section_one_shots(title: str, cwd: Path) -> list[str]:
-    """Run the section's finishing commands in order, with their checks; return the node
-    commands, which run until stopped."""
+    """Run the section's finishing commands in order, with their checks.
+
+    Return the node commands, which run until stopped.
+    """
     nodes = []
     for command in readme_commands(title):
         if NODE_COMMANDS.match(command):
@@ -283,8 +287,11 @@ def test_offline_node_commands(workdir: Path) -> None:
 
 @pytest.mark.integration
 def test_live_commands(workdir: Path) -> None:
-    """The three nodes started as the README shows, then gear-phm monitor: each reports an
-    estimate on /diagnostics, stops cleanly on SIGINT, and monitor's recording is readable."""
+    """Start the three nodes as the README shows, then gear-phm monitor.
+
+    Each reports an estimate on /diagnostics, stops cleanly on SIGINT, and monitor's
+    recording is readable.
+    """
     commands = readme_commands('Live: three nodes over topics')
     nodes = [c for c in commands if not c.startswith('.venv/bin/gear-phm monitor')]
     monitor = [c for c in commands if c.startswith('.venv/bin/gear-phm monitor')]

@@ -64,7 +64,7 @@ def test_check_names_a_stale_row(tmp_path: Path) -> None:
 
 
 def documented_keys(path: Path, node: str) -> tuple[dict[str, Any], set[str]]:
-    """(the node's ros__parameters, the keys whose line has a comment or follows one)."""
+    """Return (the node's ros__parameters, the keys whose line has or follows a comment)."""
     values = yaml.safe_load(path.read_text(encoding='utf-8'))[node]['ros__parameters']
     commented, previous_is_comment = set(), False
     for line in path.read_text(encoding='utf-8').splitlines():
@@ -79,8 +79,10 @@ def documented_keys(path: Path, node: str) -> tuple[dict[str, Any], set[str]]:
 
 @pytest.mark.parametrize('node', NODES)
 def test_config_file_documents_every_declared_parameter(declarations: dict, node: str) -> None:
-    """config/<node>.yaml lists each declared parameter, with a comment, as a value the node
-    accepts (a double written as a double)."""
+    """Check that config/<node>.yaml lists each declared parameter, with a comment.
+
+    Each is given as a value the node accepts (a double written as a double).
+    """
     values, commented = documented_keys(REPO / 'config' / f'{node}.yaml', node)
     declared = {row['name']: row['default'] for row in declarations[node]}
     assert sorted(set(declared) - set(values)) == []

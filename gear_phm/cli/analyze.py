@@ -1,5 +1,7 @@
-"""``gear-phm analyze BAG --ratio R --out DIR``: the command line of :func:`gear_phm.offline.
-analyze_bag` (the estimator and diagnostics nodes' code over a recorded bag).
+"""``gear-phm analyze BAG --ratio R --out DIR``: the command line of ``analyze_bag``.
+
+:func:`gear_phm.offline.analyze_bag` runs the estimator and diagnostics nodes' code over a
+recorded bag.
 
 Writes DIR as a rosbag2 MCAP directory with the nodes' topics (and their /diagnostics status
 every second of bag time), stamped in bag time, plus DIR/summary.json and DIR/analysis.png.

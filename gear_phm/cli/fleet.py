@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
                         help='estimator parameter for every unit (repeatable)')
     parser.add_argument('--no-unit-outputs', action='store_true',
-                        help='write only the fleet table and plot, not each unit\'s bag')
+                        help="write only the fleet table and plot, not each unit's bag")
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     add_health_arguments(parser)
 

@@ -27,8 +27,10 @@ def _help(spec: ParamSpec) -> str:
 
 
 def add_health_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--eta-opposing-min``, ``--u-max``, ``--eta-warn``, ... one per health parameter
-    (``--no-self-locking-eol`` for the flag); read them back with :func:`health_values`."""
+    """Add one option per health parameter: ``--eta-opposing-min``, ``--u-max``, ...
+
+    ``--no-self-locking-eol`` for the flag; read them back with :func:`health_values`.
+    """
     group = parser.add_argument_group('health and end of life (diagnostics)')
     for spec in HEALTH_PARAMETERS:
         if spec.name in _NOT_OPTIONS:
@@ -49,7 +51,7 @@ def add_health_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def health_values(args: argparse.Namespace) -> dict[str, Any]:
-    """The health parameter values of :func:`add_health_arguments`'s options."""
+    """Return the health parameter values of :func:`add_health_arguments`'s options."""
     return {key[len(_PREFIX):]: value for key, value in vars(args).items()
             if key.startswith(_PREFIX)}
 

@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     fleet.add_argument('--unit-spread', type=float, default=0.2,
                        help='unit-to-unit relative spread of --friction-initial and '
                             '--wear-rate (0.2)')
-    group = parser.add_argument_group('simulation parameters (as the publisher node\'s)')
+    group = parser.add_argument_group("simulation parameters (as the publisher node's)")
     for spec in PARAMETERS:
         group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name, type=spec.kind,
                            default=spec.default, help=f'{spec.text} ({spec.default})')
@@ -157,8 +157,10 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
 
 
 def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -> int:
-    """Units ``unit_00``... with ``--recordings`` bags each and ``truth.yaml``; returns the
-    number of samples written."""
+    """Write units ``unit_00``... with ``--recordings`` bags each and ``truth.yaml``.
+
+    Returns the number of samples written.
+    """
     import yaml
     rng = np.random.default_rng(config.seed)
     total = 0

@@ -1,5 +1,7 @@
-"""The estimator's records: a sample in (:class:`JointSample`), an update out
-(:class:`FrictionEstimate`). No ROS, SI units."""
+"""The estimator's records: a sample in, an update out. No ROS, SI units.
+
+A sample in is a :class:`JointSample`, an update out a :class:`FrictionEstimate`.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -57,5 +59,5 @@ class FrictionEstimate:
 
     @property
     def u_sigma(self) -> float:
-        """Standard deviation of u [-]."""
+        """Return the standard deviation of u [-]."""
         return math.sqrt(max(self.covariance[0], 0.0))

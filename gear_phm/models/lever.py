@@ -46,7 +46,6 @@ from numpy.typing import ArrayLike
 from gear_phm.models._validation import finite, positive
 
 
-
 def _eta_d_terms(u: Any, ratio: Any) -> tuple[Any, Any]:
     """Numerator and denominator of eq 10 (floats or arrays)."""
     return ratio - u, ratio * (1.0 + u)

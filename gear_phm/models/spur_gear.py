@@ -40,7 +40,6 @@ from numpy.typing import ArrayLike
 from gear_phm.models._validation import at_least, in_open_interval, non_negative, positive
 
 
-
 def min_teeth(pressure_angle: ArrayLike, addendum_over_module: ArrayLike = 1.0) -> np.ndarray:
     """Fewest teeth an involute wheel can have without undercut: 2 (a/m) / sin^2(theta) [-]."""
     teeth: np.ndarray = (2.0 * np.asarray(addendum_over_module)

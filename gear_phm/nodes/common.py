@@ -69,9 +69,12 @@ def declare(node: Node, name: str, default: Any, description: str, *,
 
 
 def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
-    """Declare each spec as a ROS parameter with its descriptor (description with unit, range,
-    choices, read-only) and return ``{name: value}``; a value rclpy refuses, or one outside
-    the spec's choices, raises :class:`ConfigError` naming the parameter."""
+    """Declare each spec as a ROS parameter with its descriptor; return ``{name: value}``.
+
+    The descriptor holds the description with unit, range, choices and read-only. A value
+    rclpy refuses, or one outside the spec's choices, raises :class:`ConfigError` naming the
+    parameter.
+    """
     values: dict[str, Any] = {}
     for spec in specs:
         low, high = spec.low, spec.high
@@ -95,7 +98,10 @@ def stamp(stamp_ns: int) -> Time:
 
 
 def to_rclpy(output: Vector3Out | DiagnosticsOut) -> Vector3Stamped | DiagnosticArray:
-    """rclpy message of an output record (the offline twin is gear_phm.bagio.to_rosbags)."""
+    """Return the rclpy message of an output record.
+
+    The offline twin is gear_phm.bagio.to_rosbags.
+    """
     if isinstance(output, Vector3Out):
         msg = Vector3Stamped()
         msg.header.stamp = stamp(output.stamp_ns)
@@ -151,7 +157,7 @@ class DropCounter:
 
     def status(self, name: str, hardware_id: str, level: int, message: str,
                extra: Sequence[tuple[str, Any]] = ()) -> StatusOut:
-        """StatusOut with received/dropped counts, one ``dropped_<reason>`` entry per reason."""
+        """Return a StatusOut with received/dropped counts, one ``dropped_<reason>`` per reason."""
         values = [('messages_received', format_value(self.received)),
                   ('messages_dropped', format_value(self.dropped_total))]
         values += [(f'dropped_{reason}', format_value(count))
@@ -162,9 +168,12 @@ class DropCounter:
 
 
 def stopped_by_signal(exc: BaseException) -> bool:
-    """True for a clean stop: Ctrl-C/SIGTERM, or a RuntimeError (rclpy's RCLError, or pybind11's
+    """Tell whether an error is a clean stop.
+
+    A clean stop is Ctrl-C/SIGTERM, or a RuntimeError (rclpy's RCLError, or pybind11's
     "Unable to convert call argument" in a take) raised because a signal shut the context down
-    under a callback. Any other error is real."""
+    under a callback. Any other error is real.
+    """
     if isinstance(exc, (KeyboardInterrupt, ExternalShutdownException)):
         return True
     return isinstance(exc, RuntimeError) and not rclpy.ok()

@@ -72,7 +72,7 @@ class EstimateHistory:
 
     @property
     def u_sigma(self) -> np.ndarray:
-        """Standard deviation of u [-]."""
+        """Return the standard deviation of u [-]."""
         sigma: np.ndarray = np.sqrt(np.maximum(self.p_uu, 0.0))
         return sigma
 
@@ -90,9 +90,11 @@ class EstimateHistory:
 
 @dataclass(frozen=True)
 class HealthHistory:
-    """Every :class:`HealthState` of a run, as columns: level (0 OK .. 3 STALE), RUL median,
-    p5 and p95 [s] (inf: no degradation detectable), end-of-life u [-]; ``messages`` holds
-    each state's reason."""
+    """Every :class:`HealthState` of a run, as columns.
+
+    The columns: level (0 OK .. 3 STALE), RUL median, p5 and p95 [s] (inf: no degradation
+    detectable), end-of-life u [-]; ``messages`` holds each state's reason.
+    """
 
     stamp_ns: np.ndarray
     level: np.ndarray
@@ -131,8 +133,11 @@ class Analysis:
     out: Path | None = None
 
     def to_dataframe(self) -> Any:
-        """One row per estimate: the estimate columns, ``t`` [s] and the health columns of
-        the same stamp (pandas required: ``pip install pandas``)."""
+        """Return one row per estimate.
+
+        A row holds the estimate columns, ``t`` [s] and the health columns of the same stamp
+        (pandas required: ``pip install pandas``).
+        """
         try:
             import pandas as pd
         except ImportError as exc:
@@ -167,7 +172,7 @@ def split_options(ratio: float, options: dict[str, Any]) -> tuple[EstimatorConfi
 
 
 def order_bags(paths: Sequence[str | Path]) -> list[Path]:
-    """The bags in order of their first message (a campaign of recordings)."""
+    """Return the bags in order of their first message (a campaign of recordings)."""
     from gear_phm.bagio import BagError, BagReader
     starts = []
     for path in paths:
@@ -355,7 +360,7 @@ class _Run:
             writer.write_outputs(records)
 
     def _tick(self, stamp_ns: int, writer: Any) -> None:
-        """The /diagnostics array the estimator and diagnostics nodes would publish."""
+        """Return the /diagnostics array the estimator and diagnostics nodes would publish."""
         statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, self.samples)]
         latest = self.assessor.latest
         if latest is not None:

@@ -49,8 +49,11 @@ class UnitResult:
 
 
 def unit_recordings(unit: Path) -> list[Path]:
-    """The recordings of a unit folder: rosbag2 directories (with metadata.yaml) and bag files,
-    sorted by name (analyze_bag orders them by start time)."""
+    """Return the recordings of a unit folder, sorted by name.
+
+    Recordings are rosbag2 directories (with metadata.yaml) and bag files; analyze_bag orders
+    them by start time.
+    """
     found = []
     for entry in sorted(unit.iterdir()):
         if entry.is_dir() and (entry / 'metadata.yaml').is_file():
@@ -61,7 +64,7 @@ def unit_recordings(unit: Path) -> list[Path]:
 
 
 def discover_units(root: Path) -> list[Path]:
-    """Unit folders: the sub-directories of ``root`` that are not themselves a bag."""
+    """Return the unit folders: the sub-directories of ``root`` that are not themselves a bag."""
     if not root.is_dir():
         raise FleetError(f'fleet root {root} is not a directory')
     units = [p for p in sorted(root.iterdir())
@@ -136,8 +139,11 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
 def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
               scheduler: str | None, workers: int | None,
               on_done: Callable[[], None] = lambda: None) -> list[UnitResult]:
-    """Each unit as one Dask task; results in unit order. ``scheduler``: address of an
-    existing cluster, else a local one with ``workers`` processes (default: one per core)."""
+    """Analyse each unit as one Dask task; results in unit order.
+
+    ``scheduler``: address of an existing cluster, else a local one with ``workers``
+    processes (default: one per core).
+    """
     from dask.distributed import Client, LocalCluster, as_completed
     outs = [None if out is None else out / 'units' / unit.name for unit in units]
     scratch = None
@@ -223,9 +229,11 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
                   scheduler: str | None = None, workers: int | None = None,
                   progress: bool = False, unit_outputs: bool = True,
                   **options: Any) -> list[UnitResult]:
-    """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty):
-    ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker memory) and,
-    with ``unit_outputs``, each unit's analysis under ``units/<unit>/``."""
+    """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty).
+
+    Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker
+    memory) and, with ``unit_outputs``, each unit's analysis under ``units/<unit>/``.
+    """
     root, out = Path(root), Path(out)
     units = discover_units(root)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):

@@ -16,8 +16,10 @@ if TYPE_CHECKING:
 
 
 def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[Path]) -> None:
-    """Measured and estimated efficiency (top), u with its 2-sigma band (bottom), against bag
-    time [s]; the ground truth where the bag carries it."""
+    """Plot measured and estimated efficiency (top), u with its 2-sigma band (bottom).
+
+    Both against bag time [s], with the ground truth where the bag carries it.
+    """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt

@@ -42,7 +42,6 @@ from gear_phm.simulation._checks import non_negative, one_of, positive, real
 EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
 
 
-
 @dataclass(frozen=True)
 class Plant:
     """Plant parameters (SI). ratio R [-] = load torque / motor torque, ideal.
