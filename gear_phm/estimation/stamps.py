@@ -44,6 +44,8 @@ BLOCK = 100
 JUMP_PERIODS = 100
 #: A difference above this many expected periods is a gap with missing samples.
 GAP_FACTOR = 1.5
+#: Samples screened per vectorised step.
+FAST_SPAN = 4096
 
 
 @dataclass
@@ -81,6 +83,7 @@ class StampScreen:
         self._block_size = 0
         self._blocks: deque[tuple[int, float]] = deque()   # (stamp at completion, median)
         self._waiting: list[np.ndarray] = []      # differences before the first block
+        self._stamp0 = 0                          # stamp before the differences being fed
         self.missing = 0                          # samples counted missing so far
 
     def configure(self, run_length: int, max_gap_ns: int, hold_ns: int,
@@ -101,6 +104,51 @@ class StampScreen:
         lost = np.rint(diffs / period).astype(np.int64) - 1
         return np.where(diffs > GAP_FACTOR * period, np.maximum(lost, 0), 0)
 
+    def _add_diffs(self, diffs: np.ndarray, stop_on_change: bool) -> tuple[int, np.ndarray]:
+        """Feed timeline differences [ns] (each <= max_gap) to the period estimate; return how
+        many were consumed and the missing samples counted at each. With ``stop_on_change``
+        it stops right after a block that changes the period (the jump limit changes too).
+        Blocks are handled together with numpy; only block completions loop in Python."""
+        n = diffs.size
+        first = BLOCK - self._block_size             # differences that complete the open block
+        ends = np.arange(first - 1, n, BLOCK)         # positions completing a block
+        consumed = n
+        period = self.period_ns
+        if ends.size:
+            head = np.concatenate(self._block + [diffs[:first]])
+            rest = diffs[first:first + BLOCK * (ends.size - 1)].reshape(-1, BLOCK)
+            medians = np.concatenate(([np.median(head)], np.median(rest, axis=1)))
+            stamps_at = self._stamp0 + np.cumsum(diffs)[ends]
+            for end, median, now in zip(ends.tolist(), medians.tolist(), stamps_at.tolist()):
+                self._blocks.append((now, median))
+                while len(self._blocks) > 1 and self._blocks[0][0] < now - self.hold_ns:
+                    self._blocks.popleft()
+                new = min(m for _, m in self._blocks)
+                changed = new != self.period_ns
+                self.period_ns = new
+                if changed and (stop_on_change or period is None):
+                    consumed = end + 1
+                    break
+            tail_start = first + BLOCK * (ends.size - 1) if consumed == n else consumed
+            tail = diffs[tail_start:consumed] if consumed == n else diffs[:0]
+            self._block = [tail] if tail.size else []
+            self._block_size = tail.size
+        else:
+            self._block.append(diffs)
+            self._block_size += n
+        used = diffs[:consumed]
+        out = np.zeros(consumed, dtype=np.int64)
+        if period is not None:
+            out[:] = self._missing(used, period)
+        elif ends.size and ends[0] < consumed:        # the first block: judge what waited
+            waited = np.concatenate(self._waiting + [used])
+            out[-1] = int(self._missing(waited, self.period_ns).sum())
+            self._waiting = []
+        else:
+            self._waiting.append(used)
+        self._stamp0 += int(used.sum())
+        return consumed, out
+
     def _count(self, stamps: np.ndarray, prev: int | None) -> np.ndarray:
         """Missing samples before each of the accepted ``stamps`` (``prev``: the accepted
         stamp before them, None after a restart); updates the period estimate."""
@@ -112,30 +160,13 @@ class StampScreen:
             diffs = np.diff(stamps, prepend=np.int64(prev))
             where = np.arange(n)
         keep = diffs <= self.max_gap_ns               # longer: a sensor timeout, no loss
-        diffs, where = diffs[keep], where[keep]
-        pos = 0
-        while pos < diffs.size:
-            take = diffs[pos:pos + BLOCK - self._block_size]
-            at = where[pos:pos + take.size]
-            if self.period_ns is None:
-                self._waiting.append(take)
-            else:
-                out[at] = self._missing(take, self.period_ns)
-            self._block.append(take)
-            self._block_size += take.size
-            pos += take.size
-            if self._block_size == BLOCK:
-                median = float(np.median(np.concatenate(self._block)))
-                self._block, self._block_size = [], 0
-                now = int(stamps[at[-1]])
-                self._blocks.append((now, median))
-                while len(self._blocks) > 1 and self._blocks[0][0] < now - self.hold_ns:
-                    self._blocks.popleft()
-                self.period_ns = min(m for _, m in self._blocks)
-                if self._waiting:
-                    out[at[-1]] += int(self._missing(np.concatenate(self._waiting),
-                                                     median).sum())
-                    self._waiting = []
+        for chunk_start, chunk_end in _runs(keep):
+            self._stamp0 = int(stamps[where[chunk_start]] - diffs[chunk_start])
+            pos = chunk_start
+            while pos < chunk_end:
+                used, missing = self._add_diffs(diffs[pos:chunk_end], False)
+                out[where[pos:pos + used]] = missing
+                pos += used
         self.missing += int(out.sum())
         return out
 
@@ -143,6 +174,7 @@ class StampScreen:
         """Stamps restarted: block times are void; the last period stays until a new one."""
         self._blocks.clear()
         self._block, self._block_size, self._waiting = [], 0, []
+        self._stamp0 = 0
         if self.period_ns is not None:
             self._blocks.append((np.iinfo(np.int64).min, self.period_ns))
 
@@ -193,15 +225,20 @@ class StampScreen:
         while i < n:
             last = self.last
             if not held and last is not None:
-                # fast path: the longest stretch in sequence from i, up to the end of the
-                # open block (the period, hence the jump limit, may change there)
-                part = stamps[i:min(n, i + BLOCK - self._block_size)]
+                # fast path: the longest stretch in sequence from i, up to a block that
+                # changes the period (hence the jump limit)
+                part = stamps[i:i + FAST_SPAN]
                 step = np.diff(part, prepend=np.int64(last))
                 bad = np.flatnonzero((step <= 0) | (step > self.jump_ns))
                 k = int(bad[0]) if bad.size else part.size
                 if k:
-                    accept(np.arange(i, i + k), last)
-                    i += k
+                    self._stamp0 = last
+                    used, missing = self._add_diffs(step[:k], True)
+                    index_chunks.append(np.arange(i, i + used))
+                    missing_chunks.append(missing)
+                    self.missing += int(missing.sum())
+                    self.last = int(part[used - 1])
+                    i += used
                     continue
             s = int(stamps[i])
             jump = self.jump_ns
@@ -245,3 +282,9 @@ class StampScreen:
                 accept_run()
         close_segment()
         return Screened(steps, np.asarray(held, dtype=np.int64))
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, end) of each stretch of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.view(np.int8), [0]))))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
