@@ -163,9 +163,9 @@ class EstimatorPipeline:
         if not self.samples_missing:
             return outputs
         at = np.searchsorted(part, [o.stamp_ns for o in outputs])
-        return [replace(o, samples_missing=int(missing[k]) if k < part.size
-                        and part[k] == o.stamp_ns else before)
-                for o, k in zip(outputs, at.tolist())]
+        found = [k < part.size and part[k] == o.stamp_ns for o, k in zip(outputs, at.tolist())]
+        return [replace(o, samples_missing=int(missing[k]) if hit else before)
+                for o, k, hit in zip(outputs, at.tolist(), found)]
 
     def on_silence(self, silence_s: float) -> list[FrictionEstimate]:
         """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
