@@ -16,7 +16,7 @@ from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, DropCounter, run_node, to_rclpy
-from gear_phm.nodes.estimator import make_executor
+from gear_phm.nodes.estimator import spin_executor
 from gear_phm.status import OK
 
 
@@ -47,9 +47,7 @@ def main() -> int:
     args, rest = parser.parse_known_args()
 
     def spin(node: Node) -> None:
-        executor = make_executor(args.executor)
-        executor.add_node(node)
-        executor.spin()
+        spin_executor(node, args.executor)
 
     return run_node(lambda: BareSubscriber(args.raw, args.name), [sys.argv[0], *rest],
                     spin=spin)
