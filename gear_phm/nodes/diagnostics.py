@@ -281,9 +281,13 @@ class DiagnosticsNode(Node):
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1
         if state.level == STALE and self.assessor.latest is not None \
-                and not self._stale_published:
-            self._stale_published = True       # z = 3 shows STALE too, once per outage
-            self.health_pub.publish(state, efficiency_only=True)
+                and not self._stale_published and self.last_arrival_ns is not None:
+            # z = 3 shows STALE too, once per outage, stamped with the last estimate's stamp
+            # plus the silence (an output about no input carries no input's stamp)
+            self._stale_published = True
+            silence_ns = max(self.get_clock().now().nanoseconds - self.last_arrival_ns, 1)
+            self.health_pub.publish(replace(state, stamp_ns=state.stamp_ns + silence_ns),
+                                    efficiency_only=True)
 
 
 def main(args: Sequence[str] | None = None) -> int:
