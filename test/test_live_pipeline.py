@@ -164,7 +164,8 @@ def test_10khz_burst_every_sample_used_rejected_or_counted_missing() -> None:
     assert received + missing == pytest.approx(sent, rel=0.01), status
     assert used + rejected + missing == pytest.approx(sent, rel=0.01), status
     assert float(status['sample_period_s']) == pytest.approx(1e-4, rel=0.01)
-    print(f'10 kHz burst: sent {sent}, received {received}, missing {missing}')
+    print(f'10 kHz burst: sent {sent}, received {received}, used {used}, rejected {rejected}, '
+          f'missing {missing}')
 
 
 def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> None:
@@ -191,6 +192,7 @@ def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> 
                                                 load_torque_noise=0.05, motor_inertia=0.01))
     offline.on_batch(*columns)
     summary = offline.summary()
+    print({k: status[k] for k in ('messages_received', 'samples_missing', 'u', 'sigma_u')})
     assert int(status['dropped_backwards']) == 2, status
     assert int(status['events_stamp_reset']) == 0 and int(status['dropped_future']) == 0
     assert abs(float(status['u']) - summary['u']) <= 0.1 * summary['sigma_u'], \

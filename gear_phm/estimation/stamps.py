@@ -10,13 +10,14 @@ stream's timeline, and counts the samples the timeline shows missing:
 - **Slightly earlier** (within ``jump`` before ``last``): dropped as ``backwards`` (out of
   order, or a small clock step back: the samples resume once their stamps pass ``last``).
 - **Far earlier** (more than ``jump`` before ``last``, e.g. a zero stamp) or **far later**
-  (more than ``jump`` after it): held. If the next stamps continue the held one, in sequence
-  among themselves, ``run_length`` of them in a row make a *run*: a run of earlier stamps is
-  a bag loop or a rig restart and resets the estimator (``reset`` policy; with ``skip`` far
-  earlier stamps are dropped at once), a run of later stamps is a real jump (a pause, a
-  lost burst) and is accepted. A stamp that brings the stream back in sequence with ``last``
-  first drops the held stamps as ``backwards`` or ``future``: a lone stray stamp never
-  moves the timeline.
+  (more than ``jump`` after it): held. If the next stamps continue the held one (increasing,
+  and for a run far back still far back), ``run_length`` of them in a row make a *run*: a
+  run of earlier stamps is a bag loop or a rig restart and resets the estimator (``reset``
+  policy; with ``skip`` far earlier stamps are dropped at once), a run of later stamps is a
+  real jump (a pause, a lost burst) and is accepted. A stamp that brings the stream back in
+  sequence with ``last`` first drops the held stamps as ``backwards`` or ``future``: a lone
+  stray stamp never moves the timeline. The very first stamps need ``run_length`` of them
+  within ``jump`` of each other to start the timeline.
 
 **Expected sample period and loss.** Differences between consecutive accepted stamps
 (timeline gaps longer than ``max_gap`` excluded: those are sensor timeouts, not losses) are
@@ -253,7 +254,13 @@ class StampScreen:
                     drop('duplicate_stamp')
                     i += 1
                     continue
-                if p < s <= p + jump:
+                if kind == 'future':
+                    follows = s > p                   # losses may leave any gap
+                elif kind == 'backwards':
+                    follows = p < s < last - jump     # still far behind the timeline
+                else:
+                    follows = p < s <= p + jump       # the first stamps: in sequence
+                if follows:
                     held.append(i)
                     i += 1
                     if len(held) >= self.run_length:
