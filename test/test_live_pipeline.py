@@ -169,12 +169,12 @@ def test_10khz_burst_every_sample_used_rejected_or_counted_missing() -> None:
 
 
 def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> None:
-    run = lever_plant(3, 60.0, 0.1, rate=100.0)
+    run = lever_plant(3, 40.0, 0.1, rate=100.0)
     columns = [run.stamp_ns, run.motor_velocity, run.motor_effort, run.load_velocity,
                run.load_effort]
     messages = [joint_state(*row) for row in zip(*columns)]
     # one zero stamp and one stamp 1 s in the past, with plausible values, amid the stream
-    messages.insert(5000, joint_state(0, *(c[4999] for c in columns[1:])))
+    messages.insert(3500, joint_state(0, *(c[3499] for c in columns[1:])))
     messages.insert(3000, joint_state(run.stamp_ns[2899], *(c[2899] for c in columns[1:])))
     estimator = _spawn('estimator', *PLANT, 'diagnostics_period:=0.25', 'sensor_timeout:=5.0')
     driver = Driver('stray_driver')
@@ -182,7 +182,7 @@ def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> 
         driver.wait(lambda: driver.pub.get_subscription_count() > 0
                     and driver.latest('gear_phm estimator'), 60.0, 'estimator')
         driver.spin(1.0)
-        publish_paced(driver, messages, 1000.0)
+        publish_paced(driver, messages, 250.0)          # 4x real time, no loss expected
         status = driver.settle('gear_phm estimator')
         driver.spin(0.5)
     finally:
@@ -212,7 +212,7 @@ def test_looping_replay_resets_once_per_loop() -> None:
         driver.wait(lambda: driver.latest('gear_phm estimator'), 60.0, 'estimator')
         # 20 s of the bag (2000 samples at 100 Hz) per pass, 8x faster: 2.5 s per loop
         publisher = _spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
-                           'start_offset:=280.0', 'rate_factor:=8.0', 'loop:=true',
+                           'start_offset:=100.0', 'rate_factor:=8.0', 'loop:=true',
                            'replay_truth:=false', 'wait_for_subscribers:=1')
         driver.wait(lambda: int(driver.latest('gear_phm publisher').get('loops', 0)) >= 3,
                     90.0, 'three loops')
