@@ -115,6 +115,7 @@ class EstimatorNode(Node):
         self._window_ns = int(c.window * 1e9)
         self._min_window_ns = int(c.min_window * 1e9)
         self._gap_ns = int(c.sensor_timeout * 1e9)
+        self._grid_pending = c.publish_rate > 0.0    # outputs due before the grid is known
         self._code = 0                  # power-flow code of the previous sample
         self._prev_stamp = 0            # its stamp [ns]
         self._window_start = 0          # stamp where the current window (guess) began [ns]
@@ -155,7 +156,11 @@ class EstimatorNode(Node):
             due, self._window_start = True, stamp       # a window reached its length
         self._prev_stamp = stamp
         output = self._due
-        if due or (output is not None and stamp >= output) or len(self.stamps) >= MAX_BUFFER:
+        if output is None:              # no grid yet (first samples): it starts with them
+            due = due or self._grid_pending
+        elif stamp >= output:
+            due = True
+        if due or len(self.stamps) >= MAX_BUFFER:
             self._flush()
         elif len(self.stamps) == 1:
             self.batch_timer.reset()
