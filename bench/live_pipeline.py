@@ -1,22 +1,32 @@
-"""Live throughput and latency of the estimator (alone and with diagnostics) over real DDS.
+"""Live throughput, CPU, idle cost and latency of the estimator over real DDS, each as a ratio
+to a bare rclpy subscriber with the same QoS and executor, measured in the same run.
 
-Throughput: for each target (bare rclpy subscriber = baseline, estimator, estimator +
-diagnostics) and each rate in ``--rates`` (ascending), a flood publisher process sends
-``rate x duration`` JointState messages; the target's ``messages_received`` (from its
-/diagnostics status) must equal the number sent. The highest zero-drop rate is reported, and
-its ratio to the baseline's. Latency: at ``--latency-rates``, the time from a sample's stamp
-(wall clock at publication) to the arrival, in this observer process, of the estimate stamped
-with it (gear_phm/friction): p50, p99, max.
+- **Throughput**: for each target (bare subscriber = baseline, estimator, estimator +
+  diagnostics) and each rate in ``--rates`` (ascending), a flood publisher process sends
+  ``rate x duration`` JointState messages; the target's ``messages_received`` (its
+  /diagnostics status) must equal the number sent. The highest zero-loss rate is reported.
+- **CPU per message, side by side**: at each of ``--cpu-rates`` the bare subscriber and the
+  estimator take the same stream at once; CPU time of each process (all threads, from
+  /proc/<pid>/task/*/schedstat) over the stream, divided by the messages it received.
+- **Idle**: CPU of each target over ``--idle`` s without input, as a share of one core.
+- **Latency**: at ``--latency-rates``, the time from a sample's stamp (wall clock at
+  publication) to the arrival, in this observer process, of the estimate stamped with it
+  (gear_phm/friction): p50, p99, max.
 
-Usage: .venv/bin/python bench/live_pipeline.py [--duration 30] [--rates 500,1000,...]
+``--executor single|events`` chooses the rclpy executor of every target (the bare subscriber
+uses the same). ``--repeat`` runs the CPU and idle measurements several times.
+
+Usage: .venv/bin/python bench/live_pipeline.py [--duration 20] [--executor single]
 """
 from __future__ import annotations
 
 import argparse
+import glob
 import os
 from pathlib import Path
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -26,14 +36,36 @@ from _report import append_section, BENCHMARKS_MD  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
-TARGETS = {
-    'bare subscriber (baseline)': [[sys.executable, str(ROOT / 'bench' / 'bare_subscriber.py')]],
-    'estimator': [[str(BIN / 'estimator')]],
-    'estimator + diagnostics': [[str(BIN / 'estimator')], [str(BIN / 'diagnostics')]],
-}
-RECEIVER_PREFIX = {'bare subscriber (baseline)': 'bench: bare_subscriber',
-                   'estimator': 'gear_phm estimator', 'estimator + diagnostics':
-                   'gear_phm estimator'}
+BARE = 'bare subscriber (baseline)'
+TARGETS = (BARE, 'estimator', 'estimator + diagnostics')
+RECEIVER = {BARE: 'bench: bare_subscriber', 'estimator': 'gear_phm estimator',
+            'estimator + diagnostics': 'gear_phm estimator'}
+
+
+def commands(target: str, executor: str) -> list[list[str]]:
+    bare = [sys.executable, str(ROOT / 'bench' / 'bare_subscriber.py'), '--executor', executor]
+    estimator = [str(BIN / 'estimator'), '--ros-args', '-p', f'executor:={executor}']
+    if target == BARE:
+        return [bare]
+    if target == 'estimator':
+        return [estimator]
+    return [estimator, [str(BIN / 'diagnostics')]]
+
+
+def cpu_ns(pid: int) -> int:
+    """CPU time of all threads of process ``pid`` so far [ns]."""
+    total = 0
+    for path in glob.glob(f'/proc/{pid}/task/*/schedstat'):
+        try:
+            with open(path, encoding='ascii') as stream:
+                total += int(stream.read().split()[0])
+        except (OSError, ValueError, IndexError):
+            pass            # a thread that ended meanwhile
+    return total
+
+
+def load_average() -> str:
+    return ', '.join(f'{v:.2f}' for v in os.getloadavg())
 
 
 class Observer:
@@ -85,109 +117,191 @@ class Observer:
         self.rclpy.try_shutdown()
 
 
-def run_trial(observer: Observer, target: str, rate: float,
-              duration: float) -> tuple[int, int, list[float]]:
-    """Start the target, flood it, return (sent, received, latencies [s])."""
-    procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-             for cmd in TARGETS[target]]
-    observer.counts.clear()
-    observer.latencies.clear()
-    observer.stream_end_ns = None
-    prefix = RECEIVER_PREFIX[target]
-    try:
-        if not observer.spin_until(lambda: observer.received(prefix) is not None, 30.0):
-            raise RuntimeError(f'{target}: no /diagnostics status within 30 s')
-        flood = subprocess.Popen(
-            [sys.executable, str(ROOT / 'bench' / 'flood_publisher.py'), '--rate', str(rate),
-             '--duration', str(duration), '--subscribers', str(1)],
-            stdout=subprocess.PIPE, text=True)
-        # estimates after the stream ended (the sensor-timeout notice, stamped with the last
-        # sample) are not the processing latency of a sample: stop collecting at 'sent='
-        import threading
-        lines: list[str] = []
+class Targets:
+    """Node processes started together; stopped on exit."""
 
-        def read_stdout() -> None:
-            for line in flood.stdout:
-                if line.startswith('sent='):
-                    observer.stream_end_ns = time.time_ns() + 50_000_000
-                lines.append(line)
-        reader = threading.Thread(target=read_stdout, daemon=True)
-        reader.start()
-        while flood.poll() is None:
-            observer.spin_for(0.2)
-        reader.join(timeout=5)
-        latencies = list(observer.latencies)
-        out = ''.join(lines)
-        sent = int(out.split('sent=')[1].split()[0])
-        last = -1
-        # drain: wait until the count stops moving (2 s) or reaches `sent`
-        deadline = time.monotonic() + 15.0
-        while time.monotonic() < deadline:
-            observer.spin_for(1.0)
-            now = observer.received(prefix) or 0
-            if now >= sent or now == last:
-                break
-            last = now
-        return sent, observer.received(prefix) or 0, latencies
-    finally:
-        for proc in procs:
+    def __init__(self, observer: Observer, cmds: list[list[str]], receivers: list[str]) -> None:
+        self.observer = observer
+        self.receivers = receivers
+        observer.counts.clear()
+        self.procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.DEVNULL) for cmd in cmds]
+
+    def __enter__(self) -> Targets:
+        if not self.observer.spin_until(
+                lambda: all(self.observer.received(r) is not None for r in self.receivers),
+                60.0):
+            self.__exit__()
+            raise RuntimeError(f'{self.receivers}: no /diagnostics status within 60 s')
+        return self
+
+    def cpu(self) -> list[int]:
+        return [cpu_ns(p.pid) for p in self.procs]
+
+    def __exit__(self, *exc) -> None:
+        for proc in self.procs:
             proc.terminate()
-        for proc in procs:
+        for proc in self.procs:
             try:
                 proc.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 proc.kill()
 
 
+def flood(observer: Observer, rate: float, duration: float, subscribers: int,
+          receivers: list[str]) -> int:
+    """Publish the stream, wait for the counts to settle; return the number sent."""
+    observer.latencies.clear()
+    observer.stream_end_ns = None
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / 'bench' / 'flood_publisher.py'), '--rate', str(rate),
+         '--duration', str(duration), '--subscribers', str(subscribers)],
+        stdout=subprocess.PIPE, text=True)
+    lines: list[str] = []
+
+    def read_stdout() -> None:
+        for line in proc.stdout:
+            if line.startswith('sent='):
+                observer.stream_end_ns = time.time_ns() + 50_000_000
+            lines.append(line)
+    reader = threading.Thread(target=read_stdout, daemon=True)
+    reader.start()
+    while proc.poll() is None:
+        observer.spin_for(0.2)
+    reader.join(timeout=5)
+    sent = int(''.join(lines).split('sent=')[1].split()[0])
+    last: list[int | None] = [None] * len(receivers)
+    deadline = time.monotonic() + 15.0
+    while time.monotonic() < deadline:          # until every count reaches sent or stops
+        observer.spin_for(1.2)
+        now = [observer.received(r) or 0 for r in receivers]
+        if all(n >= sent for n in now) or now == last:
+            break
+        last = now
+    return sent
+
+
+def throughput(observer: Observer, target: str, executor: str, rates: list[float],
+               duration: float, rows: list[list[str]]) -> float:
+    best = 0.0
+    for rate in rates:
+        with Targets(observer, commands(target, executor), [RECEIVER[target]]):
+            sent = flood(observer, rate, duration, 1, [RECEIVER[target]])
+            received = observer.received(RECEIVER[target]) or 0
+        rows.append([target, f'{rate:.0f}', str(sent), str(received), str(sent - received)])
+        print(rows[-1], flush=True)
+        if received != sent:
+            break
+        best = rate
+    return best
+
+
+def side_by_side(observer: Observer, executor: str, rate: float,
+                 duration: float) -> tuple[float, float, int, int, int]:
+    """(bare us/msg, estimator us/msg, sent, bare received, estimator received)."""
+    cmds = commands(BARE, executor) + commands('estimator', executor)
+    receivers = [RECEIVER[BARE], RECEIVER['estimator']]
+    with Targets(observer, cmds, receivers) as targets:
+        observer.spin_for(2.0)
+        before = targets.cpu()
+        sent = flood(observer, rate, duration, 2, receivers)
+        after = targets.cpu()
+        got = [observer.received(r) or 0 for r in receivers]
+    per = [(a - b) / max(n, 1) * 1e-3 for a, b, n in zip(after, before, got)]
+    return per[0], per[1], sent, got[0], got[1]
+
+
+def idle(observer: Observer, executor: str, seconds: float) -> tuple[float, float]:
+    """Share of one core [%] used by the bare subscriber and the estimator with no input."""
+    cmds = commands(BARE, executor) + commands('estimator', executor)
+    with Targets(observer, cmds, [RECEIVER[BARE], RECEIVER['estimator']]) as targets:
+        observer.spin_for(3.0)
+        before = targets.cpu()
+        start = time.monotonic()
+        observer.spin_for(seconds)
+        after = targets.cpu()
+        elapsed = time.monotonic() - start
+    bare, estimator = ((a - b) * 1e-9 / elapsed * 100.0 for a, b in zip(after, before))
+    return bare, estimator
+
+
+def latency(observer: Observer, executor: str, rate: float, duration: float) -> list[str]:
+    with Targets(observer, commands('estimator', executor), [RECEIVER['estimator']]):
+        flood(observer, rate, duration, 1, [RECEIVER['estimator']])
+        lat_ms = np.asarray(observer.latencies) * 1e3
+    if not lat_ms.size:
+        return [f'{rate:.0f}', '0', '-', '-', '-']
+    return [f'{rate:.0f}', str(lat_ms.size), f'{np.percentile(lat_ms, 50):.2f}',
+            f'{np.percentile(lat_ms, 99):.2f}', f'{lat_ms.max():.2f}']
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--duration', type=float, default=30.0, help='seconds per trial')
-    parser.add_argument('--rates', default='500,1000,1500,2000,3000,4000,6000,8000')
-    parser.add_argument('--latency-rates', default='1000,5000')
+    parser.add_argument('--duration', type=float, default=20.0, help='seconds per stream')
+    parser.add_argument('--executor', choices=('single', 'events'), default='single')
+    parser.add_argument('--rates', default='1000,2000,3000,4000,5000,6000,8000',
+                        help='throughput rates [Hz], ascending ("" skips throughput)')
     parser.add_argument('--targets', default=','.join(TARGETS))
+    parser.add_argument('--cpu-rates', default='1000,100', help='side-by-side rates [Hz]')
+    parser.add_argument('--idle', type=float, default=20.0, help='idle seconds (0 skips)')
+    parser.add_argument('--latency-rates', default='1000')
+    parser.add_argument('--repeat', type=int, default=1, help='CPU and idle repetitions')
     parser.add_argument('--no-append', action='store_true')
     args = parser.parse_args()
     os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    rates = [float(r) for r in args.rates.split(',')]
+    out = None if args.no_append else BENCHMARKS_MD
+    executor = args.executor
+    load_before = load_average()
     observer = Observer()
-    best: dict[str, float] = {}
-    rows = [['target', 'rate [Hz]', 'sent', 'received', 'drops']]
     try:
-        for target in args.targets.split(','):
-            best[target] = 0.0
-            for rate in rates:
-                sent, received, _ = run_trial(observer, target, rate, args.duration)
-                rows.append([target, f'{rate:.0f}', str(sent), str(received),
-                             str(sent - received)])
-                print(rows[-1], flush=True)
-                if received != sent:
-                    break
-                best[target] = rate
+        best: dict[str, float] = {}
+        trials = [['target', 'rate [Hz]', 'sent', 'received', 'lost']]
+        rates = [float(r) for r in args.rates.split(',') if r]
+        for target in (args.targets.split(',') if rates else []):
+            best[target] = throughput(observer, target, executor, rates, args.duration,
+                                      trials)
+        cpu_rows = [['rate [Hz]', 'run', 'bare [us/msg]', 'estimator [us/msg]', 'ratio',
+                     'received bare / estimator / sent']]
+        idle_rows = [['run', 'bare [% of a core]', 'estimator [% of a core]']]
+        for run in range(1, args.repeat + 1):
+            for rate in (float(r) for r in args.cpu_rates.split(',') if r):
+                bare, est, sent, got_bare, got_est = side_by_side(observer, executor, rate,
+                                                                  args.duration)
+                cpu_rows.append([f'{rate:.0f}', str(run), f'{bare:.0f}', f'{est:.0f}',
+                                 f'{est / bare:.2f}', f'{got_bare} / {got_est} / {sent}'])
+                print(cpu_rows[-1], flush=True)
+            if args.idle > 0:
+                bare, est = idle(observer, executor, args.idle)
+                idle_rows.append([str(run), f'{bare:.2f}', f'{est:.2f}'])
+                print(idle_rows[-1], flush=True)
         latency_rows = [['rate [Hz]', 'estimates', 'p50 [ms]', 'p99 [ms]', 'max [ms]']]
-        for rate in (float(r) for r in args.latency_rates.split(',')):
-            _, _, lat = run_trial(observer, 'estimator', rate, args.duration)
-            lat_ms = np.asarray(lat) * 1e3
-            if lat_ms.size:
-                latency_rows.append([f'{rate:.0f}', str(lat_ms.size),
-                                     f'{np.percentile(lat_ms, 50):.2f}',
-                                     f'{np.percentile(lat_ms, 99):.2f}', f'{lat_ms.max():.2f}'])
-            else:
-                latency_rows.append([f'{rate:.0f}', '0', '-', '-', '-'])
+        for rate in (float(r) for r in args.latency_rates.split(',') if r):
+            latency_rows.append(latency(observer, executor, rate, args.duration))
+            print(latency_rows[-1], flush=True)
     finally:
         observer.close()
-    out = None if args.no_append else BENCHMARKS_MD
-    baseline = best.get('bare subscriber (baseline)', 0.0)
-    summary = [['target', 'highest zero-drop rate [Hz]', 'ratio to bare subscriber']]
-    for target, rate in best.items():
-        ratio = f'{rate / baseline:.2f}' if baseline else '-'
-        summary.append([target, f'{rate:.0f}', ratio])
-    trials = ['| ' + ' | '.join(r) + ' |' for r in rows]
-    trials.insert(1, '|' + '---|' * len(rows[0]))
-    append_section(f'Live throughput, {args.duration:.0f} s per trial, zero drops', summary,
-                   'Trials:\n\n' + '\n'.join(trials), out=out)
-    append_section('Live latency: sample stamp -> estimate received by an observer process',
-                   latency_rows, out=out)
+    note = (f'Executor: {executor}. Load average before the run: {load_before}; after: '
+            f'{load_average()} (2 cores, shared with other jobs).')
+    if best:
+        baseline = best.get(BARE, 0.0)
+        summary = [['target', 'highest zero-loss rate [Hz]', 'ratio to bare subscriber']]
+        for target, rate in best.items():
+            summary.append([target, f'{rate:.0f}',
+                            f'{rate / baseline:.2f}' if baseline else '-'])
+        table = ['| ' + ' | '.join(r) + ' |' for r in trials]
+        table.insert(1, '|' + '---|' * len(trials[0]))
+        append_section(f'Live throughput, {args.duration:.0f} s per trial, zero loss',
+                       summary, note + '\n\nTrials:\n\n' + '\n'.join(table), out=out)
+    if len(cpu_rows) > 1:
+        append_section('Live CPU per message, bare subscriber and estimator side by side',
+                       cpu_rows, note, out=out)
+    if len(idle_rows) > 1:
+        append_section(f'Live idle CPU, {args.idle:.0f} s without input', idle_rows, note,
+                       out=out)
+    if len(latency_rows) > 1:
+        append_section('Live latency: sample stamp -> estimate received by an observer '
+                       'process', latency_rows, note, out=out)
     return 0
 
 

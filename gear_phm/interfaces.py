@@ -33,6 +33,7 @@ FRICTION_COVARIANCE = 'gear_phm/friction_covariance'
 EFFICIENCY = 'gear_phm/efficiency'
 INNOVATION = 'gear_phm/innovation'
 COUNTS = 'gear_phm/counts'
+SAMPLE_LOSS = 'gear_phm/sample_loss'
 HEALTH_RUL = 'gear_phm/health/rul'
 HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
 DIAGNOSTICS = '/diagnostics'
@@ -419,6 +420,14 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
                             _count(rejected), _count(code))
 
 
+def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,
+                       period_s: float | None, frame_id: str = '') -> Vector3Out:
+    """``gear_phm/sample_loss``: x = samples missing so far, y = share missing over the last
+    status period, z = expected sample period [s] (NaN before it is known)."""
+    return Vector3Out(SAMPLE_LOSS, stamp_ns, float(samples_missing), float(loss_ratio),
+                      math.nan if period_s is None else float(period_s), frame_id)
+
+
 def health_outputs(state: HealthState) -> tuple[Vector3Out, Vector3Out]:
     """gear_phm/health/rul and gear_phm/health/efficiency of one health state."""
     rul = state.rul
@@ -430,14 +439,14 @@ def health_outputs(state: HealthState) -> tuple[Vector3Out, Vector3Out]:
 #: KeyValue keys of the diagnostics node's /diagnostics status, in this order (benches rely
 #: on them).
 STATUS_KEYS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
-               'power_flow', 'samples_used', 'samples_rejected')
+               'power_flow', 'samples_used', 'samples_rejected', 'samples_missing')
 
 
 def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
     """Return KeyValue pairs with exactly :data:`STATUS_KEYS` (decimal strings, ``inf``)."""
     values = (state.u, state.u_sigma, state.eta_opposing, state.eta_aiding, state.rul.median,
               state.rul.p5, state.rul.p95, state.power_flow, state.samples_used,
-              state.samples_rejected)
+              state.samples_rejected, state.samples_missing)
     return tuple((key, format_value(value)) for key, value in zip(STATUS_KEYS, values))
 
 

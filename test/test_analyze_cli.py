@@ -59,7 +59,8 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     assert len(statuses) >= 290                      # 1 Hz over the 300 s bag
     keys = [kv.key for kv in statuses[-1].values]
     assert keys == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
-                    'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected']
+                    'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
+                    'samples_missing']
     assert [s.level for s in statuses][-1] == 2
 
 

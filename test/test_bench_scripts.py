@@ -36,8 +36,10 @@ def test_bench_memory_logic_tiny() -> None:
 @pytest.mark.integration
 def test_bench_live_pipeline_tiny() -> None:
     out = run('live_pipeline.py', '--duration', '1', '--rates', '200',
-              '--latency-rates', '200', '--targets', 'bare subscriber (baseline),estimator')
+              '--latency-rates', '200', '--targets', 'bare subscriber (baseline),estimator',
+              '--cpu-rates', '200', '--idle', '1')
     assert '| estimator | 200 |' in out and 'p99 [ms]' in out
+    assert 'estimator [us/msg]' in out and 'estimator [% of a core]' in out
 
 
 @pytest.mark.integration

@@ -30,7 +30,8 @@ from gear_phm.nodes.common import OUTPUT_QOS, stamp  # noqa: E402
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
 EXE = Path(sys.executable).parent / 'diagnostics'
 KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
-        'power_flow', 'samples_used', 'samples_rejected']
+        'power_flow', 'samples_used', 'samples_rejected',
+        'samples_missing']
 
 
 @pytest.fixture(scope='module')

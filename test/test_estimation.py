@@ -13,7 +13,7 @@ from gear_phm import interfaces
 from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
                                  FrictionFilter, to_measurement)
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear
-from test_estimation_plant import lever_plant
+from gear_phm.status import WARN
 
 NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
          'load_speed_noise': 0.01}
@@ -295,22 +295,25 @@ def test_backwards_stamps_reset_the_estimator_when_policy_is_reset() -> None:
     assert stamps == sorted(stamps)
 
 
-def test_sensor_timeout_predicts_only_and_is_flagged() -> None:
+def test_sensor_timeout_is_flagged_publishes_nothing_and_live_equals_offline() -> None:
+    """A timeout is a status (WARN, counted once), not an output group: the open window is
+    closed by the next sample, as offline, so the outputs equal a run without on_silence."""
     run = lever_plant(4, 40.0, 0.1)
     pipeline = EstimatorPipeline(CONFIG)
-    _feed(pipeline, run, 0, 10000)
+    out = _feed(pipeline, run, 0, 10000)
     assert pipeline.on_silence(0.1) == []
-    out = _topics(pipeline.on_silence(2.0))
+    assert pipeline.on_silence(2.0) == []
     assert pipeline.timed_out and pipeline.counts['timeout'] == 1
-    assert {o.topic for o in out} >= set(interfaces.ESTIMATOR_TOPICS)
-    # predict only up to the newest sample: stamped with it, the variance stays bounded
-    assert {o.stamp_ns for o in out} == {int(run.stamp_ns[9999])}
-    friction = next(o for o in out if o.topic == interfaces.FRICTION)
-    assert friction.z < 0.05
-    assert pipeline.on_silence(3.0) == []          # published once per timeout
+    assert pipeline.status('x').level == WARN and 'sensor timeout' in pipeline.status('x').message
+    assert pipeline.on_silence(3.0) == []
     assert pipeline.counts['timeout'] == 1
-    _feed(pipeline, run, 30000, 31000)
+    out += _feed(pipeline, run, 30000, 31000)
     assert not pipeline.timed_out and pipeline.counts['timeout'] == 1
+    offline = EstimatorPipeline(CONFIG)
+    expected = _feed(offline, run, 0, 10000) + _feed(offline, run, 30000, 31000)
+    assert [(o.topic, o.stamp_ns, o.x) for o in out] == \
+        [(o.topic, o.stamp_ns, o.x) for o in expected]
+    assert offline.counts['timeout'] == 1
 
 
 def test_one_output_group_per_stamp() -> None:

@@ -213,7 +213,8 @@ def test_status_key_values_exact_keys_and_inf() -> None:
                                           samples_used=7, samples_rejected=2, power_flow=1))
     values = dict(interfaces.health_key_values(status))
     assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
-                            'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected']
+                            'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
+                            'samples_missing']
     assert values['rul_s'] == 'inf' and values['samples_used'] == '7'
     assert float(values['u_sigma']) == pytest.approx(0.01)
     assert float(values['eta_opposing']) == pytest.approx((3.0 - 0.1) / (3.0 * 1.1))

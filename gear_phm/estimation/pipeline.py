@@ -9,6 +9,7 @@ are split into batches. Time comes from the sample stamps only.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 import math
 from typing import Any
 
@@ -18,6 +19,8 @@ from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies
 from gear_phm.models.power_flow import IMPOSSIBLE
@@ -25,12 +28,16 @@ from gear_phm.status import format_value, OK, StatusOut, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
-                  'duplicate_stamp')
+                  'future', 'duplicate_stamp')
 #: Message-level reasons (a message that gives no sample at all).
 MESSAGE_REASONS = ('missing_joint', 'short_arrays', 'truncated', 'bad_encoding', 'bad_message')
 #: Window / measurement reasons and events (do not count as rejected samples).
 WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated')
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
+
+
+def _ns(seconds: float) -> int:
+    return int(round(seconds * 1e9))
 
 
 class EstimatorPipeline:
@@ -49,12 +56,19 @@ class EstimatorPipeline:
         self.samples_seen = 0
         self.samples_used = 0
         self.samples_rejected = 0
+        self.samples_missing = 0
         self.windows_used = 0
         #: Time with motion [s]: sums of sample intervals (up to sensor_timeout) that end at a
         #: moving, finite sample; idle time and gaps between recordings do not count.
         self.operating_time = 0.0
         self._max_stamp: int | None = None
         self._last_group_stamp: int | None = None     # stamp of the newest estimate [ns]
+        self.screen = StampScreen(config.stamp_run, _ns(config.sensor_timeout),
+                                  _ns(config.period_hold), config.backwards_policy == 'reset')
+        #: Samples held by the screen for a run: (stamps, [4 value arrays]).
+        self._held: tuple[np.ndarray, list[np.ndarray]] | None = None
+        self._status_mark = (0, 0)        # samples_seen, samples_missing at the last status
+        self.loss_ratio = 0.0             # share of samples missing over the last period
         self._reset_estimator()
 
     # --- state -------------------------------------------------------------------------------
@@ -79,6 +93,8 @@ class EstimatorPipeline:
         self.config = config
         self._reset_estimator()
         self._max_stamp = None
+        self.screen.configure(config.stamp_run, _ns(config.sensor_timeout),
+                              _ns(config.period_hold), config.backwards_policy == 'reset')
 
     def _t(self, stamp_ns: int) -> float:
         return (stamp_ns - self._origin_ns) * 1e-9
@@ -115,35 +131,54 @@ class EstimatorPipeline:
         if any(a.shape != stamps.shape for a in arrays) or stamps.ndim != 1:
             raise ValueError(f'batch arrays must be 1-D of equal length, got shapes '
                              f'{[stamps.shape] + [a.shape for a in arrays]}')
+        if self._held is not None:          # samples waiting for a run go first
+            held_stamps, held_arrays = self._held
+            self._held = None
+            stamps = np.concatenate((held_stamps, stamps))
+            arrays = [np.concatenate((h, a)) for h, a in zip(held_arrays, arrays)]
+        screened = self.screen.screen(stamps)
         outputs: list[FrictionEstimate] = []
-        start = 0
-        n = stamps.size
-        while start < n:
-            part = stamps[start:]
-            prior = np.maximum.accumulate(part)
-            prior = np.concatenate(([np.iinfo(np.int64).min], prior[:-1]))
-            if self._max_stamp is not None:
-                prior = np.maximum(prior, self._max_stamp)
-            end = n
-            if self.config.backwards_policy == 'reset':
-                back = np.flatnonzero(part < prior)
-                if back.size:
-                    end = start + int(back[0])
-            outputs += self._process(stamps[start:end], [a[start:end] for a in arrays],
-                                     prior[:end - start])
-            if end < n:
-                self.counts['stamp_reset'] += 1
-                self._reset_estimator()
-                self._max_stamp = None
-            start = end
+        for step in screened.steps:
+            if isinstance(step, Segment):
+                outputs += self._process_segment(step, stamps, arrays)
+            else:
+                reason, count = step
+                self.counts[reason] += count
+                self.samples_rejected += count
+                self.samples_seen += count
+        if screened.held.size:
+            self._held = (stamps[screened.held], [a[screened.held] for a in arrays])
         return outputs
+
+    def _process_segment(self, segment: Segment, stamps: np.ndarray,
+                         arrays: list[np.ndarray]) -> list[FrictionEstimate]:
+        """Accepted samples, in sequence: the estimator (restarted first after a confirmed
+        run of earlier stamps); each estimate carries the missing count at its stamp."""
+        if segment.reset_before:
+            self.counts['stamp_reset'] += 1
+            self._reset_estimator()
+        index = segment.index
+        part = stamps[index]
+        before = self.samples_missing
+        missing = before + np.cumsum(segment.missing)
+        self.samples_missing = int(missing[-1])
+        prior = np.full(index.size, np.iinfo(np.int64).min)
+        outputs = self._process(part, [a[index] for a in arrays], prior)
+        if not self.samples_missing:
+            return outputs
+        at = np.searchsorted(part, [o.stamp_ns for o in outputs])
+        found = [k < part.size and part[k] == o.stamp_ns for o, k in zip(outputs, at.tolist())]
+        return [replace(o, samples_missing=int(missing[k]) if hit else before)
+                for o, k, hit in zip(outputs, at.tolist(), found)]
 
     def on_silence(self, silence_s: float) -> list[FrictionEstimate]:
         """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
-        node clock since the last arrival). Past ``sensor_timeout``: close the open window,
-        predict only, flag the timeout and publish once, stamped with the newest sample (the
-        estimate still uses no newer data). Sample stamps and the caller's clock may be in
-        different time bases (a replayed bag without use_sim_time), so they are never mixed.
+        node clock since the last arrival). Past ``sensor_timeout`` the timeout is flagged
+        (``timed_out``, WARN in the status) and counted once. Nothing is published: an output
+        is always stamped with, and caused by, the newest sample it used, and the open window
+        is closed by the next sample as offline (the gap rule), so live equals offline.
+        Sample stamps and the caller's clock may be in different time bases (a replayed bag
+        without use_sim_time), so they are never mixed. Returns an empty list.
         """
         if self._last_stamp is None or self._origin_ns is None:
             return []
@@ -151,12 +186,16 @@ class EstimatorPipeline:
             return []
         self.timed_out = True
         self.counts['timeout'] += 1
-        outputs: list[FrictionEstimate] = []
-        for window in self.integrator.flush():
-            outputs += self._apply_window(window)
-        x, p = self.filter.predicted(self._t(self._last_stamp))
-        outputs.append(self._estimate(int(self._last_stamp), x, p))
-        return outputs
+        return []
+
+    def next_output_stamp(self) -> int | None:
+        """The stamp [ns] from which the next sample crosses the publish_rate grid and gives
+        an output (None before the first sample or with publish_rate 0). A live node can
+        process at once a sample that reaches it, for low latency."""
+        rate = self.config.publish_rate
+        if rate <= 0.0 or self._origin_ns is None or self._grid is None:
+            return None
+        return self._origin_ns + math.ceil((self._grid + 1) / rate * 1e9)
 
     # --- core --------------------------------------------------------------------------------
     def _process(self, stamps: np.ndarray, arrays: list[np.ndarray],
@@ -318,26 +357,46 @@ class EstimatorPipeline:
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
             'operating_time_s': self.operating_time,
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,
+            'samples_missing': self.samples_missing,
+            'sample_period_s': (math.nan if self.screen.period_ns is None
+                                else self.screen.period_ns * 1e-9),
             'counts': dict(self.counts), 'timed_out': self.timed_out,
         }
 
+    def _close_status_period(self) -> float:
+        """Share of samples missing since the previous call (one status period)."""
+        seen, missing = self.samples_seen, self.samples_missing
+        d_seen, d_missing = seen - self._status_mark[0], missing - self._status_mark[1]
+        self._status_mark = (seen, missing)
+        total = d_seen + d_missing
+        self.loss_ratio = d_missing / total if total > 0 else 0.0
+        return self.loss_ratio
+
     def status(self, name: str, messages_received: int | None = None) -> StatusOut:
-        """DiagnosticStatus record: level, message, estimate and counters by reason."""
+        """DiagnosticStatus record: level, message, estimate and counters by reason. Each call
+        closes a status period: ``loss_ratio`` is the share of samples missing since the
+        previous call (WARN above ``loss_warn``)."""
+        loss = self._close_status_period()
         summary = self.summary()
         if self.timed_out:
-            level, message = WARN, 'sensor timeout: predicting only'
+            level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
         elif self.filter.updates == 0:
             level, message = WARN, 'no efficiency measurement yet'
         elif self.filter.consecutive_gated:
             level, message = WARN, f'{self.filter.consecutive_gated} measurement(s) gated'
         else:
             level, message = OK, 'estimating'
+        if loss > self.config.loss_warn:
+            text = f'{100.0 * loss:.3g} % of samples missing over the last status period'
+            message = text if level == OK else f'{message}; {text}'
+            level = WARN
         values: list[tuple[str, Any]] = []
         if messages_received is not None:
             values.append(('messages_received', messages_received))
         values += [(key, summary[key]) for key in (
             'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
-            'samples_rejected')]
+            'samples_rejected', 'samples_missing', 'sample_period_s')]
+        values.append(('loss_ratio', loss))
         for reason, count in sorted(summary['counts'].items()):
             if reason in WINDOW_REASONS:
                 values.append((f'windows_rejected_{reason}', count))

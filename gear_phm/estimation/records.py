@@ -35,7 +35,8 @@ class FrictionEstimate:
     u; ``measured_efficiency`` [-] is the newest window's (NaN before the first);
     ``innovation`` [-], its variance ``innovation_variance`` S and ``nis`` come from the last
     filter update; ``samples_used``/``samples_rejected`` count samples so far;
-    ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample.
+    ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample;
+    ``samples_missing`` counts the samples the stamps show lost so far.
     """
 
     stamp_ns: int
@@ -51,6 +52,7 @@ class FrictionEstimate:
     samples_used: int = 0
     samples_rejected: int = 0
     power_flow: int = 0
+    samples_missing: int = 0
 
     @property
     def t(self) -> float:

@@ -5,7 +5,10 @@
 :class:`gear_phm.prognostics.HealthAssessor`, publishes the health topics per update and
 ``/diagnostics`` at ``rate`` Hz (one status ``gear_phm: <transmission_name>``); the topics are
 listed in docs/architecture.md. STALE is judged on this node's clock (``use_sim_time``
-respected) against the arrival time of the last estimator message.
+respected) against the arrival time of the last estimator message, and published at once
+when ``stale_timeout`` has passed (a one-shot timer restarted by each arrival), not only at
+the next status tick. The estimator publishes nothing about a sensor timeout, so only real
+samples keep the input fresh. ``samples_missing`` comes from ``gear_phm/sample_loss``.
 
 Recording (``record_path`` non-empty): a rosbag2 MCAP directory with every topic this node
 publishes (and its inputs with ``record_inputs``). Messages are serialized in the callbacks
@@ -25,6 +28,7 @@ import threading
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -33,7 +37,7 @@ from rclpy.serialization import serialize_message
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
                                  ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL, health_status,
-                                 VECTOR3_STAMPED_TYPE)
+                                 SAMPLE_LOSS, VECTOR3_STAMPED_TYPE)
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
 from gear_phm.parameters import ParamSpec
@@ -142,10 +146,20 @@ class DiagnosticsNode(Node):
         self._record_names: dict[str, str] = {}
         if values['record_path']:
             self._start_recorder(values)
+        self.samples_missing = 0          # from the estimator's gear_phm/sample_loss
+        self._stale_published = False
+        self.stale_timer = self._make_stale_timer()
         self.assembler.subscribe(self, INPUT_QOS, self._on_estimates, self._on_message)
+        self.create_subscription(Vector3Stamped, SAMPLE_LOSS, self._on_sample_loss, INPUT_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
+
+    def _make_stale_timer(self) -> Any:
+        """One-shot: fires stale_timeout after the last arrival (restarted by each)."""
+        timer = self.create_timer(self.health_config.stale_timeout, self._on_stale_timer)
+        timer.cancel()
+        return timer
 
     @property
     def dropped(self) -> dict[str, int]:
@@ -175,6 +189,9 @@ class DiagnosticsNode(Node):
         if changed:
             self.health_config = self.health_config.replace(**changed)
             self.assessor = HealthAssessor(self.health_config)
+            if 'stale_timeout' in changed:
+                self.destroy_timer(self.stale_timer)
+                self.stale_timer = self._make_stale_timer()
             self.get_logger().info(f'health parameters changed: {changed}; assessor restarted')
 
     # -- recording --------------------------------------------------------------------------
@@ -215,7 +232,17 @@ class DiagnosticsNode(Node):
     def _on_message(self, topic: str, msg: Any) -> None:
         self.received += 1
         self.last_arrival_ns = self.get_clock().now().nanoseconds
+        self.stale_timer.reset()
+        self._stale_published = False
         self._record(topic, msg)
+
+    def _on_sample_loss(self, msg: Vector3Stamped) -> None:
+        if math.isfinite(msg.vector.x) and msg.vector.x >= 0.0:
+            self.samples_missing = int(msg.vector.x)
+
+    def _on_stale_timer(self) -> None:
+        self.stale_timer.cancel()
+        self._publish_diagnostics()
 
     def _on_estimates(self, estimates: list[Any]) -> None:
         for estimate in estimates:
@@ -232,12 +259,14 @@ class DiagnosticsNode(Node):
             return waiting_state(now_ns, self.assessor.u_eol)
         silence = math.inf if self.last_arrival_ns is None \
             else (now_ns - self.last_arrival_ns) * 1e-9
-        if silence > self.health_config.stale_timeout:
+        if silence >= self.health_config.stale_timeout:
             return latest.as_stale(silence)
         return latest
 
     def _publish_diagnostics(self) -> None:
         state = self.current_status()
+        if self.samples_missing > state.samples_missing:
+            state = replace(state, samples_missing=self.samples_missing)
         dropped = self.dropped
         if dropped:
             drops = ', '.join(f'{k}={v}' for k, v in sorted(dropped.items()))
@@ -250,8 +279,14 @@ class DiagnosticsNode(Node):
         self.diag_pub.publish(msg)
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1
-        if state.level == STALE and self.assessor.latest is not None:
-            self.health_pub.publish(state, efficiency_only=True)   # z = 3 shows STALE too
+        if state.level == STALE and self.assessor.latest is not None \
+                and not self._stale_published and self.last_arrival_ns is not None:
+            # z = 3 shows STALE too, once per outage, stamped with the last estimate's stamp
+            # plus the silence (an output about no input carries no input's stamp)
+            self._stale_published = True
+            silence_ns = max(self.get_clock().now().nanoseconds - self.last_arrival_ns, 1)
+            self.health_pub.publish(replace(state, stamp_ns=state.stamp_ns + silence_ns),
+                                    efficiency_only=True)
 
 
 def main(args: Sequence[str] | None = None) -> int:

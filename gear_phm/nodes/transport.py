@@ -10,6 +10,8 @@ hands whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 from __future__ import annotations
 
 from collections.abc import Callable
+import operator
+import struct
 from typing import Any
 
 from geometry_msgs.msg import Vector3Stamped
@@ -43,6 +45,72 @@ def subscribe_joint_states(node: Node, motor_joint: Callable[[], str],
     return node.create_subscription(JointState, interfaces.JOINT_STATES, callback, SENSOR_QOS)
 
 
+def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) -> Any:
+    """Subscribe ``joint_states`` (sensor QoS) serialized: ``on_message`` gets the CDR bytes
+    of each message, with no Python message object built (decode batches with
+    :func:`gear_phm.interfaces.decode_joint_states`)."""
+    return node.create_subscription(JointState, interfaces.JOINT_STATES, on_message,
+                                    SENSOR_QOS, raw=True)
+
+
+class _FastLayout:
+    """One JointState CDR layout: its constant bytes and a struct that reads the stamp, both
+    joints' velocity and effort and the two array lengths in one call."""
+
+    __slots__ = ('prefix_end', 'prefix', 'unpack', 'order', 'lengths')
+
+    def __init__(self, raw: bytes, layout: Any, mi: int, li: int) -> None:
+        self.prefix_end = layout.array_offsets[0]
+        self.prefix = raw[:4] + raw[12:self.prefix_end]
+        vel, eff = layout.array_offsets[1], layout.array_offsets[2]
+        fields = {'sec': (4, 'i'), 'nanosec': (8, 'I'),
+                  'vel_len': (layout.length_words[1], 'I'),
+                  'eff_len': (layout.length_words[2], 'I'), 'wm': (vel + 8 * mi, 'd'),
+                  'wl': (vel + 8 * li, 'd'), 'tm': (eff + 8 * mi, 'd'), 'tl': (eff + 8 * li, 'd')}
+        fmt, position, names = '<', 0, []
+        for name, (offset, code) in sorted(fields.items(), key=lambda kv: kv[1][0]):
+            fmt += 'x' * (offset - position) + code
+            position = offset + struct.calcsize('<' + code)
+            names.append(name)
+        self.unpack = struct.Struct(fmt).unpack_from
+        self.order = operator.itemgetter(*(names.index(n) for n in (
+            'sec', 'nanosec', 'wm', 'tm', 'wl', 'tl', 'vel_len', 'eff_len')))
+        self.lengths = layout.array_lengths[1:]
+
+    def matches(self, raw: bytes) -> bool:
+        return raw[12:self.prefix_end] == self.prefix[4:] and raw[:4] == self.prefix[:4]
+
+
+class JointStateDecoder:
+    """Serialized JointState -> (stamp [ns], motor speed, motor torque, load speed, load
+    torque), one message at a time in a few microseconds: the layout (frame_id, names, array
+    lengths) is parsed once and cached by size and frame_id length; a message is checked against its layout's
+    constant bytes and read with one ``struct`` call. Unusable messages give the reason
+    (``missing_joint``, ``short_arrays``, ``truncated``, ``bad_encoding``)."""
+
+    MAX_LAYOUTS = 16
+
+    def __init__(self, motor_joint: str, load_joint: str) -> None:
+        self.motor_joint, self.load_joint = motor_joint, load_joint
+        self._layouts: dict[int, _FastLayout] = {}
+
+    def decode(self, raw: bytes) -> tuple[int, float, float, float, float] | str:
+        key = (len(raw), raw[12:16])            # size and frame_id length
+        fast = self._layouts.get(key)
+        if fast is None or not fast.matches(raw):
+            parsed = interfaces._joint_layout(raw, self.motor_joint, self.load_joint)
+            if isinstance(parsed, str):
+                return parsed
+            if len(self._layouts) >= self.MAX_LAYOUTS:
+                self._layouts.clear()
+            fast = self._layouts[key] = _FastLayout(raw, *parsed)
+        sec, nanosec, wm, tm, wl, tl, vel_len, eff_len = fast.order(fast.unpack(raw))
+        if (vel_len, eff_len) != fast.lengths:      # same size, arrays split differently
+            del self._layouts[key]
+            return self.decode(raw)
+        return sec * 1_000_000_000 + nanosec, wm, tm, wl, tl
+
+
 class EstimatePublisher:
     """Publishes estimates on the five estimator topics (reliable, depth 10)."""
 
@@ -55,6 +123,30 @@ class EstimatePublisher:
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id):
                 self._publishers[output.topic].publish(to_rclpy(output))
+
+
+class SampleLossPublisher:
+    """Publishes the estimator's loss count on ``gear_phm/sample_loss`` once per status
+    period, stamped with the newest accepted sample (nothing when no new sample came)."""
+
+    def __init__(self, node: Node, frame_id: str = '') -> None:
+        self.frame_id = frame_id
+        self._publisher = node.create_publisher(Vector3Stamped, interfaces.SAMPLE_LOSS,
+                                                OUTPUT_QOS)
+        self._last_stamp: int | None = None
+
+    def publish(self, pipeline: Any) -> None:
+        """``pipeline``: an :class:`~gear_phm.estimation.EstimatorPipeline`."""
+        stamp_ns = pipeline.screen.last
+        if stamp_ns is None or stamp_ns == self._last_stamp:
+            return
+        self._last_stamp = stamp_ns
+        period = pipeline.screen.period_ns
+        output = interfaces.sample_loss_output(stamp_ns, pipeline.samples_missing,
+                                               pipeline.loss_ratio,
+                                               None if period is None else period * 1e-9,
+                                               self.frame_id)
+        self._publisher.publish(to_rclpy(output))
 
 
 class HealthPublisher:

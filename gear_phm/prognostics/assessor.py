@@ -43,6 +43,7 @@ class HealthState:
     samples_rejected: int
     u_eol: float
     trend: Trend
+    samples_missing: int = 0
 
     def as_stale(self, silence: float) -> HealthState:
         """This status turned STALE after ``silence`` [s] without input."""
@@ -119,7 +120,8 @@ class HealthAssessor:
         self.latest = HealthState(estimate.stamp_ns, level, message, estimate.u, u_sigma,
                                   estimate.eta_opposing, estimate.eta_aiding, rul,
                                   estimate.power_flow, estimate.samples_used,
-                                  estimate.samples_rejected, self.u_eol, trend)
+                                  estimate.samples_rejected, self.u_eol, trend,
+                                  estimate.samples_missing)
         return self.latest
 
     def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:
