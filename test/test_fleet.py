@@ -6,6 +6,7 @@ of workers.
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 import subprocess
 import sys
@@ -63,8 +64,11 @@ def test_fleet_table_bad_units_and_worker_independence(fleet: Path, tmp_path: Pa
         assert 0.09 < float(row['u']) < 0.2
         assert 55.0 < float(row['operating_time_s']) <= 80.0
         assert float(row['rul_p5_s']) <= float(row['rul_s']) <= float(row['rul_p95_s'])
-    # unit_02 was analysed with its own ratio 30 (unit.yaml): another u for the same data
-    assert abs(float(rows['unit_02']['u']) - float(rows['unit_01']['u'])) > 0.01
+    # unit_02 was analysed with its own ratio 30 (unit.yaml), the others with --ratio 3
+    summary = json.loads((two / 'units' / 'unit_02' / 'summary.json').read_text())
+    assert summary['config']['ratio'] == 30.0
+    assert json.loads((two / 'units' / 'unit_01' / 'summary.json').read_text())[
+        'config']['ratio'] == 3.0
     assert (two / 'fleet.png').stat().st_size > 10_000
     assert (two / 'units' / 'unit_00' / 'summary.json').is_file()
     assert not (one / 'units').exists()
