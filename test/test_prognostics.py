@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -22,7 +21,6 @@ from gear_phm.prognostics import (end_of_life_u, health_level, HealthAssessor, H
 from gear_phm.prognostics.health import chi_square_mean_bound, DivergenceDetector
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
-from gear_phm.prognostics.state import load_wear_state, save_wear_state, WearState, WearStateSaver
 from gear_phm.simulation.wear import Wear
 from gear_phm.status import ERROR, OK, WARN
 
@@ -250,61 +248,6 @@ def test_metrics_inputs_validated_and_infinite_predictions() -> None:
     with pytest.raises(ValueError, match='t_start'):
         evaluate(t, [1.0, 1.0, 1.0], 40.0, t_start=50.0)
     assert json.dumps(evaluate(t, [np.inf] * 3, 40.0))         # JSON-ready
-
-
-# --- wear state ----------------------------------------------------------------------------
-def _state(t: float = 12.5) -> WearState:
-    return WearState.from_posterior(t, np.array([0.2, 3e-5]),
-                                    np.array([[1e-6, 1e-9], [1e-9, 1e-11]]), 3.0)
-
-
-def test_wear_state_round_trip_and_periodic_saver(tmp_path) -> None:
-    path = tmp_path / 'sub' / 'wear.json'
-    save_wear_state(path, _state())
-    loaded, reason = load_wear_state(path, ratio=3.0)
-    assert reason == '' and loaded == _state()
-    assert np.array_equal(loaded.P, _state().P) and loaded.x[0] == 0.2
-    assert sorted(os.listdir(path.parent)) == ['wear.json']          # no tmp left behind
-    saver = WearStateSaver(path, period=10.0)
-    assert saver.maybe_save(0.0, _state(0.0))
-    assert not saver.maybe_save(5.0, _state(5.0))
-    assert saver.maybe_save(10.0, _state(10.0))
-    assert load_wear_state(path)[0].t == 10.0
-
-
-@pytest.mark.parametrize(('content', 'reason'), [
-    (None, 'does not exist'),
-    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1', 'not valid JSON'),
-    (b'\xff\xfe\x00garbage', 'unreadable'),
-    (b'[1, 2, 3]', 'not a gear_phm.wear_state file'),
-    (b'{"format": "gear_phm.wear_state", "version": 1}', 'lacks field'),
-    (b'{"format": "gear_phm.wear_state", "version": 2, "t": 1, "u": 0.1, "rate": 0,'
-     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'version must be 1'),
-    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": NaN, "rate": 0,'
-     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'u must be a finite number'),
-    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": 0.1, "rate": 0,'
-     b' "covariance": [[1, 5], [5, 1]], "ratio": 3}', 'positive definite'),
-    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": 0.1, "rate": 0,'
-     b' "covariance": [[1, 0], [0, 1]], "ratio": 5}', 'for ratio 5'),
-    (b'{"format": "gear_phm.wear_state", "version": 1, "t": 1, "u": "x", "rate": 0,'
-     b' "covariance": [[1, 0], [0, 1]], "ratio": 3}', 'u must be a finite number'),
-])
-def test_corrupt_or_missing_state_file_gives_reason_not_crash(tmp_path, content: bytes | None,
-                                                              reason: str) -> None:
-    path = tmp_path / 'wear.json'
-    if content is not None:
-        path.write_bytes(content)
-    state, why = load_wear_state(path, ratio=3.0)
-    assert state is None and reason in why
-
-
-def test_truncated_real_state_file_is_refused(tmp_path) -> None:
-    path = tmp_path / 'wear.json'
-    save_wear_state(path, _state())
-    data = path.read_bytes()
-    for cut in range(0, len(data) - 1, 7):
-        path.write_bytes(data[:cut])
-        assert load_wear_state(path)[0] is None
 
 
 # --- acceptance: alpha-lambda on simulated wear through the real filter ----------------------

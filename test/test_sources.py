@@ -117,7 +117,7 @@ def test_replay_source_streams_the_bag_without_bad_messages_pass_after_pass(
             assert isinstance(item, Recorded)
             assert elapsed == t_ns - first_ns + k * one_pass_ns
             assert (item.log_ns, item.raw) == (t_ns, raw)
-            assert item.channel == ('joint_states' if topic == '/joint_states'
+            assert item.channel == ('joints' if topic == '/joint_states'
                                     else 'truth_friction')
         assert this_pass[-1] == ((k + 1) * one_pass_ns, PASS_END)
     assert items[-1] == (2 * one_pass_ns, items[0][1])    # the third pass starts over
@@ -133,7 +133,7 @@ def test_replay_source_without_truth_and_from_an_offset() -> None:
     assert items[-1] == (100 * 10**7, PASS_END)                  # one pass, not looping
     recorded = [item for _, item in items[:-1]]
     assert [item.channel for item in recorded if isinstance(item, Recorded)] == \
-        ['joint_states'] * 100
+        ['joints'] * 100
     assert [elapsed for elapsed, _ in items[:-1]] == [k * 10**7 for k in range(100)]
 
 

@@ -150,7 +150,7 @@ class BagReader:
         return sorted(t for t, kind in self.topics.items() if kind == msgtype)
 
     def resolve_topic(self, topic: str) -> str:
-        """The bag's spelling of ``topic``: 'joint_states' and '/joint_states' are the same."""
+        """The bag's spelling of ``topic``: a relative name and its absolute form are the same."""
         topics = self.topics
         for candidate in (topic, '/' + topic.lstrip('/'), topic.lstrip('/')):
             if candidate in topics:

@@ -98,7 +98,7 @@ class Rosbag2McapWriter:
     def add_topic(self, topic: str, msgtype: str, offered_qos_profiles: str = '') -> None:
         """Declare ``topic`` of ``msgtype`` (e.g. 'sensor_msgs/msg/JointState'); idempotent.
 
-        Relative names are stored absolute ('joint_states' -> '/joint_states'), as rosbag2 does.
+        Relative names are stored absolute (a leading '/' added), as rosbag2 does.
         ``offered_qos_profiles`` is rosbag2's YAML text of the publishers' QoS profiles.
         """
         topic = absolute_topic(topic)

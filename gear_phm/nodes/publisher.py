@@ -283,7 +283,7 @@ class PublisherNode(Node):
         The bytes go out as they are, or deserialized with the new stamp (``restamp``).
         Return False if asked to stop first.
         """
-        publisher = self.joint_pub if message.channel == 'joint_states' \
+        publisher = self.joint_pub if message.channel == 'joints' \
             else self.truth_pubs[message.channel]
         if self.restamp:
             msg = deserialize_message(message.raw, publisher.msg_type)
@@ -296,7 +296,7 @@ class PublisherNode(Node):
         if not self._sleep_until(scheduled):
             return False
         self.counter.received += 1
-        if message.channel == 'joint_states':
+        if message.channel == 'joints':
             if self.clock_pub is not None:
                 self.clock_pub.publish(Clock(clock=stamp(clock_ns)))
             self._send(publisher, payload, scheduled)

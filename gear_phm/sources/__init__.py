@@ -26,7 +26,7 @@ import threading
 from typing import Any, Literal, Protocol, TypeVar
 
 #: Output of a recorded message: joint states, or one of the two truth topics.
-Channel = Literal['joint_states', 'truth_friction', 'truth_efficiency']
+Channel = Literal['joints', 'truth_friction', 'truth_efficiency']
 
 
 class SourceError(ValueError):

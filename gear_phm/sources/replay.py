@@ -51,7 +51,7 @@ class ReplaySource:
         try:
             with BagReader(self.path) as bag:
                 self.topic = _pick_topic(bag, topic)
-                self._channels: dict[str, Channel] = {self.topic: 'joint_states'}
+                self._channels: dict[str, Channel] = {self.topic: 'joints'}
                 if replay_truth:
                     truths: tuple[tuple[str, Channel], ...] = (
                         (TRUTH_FRICTION, 'truth_friction'), (TRUTH_EFFICIENCY, 'truth_efficiency'))
@@ -89,7 +89,7 @@ class ReplaySource:
             pending.clear()
 
         for topic, t_ns, raw in bag.raw_messages(list(self._channels), start_ns=self._start_ns):
-            if self._channels[topic] != 'joint_states':
+            if self._channels[topic] != 'joints':
                 truth_ns[min(len(truth_ns), 1):] = [t_ns]
                 continue
             joint_ns.append(t_ns)
@@ -123,7 +123,7 @@ class ReplaySource:
                 for topic, t_ns, raw in bag.raw_messages(list(self._channels),
                                                          start_ns=self._start_ns):
                     channel = self._channels[topic]
-                    if channel == 'joint_states':
+                    if channel == 'joints':
                         index += 1
                         if index in self._rejected:
                             continue
