@@ -2,9 +2,10 @@
 to a bare rclpy subscriber with the same QoS and executor, measured in the same run.
 
 - **Throughput**: for each target (bare subscriber = baseline, estimator, estimator +
-  diagnostics) and each rate in ``--rates`` (ascending), a flood publisher process sends
-  ``rate x duration`` JointState messages; the target's ``messages_received`` (its
-  /diagnostics status) must equal the number sent. The highest zero-loss rate is reported.
+  diagnostics; on request ``'bare subscriber, serialized'``, a raw subscription) and each
+  rate in ``--rates`` (ascending), a flood publisher process sends ``rate x duration``
+  JointState messages; the target's ``messages_received`` (its /diagnostics status) must
+  equal the number sent. The highest zero-loss rate is reported.
 - **CPU per message, side by side**: at each of ``--cpu-rates`` the bare subscriber and the
   estimator take the same stream at once; CPU time of each process (all threads, from
   /proc/<pid>/task/*/schedstat) over the stream, divided by the messages it received.
@@ -37,9 +38,10 @@ from _report import BENCHMARKS_MD, append_section  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
 BARE = 'bare subscriber (baseline)'
+BARE_RAW = 'bare subscriber, serialized'
 TARGETS = (BARE, 'estimator', 'estimator + diagnostics')
-RECEIVER = {BARE: 'bench: bare_subscriber', 'estimator': 'gear_phm estimator',
-            'estimator + diagnostics': 'gear_phm estimator'}
+RECEIVER = {BARE: 'bench: bare_subscriber', BARE_RAW: 'bench: bare_subscriber',
+            'estimator': 'gear_phm estimator', 'estimator + diagnostics': 'gear_phm estimator'}
 
 
 def commands(target: str, executor: str) -> list[list[str]]:
@@ -47,6 +49,8 @@ def commands(target: str, executor: str) -> list[list[str]]:
     estimator = [str(BIN / 'estimator'), '--ros-args', '-p', f'executor:={executor}']
     if target == BARE:
         return [bare]
+    if target == BARE_RAW:                  # rclpy's floor: no Python message object
+        return [bare + ['--raw']]
     if target == 'estimator':
         return [estimator]
     return [estimator, [str(BIN / 'diagnostics')]]
