@@ -2,7 +2,7 @@
 to a bare rclpy subscriber with the same QoS and executor, measured in the same run.
 
 - **Throughput**: for each target (bare subscriber = baseline, estimator, estimator +
-  diagnostics; on request ``'bare subscriber, serialized'``, a raw subscription) and each
+  diagnostics; on request ``'bare subscriber (serialized)'``, a raw subscription) and each
   rate in ``--rates`` (ascending), a flood publisher process sends ``rate x duration``
   JointState messages; the target's ``messages_received`` (its /diagnostics status) must
   equal the number sent. The highest zero-loss rate is reported.
@@ -38,7 +38,7 @@ from _report import BENCHMARKS_MD, append_section  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
 BARE = 'bare subscriber (baseline)'
-BARE_RAW = 'bare subscriber, serialized'
+BARE_RAW = 'bare subscriber (serialized)'
 TARGETS = (BARE, 'estimator', 'estimator + diagnostics')
 RECEIVER = {BARE: 'bench: bare_subscriber', BARE_RAW: 'bench: bare_subscriber',
             'estimator': 'gear_phm estimator', 'estimator + diagnostics': 'gear_phm estimator'}
@@ -242,7 +242,7 @@ def latency(observer: Observer, executor: str, rate: float, duration: float) -> 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--duration', type=float, default=20.0, help='seconds per stream')
-    parser.add_argument('--executor', choices=('single', 'events'), default='single')
+    parser.add_argument('--executor', choices=('events', 'single'), default='events')
     parser.add_argument('--rates', default='1000,2000,3000,4000,5000,6000,8000',
                         help='throughput rates [Hz], ascending ("" skips throughput)')
     parser.add_argument('--targets', default=','.join(TARGETS))
