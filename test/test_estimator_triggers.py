@@ -46,8 +46,8 @@ def test_outputs_leave_with_their_sample_and_equal_offline() -> None:
         batches[0] += 1
         for estimate in node.pipeline.on_batch(part, *values):
             outputs.append(estimate)
-            delays.append(int(np.searchsorted(stamps, part[-1]) -
-                              np.searchsorted(stamps, estimate.stamp_ns)))
+            arrived = np.searchsorted(stamps, part[-1])
+            delays.append(int(arrived - np.searchsorted(stamps, estimate.stamp_ns)))
         node._due = node.pipeline.next_output_stamp()
 
     node._flush = flush

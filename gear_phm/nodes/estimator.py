@@ -129,7 +129,10 @@ class EstimatorNode(Node):
     def _on_message(self, raw: bytes) -> None:
         """One serialized JointState: decode and buffer it; process the buffer when an
         output is due."""
-        sample = self.decoder.decode(raw)
+        try:
+            sample = self.decoder.decode(raw)
+        except Exception:  # never die on data; count it
+            sample = 'bad_message'
         if isinstance(sample, str):
             self.messages_received += 1
             self.pipeline.reject_message(sample)
