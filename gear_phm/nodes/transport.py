@@ -1,12 +1,13 @@
 """The live transport: domain records <-> rclpy messages on the nodes' topics.
 
 With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the bag side) this
-is the only place that knows which topic carries what. The estimator node takes JointState serialized
-(:func:`subscribe_joint_states_raw`, :class:`JointStateDecoder`), publishes each
+is the only place that knows which topic carries what. The estimator node takes JointState
+serialized (:func:`subscribe_joint_states_raw`, :class:`JointStateDecoder`), publishes each
 :class:`~gear_phm.estimation.FrictionEstimate` as five Vector3Stamped topics with one stamp
-(:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the diagnostics node puts them back together into the same
-record (:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and
-hands whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
+(:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the
+diagnostics node puts the five back together into the same record
+(:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and hands
+whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 """
 from __future__ import annotations
 
