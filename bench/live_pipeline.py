@@ -2,9 +2,10 @@
 to a bare rclpy subscriber with the same QoS and executor, measured in the same run.
 
 - **Throughput**: for each target (bare subscriber = baseline, estimator, estimator +
-  diagnostics) and each rate in ``--rates`` (ascending), a flood publisher process sends
-  ``rate x duration`` JointState messages; the target's ``messages_received`` (its
-  /diagnostics status) must equal the number sent. The highest zero-loss rate is reported.
+  diagnostics; on request ``'bare subscriber (serialized)'``, a raw subscription) and each
+  rate in ``--rates`` (ascending), a flood publisher process sends ``rate x duration``
+  JointState messages; the target's ``messages_received`` (its /diagnostics status) must
+  equal the number sent. The highest zero-loss rate is reported.
 - **CPU per message, side by side**: at each of ``--cpu-rates`` the bare subscriber and the
   estimator take the same stream at once; CPU time of each process (all threads, from
   /proc/<pid>/task/*/schedstat) over the stream, divided by the messages it received.
@@ -37,9 +38,10 @@ from _report import append_section, BENCHMARKS_MD  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
 BARE = 'bare subscriber (baseline)'
+BARE_RAW = 'bare subscriber (serialized)'
 TARGETS = (BARE, 'estimator', 'estimator + diagnostics')
-RECEIVER = {BARE: 'bench: bare_subscriber', 'estimator': 'gear_phm estimator',
-            'estimator + diagnostics': 'gear_phm estimator'}
+RECEIVER = {BARE: 'bench: bare_subscriber', BARE_RAW: 'bench: bare_subscriber',
+            'estimator': 'gear_phm estimator', 'estimator + diagnostics': 'gear_phm estimator'}
 
 
 def commands(target: str, executor: str) -> list[list[str]]:
@@ -47,6 +49,8 @@ def commands(target: str, executor: str) -> list[list[str]]:
     estimator = [str(BIN / 'estimator'), '--ros-args', '-p', f'executor:={executor}']
     if target == BARE:
         return [bare]
+    if target == BARE_RAW:                  # rclpy's floor: no Python message object
+        return [bare + ['--raw']]
     if target == 'estimator':
         return [estimator]
     return [estimator, [str(BIN / 'diagnostics')]]
@@ -69,7 +73,9 @@ def load_average() -> str:
 
 
 class Observer:
-    """rclpy node in this process: reads /diagnostics counts and estimate latencies."""
+    """rclpy node in this process: reads /diagnostics counts and estimate latencies. It
+    spins an EventsExecutor, the lightest wake-up rclpy offers, so its own delay adds
+    little to the latency it measures."""
 
     def __init__(self) -> None:
         import rclpy
@@ -84,6 +90,9 @@ class Observer:
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
         self.node.create_subscription(Vector3Stamped, 'gear_phm/friction', self._on_estimate,
                                       100)
+        from rclpy.experimental import EventsExecutor
+        self.executor = EventsExecutor()
+        self.executor.add_node(self.node)
 
     def _on_diag(self, msg) -> None:
         for status in msg.status:
@@ -104,7 +113,7 @@ class Observer:
     def spin_until(self, condition, timeout: float) -> bool:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            self.rclpy.spin_once(self.node, timeout_sec=0.05)
+            self.executor.spin_once(timeout_sec=0.05)
             if condition():
                 return True
         return False
@@ -113,6 +122,7 @@ class Observer:
         self.spin_until(lambda: False, seconds)
 
     def close(self) -> None:
+        self.executor.shutdown()
         self.node.destroy_node()
         self.rclpy.try_shutdown()
 
@@ -238,7 +248,7 @@ def latency(observer: Observer, executor: str, rate: float, duration: float) -> 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--duration', type=float, default=20.0, help='seconds per stream')
-    parser.add_argument('--executor', choices=('single', 'events'), default='single')
+    parser.add_argument('--executor', choices=('events', 'single'), default='events')
     parser.add_argument('--rates', default='1000,2000,3000,4000,5000,6000,8000',
                         help='throughput rates [Hz], ascending ("" skips throughput)')
     parser.add_argument('--targets', default=','.join(TARGETS))

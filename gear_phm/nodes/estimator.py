@@ -101,7 +101,7 @@ class EstimatorNode(Node):
         self._set_window_watch()
         self.last_batch_ns: int | None = None     # node clock at the newest batch [ns]
         self.status_name = f'gear_phm estimator: {self.get_name()}'
-        # timers that run only while samples flow: the buffer's tail, the sensor timeout
+        # one-shot timers, restarted by samples: the buffer's tail, the sensor timeout
         self.batch_timer = self.create_timer(self.batch_period, self._flush)
         self.batch_timer.cancel()
         self.watchdog = self._make_watchdog()
@@ -122,16 +122,18 @@ class EstimatorNode(Node):
         self._window_start = 0          # stamp where the current window (guess) began [ns]
 
     def _make_watchdog(self) -> Any:
-        timer = self.create_timer(self.config.sensor_timeout / 4.0, self._on_watchdog)
+        timer = self.create_timer(self.config.sensor_timeout, self._on_watchdog)
         timer.cancel()
-        self._watching = False
         return timer
 
     # --- callbacks -----------------------------------------------------------------------------
     def _on_message(self, raw: bytes) -> None:
         """One serialized JointState: decode and buffer it; process the buffer when an
         output is due."""
-        sample = self.decoder.decode(raw)
+        try:
+            sample = self.decoder.decode(raw)
+        except Exception:  # never die on data; count it
+            sample = 'bad_message'
         if isinstance(sample, str):
             self.messages_received += 1
             self.pipeline.reject_message(sample)
@@ -177,9 +179,7 @@ class EstimatorNode(Node):
         self.stamps, self.rows = [], []
         self.messages_received += len(stamps)
         self.last_batch_ns = self.get_clock().now().nanoseconds
-        if not self._watching:
-            self.watchdog.reset()
-            self._watching = True
+        self.watchdog.reset()           # one-shot: fires after sensor_timeout without a batch
         pipeline = self.pipeline
         try:
             columns = np.array(rows, dtype=float).reshape(-1, 4).T
@@ -193,15 +193,14 @@ class EstimatorNode(Node):
         self._due = pipeline.next_output_stamp()
 
     def _on_watchdog(self) -> None:
-        """While samples flow: flag a sensor timeout once no batch came for sensor_timeout
-        (node clock), then stop until samples flow again. Publishes nothing."""
+        """No batch for sensor_timeout (node clock): flag the sensor timeout once and stop
+        until samples flow again (each batch restarts this timer). Publishes nothing."""
         if self.last_batch_ns is None:
             return
         silence_s = (self.get_clock().now().nanoseconds - self.last_batch_ns) * 1e-9
         if silence_s > self.config.sensor_timeout:
             self.pipeline.on_silence(silence_s)
             self.watchdog.cancel()
-            self._watching = False
 
     def _on_diagnostics_timer(self) -> None:
         now = self.get_clock().now().nanoseconds

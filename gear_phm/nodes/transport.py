@@ -1,11 +1,13 @@
 """The live transport: domain records <-> rclpy messages on the nodes' topics.
 
 With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the bag side) this
-is the only place that knows which topic carries what. The estimator node publishes each
+is the only place that knows which topic carries what. The estimator node takes JointState
+serialized (:func:`subscribe_joint_states_raw`, :class:`JointStateDecoder`), publishes each
 :class:`~gear_phm.estimation.FrictionEstimate` as five Vector3Stamped topics with one stamp
-(:class:`EstimatePublisher`); the diagnostics node puts them back together into the same
-record (:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and
-hands whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
+(:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the
+diagnostics node puts the five back together into the same record
+(:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and hands
+whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
 from gear_phm import interfaces
-from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, to_rclpy
 from gear_phm.prognostics.assessor import HealthState
 
@@ -28,21 +30,6 @@ from gear_phm.prognostics.assessor import HealthState
 MAX_PENDING_STAMPS = 64
 #: Stamps further back than this are a new run (replay restarted), not stragglers [ns].
 RESTART_JUMP_NS = 10 * 10**9
-
-
-def subscribe_joint_states(node: Node, motor_joint: Callable[[], str],
-                           load_joint: Callable[[], str],
-                           on_sample: Callable[[JointSample], None],
-                           on_reject: Callable[[str], None]) -> Any:
-    """Subscribe ``joint_states`` (sensor QoS); each message becomes a sample or a reject
-    reason. The joint names are read per message (they are run-time parameters)."""
-    def callback(msg: JointState) -> None:
-        result = interfaces.sample_or_reason(msg, motor_joint(), load_joint())
-        if isinstance(result, str):
-            on_reject(result)
-        else:
-            on_sample(result)
-    return node.create_subscription(JointState, interfaces.JOINT_STATES, callback, SENSOR_QOS)
 
 
 def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) -> Any:
@@ -84,9 +71,9 @@ class _FastLayout:
 class JointStateDecoder:
     """Serialized JointState -> (stamp [ns], motor speed, motor torque, load speed, load
     torque), one message at a time in a few microseconds: the layout (frame_id, names, array
-    lengths) is parsed once and cached by size and frame_id length; a message is checked against its layout's
-    constant bytes and read with one ``struct`` call. Unusable messages give the reason
-    (``missing_joint``, ``short_arrays``, ``truncated``, ``bad_encoding``)."""
+    lengths) is parsed once and cached by size and frame_id length; a message is checked
+    against its layout's constant bytes and read with one ``struct`` call. Unusable messages
+    give the reason (``missing_joint``, ``short_arrays``, ``truncated``, ``bad_encoding``)."""
 
     MAX_LAYOUTS = 16
 
