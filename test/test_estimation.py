@@ -342,8 +342,8 @@ def test_single_messages_count_bad_ones_and_match_batch_path() -> None:
     out = []
     for i in range(run.t.size):
         out += _on_message(single, _Msg(int(run.stamp_ns[i]), ['load', 'motor'],
-                                          [run.load_velocity[i], run.motor_velocity[i]],
-                                          [run.load_effort[i], run.motor_effort[i]]))
+                                        [run.load_velocity[i], run.motor_velocity[i]],
+                                        [run.load_effort[i], run.motor_effort[i]]))
         if i % 1000 == 0:
             _on_message(single, _Msg(int(run.stamp_ns[i]), ['a', 'b'], [1.0, 1.0], [1, 1]))
             _on_message(single, _Msg(int(run.stamp_ns[i]), [], [], []))

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip('rclpy')
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402
 from gear_phm.nodes.estimator import EstimatorNode  # noqa: E402
-from gear_phm.simulation import SimulationConfig, simulate  # noqa: E402
+from gear_phm.simulation import simulate, SimulationConfig  # noqa: E402
 
 
 class _Timer:

@@ -15,10 +15,8 @@ import time
 
 import pytest
 
-from test_estimation_plant import lever_plant
-
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from geometry_msgs.msg import Vector3Stamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy  # noqa: E402
@@ -27,6 +25,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402
 from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL,  # noqa: E402
                                  SAMPLE_LOSS, stamp_to_ns)
+from test_estimation_plant import lever_plant  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 BIN = Path(sys.executable).parent

@@ -12,7 +12,6 @@ from mcap.data_stream import RecordBuilder
 from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Message,
                           MessageIndex, Schema, Statistics)
 from mcap.writer import CompressionType, IndexType, Writer
-from mcap.writer import CompressionType, IndexType, Writer
 import numpy as np
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
@@ -107,10 +106,11 @@ def write_mcap(path: Path, messages: Messages, channels_per_topic: int = 1,
         for topic, msgtype in TYPES.items():
             msgdef, _ = TYPESTORE.generate_msgdef(msgtype, ros_version=2)
             schema = writer.register_schema(msgtype, 'ros2msg', msgdef.encode())
-            channels[topic] = [writer.register_channel(
-                topic, 'cdr', schema, {'topic_type_hash': TYPESTORE.hash_rihs01(msgtype),
-                                       'offered_qos_profiles': qos_yaml(1 + k % 2)})
-                for k in range(channels_per_topic)]
+            metadata = [{'topic_type_hash': TYPESTORE.hash_rihs01(msgtype),
+                         'offered_qos_profiles': qos_yaml(1 + k % 2)}
+                        for k in range(channels_per_topic)]
+            channels[topic] = [writer.register_channel(topic, 'cdr', schema, m)
+                               for m in metadata]
         counts = dict.fromkeys(TYPES, 0)
         for sequence, (topic, t_ns, data) in enumerate(messages):
             channel = channels[topic][counts[topic] % channels_per_topic]
@@ -148,7 +148,7 @@ def craft_mcap(path: Path, chunks: list[Messages], *, unindexed: frozenset = fro
         return at
 
     put(Header(profile='ros2', library='craft'))
-    indexes, counted = [], {cid: 0 for cid in cids.values()}
+    indexes, counted = [], dict.fromkeys(cids.values(), 0)
     for number, messages in enumerate(chunks):
         body = RecordBuilder()
         for record in (*schemas, *channels):

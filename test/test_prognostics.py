@@ -208,7 +208,8 @@ def test_monitor_reports_levels_along_linear_wear() -> None:
 def test_status_key_values_exact_keys_and_inf() -> None:
     monitor = HealthAssessor(HealthConfig())
     status = monitor.on_estimate(FrictionEstimate(5_000_000_000, 0.1, 0.0, (1e-4, 0.0, 1e-10),
-                                          samples_used=7, samples_rejected=2, power_flow=1))
+                                                  samples_used=7, samples_rejected=2,
+                                                  power_flow=1))
     values = dict(interfaces.health_key_values(status))
     assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                             'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
@@ -263,11 +264,11 @@ def _run(kind: str, seed: int) -> dict:
         result = kf.update(float(wear.value(t) + 0.01 * rng.standard_normal()), 1e-4,
                            float(t))
         x, p = kf.x, kf.P
-        status = monitor.on_estimate(FrictionEstimate(int(t * 1e9), x[0], x[1],
-                                              (p[0, 0], p[0, 1], p[1, 1]),
-                                              innovation=result.innovation,
-                                              innovation_variance=result.innovation_variance,
-                                              nis=result.nis))
+        estimate = FrictionEstimate(int(t * 1e9), x[0], x[1], (p[0, 0], p[0, 1], p[1, 1]),
+                                    innovation=result.innovation,
+                                    innovation_variance=result.innovation_variance,
+                                    nis=result.nis)
+        status = monitor.on_estimate(estimate)
         times.append(t)
         ruls.append(status.rul.median)
     return evaluate(times, ruls, 3600.0, t_start=60.0)

@@ -3,15 +3,15 @@ stamps are dropped and counted without touching the estimate, runs reset or are 
 gaps are counted as samples_missing, for any batch split."""
 from __future__ import annotations
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_estimation_plant import lever_plant
+import numpy as np
+import pytest
 
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.estimation.stamps import BLOCK, StampScreen
 from gear_phm.status import OK, WARN
+from test_estimation_plant import lever_plant
 
 CONFIG = EstimatorConfig(ratio=3.0, motor_torque_noise=0.05, load_torque_noise=0.05,
                          motor_inertia=0.01)
@@ -61,7 +61,7 @@ def test_lone_zero_past_and_future_stamps_are_dropped_and_change_nothing() -> No
     assert dirty.counts['backwards'] == 2 and dirty.counts['future'] == 1
     assert dirty.counts['stamp_reset'] == 0 and dirty.samples_missing == 0
     assert dirty.samples_rejected == clean.samples_rejected + 3
-    status = {k: v for k, v in dirty.status('e').values}
+    status = dict(dirty.status('e').values)
     assert status['dropped_backwards'] == '2' and status['dropped_future'] == '1'
 
 

@@ -365,7 +365,7 @@ class McapChunkReader:
                 times = entries[0::2]
                 if int(times.min()) < chunk.start_ns or int(times.max()) > chunk.end_ns:
                     raise IndexMismatch(f'{chunk.where}: message index times outside the '
-                                        f'chunk\'s time range')
+                                        f"chunk's time range")
                 chunk.counts[cid] = size // 16
         if found != chunk.index_offsets:
             raise IndexMismatch(f'{chunk.where}: the message index records differ from the '
@@ -453,7 +453,7 @@ class McapChunkReader:
             lengths = np.concatenate((lengths, np.array([e[3] for e in extra],
                                                         dtype=np.int64)))
             if times.min() < chunk.start_ns or times.max() > chunk.end_ns:
-                raise IndexMismatch(f'{chunk.where}: unindexed messages outside the chunk\'s '
+                raise IndexMismatch(f"{chunk.where}: unindexed messages outside the chunk's "
                                     f'time range')
         by_topic: dict[str, list[int]] = {}
         for cid, topic in channels.items():

@@ -88,7 +88,8 @@ def _parse(opcode: int, body: bytes) -> McapRecord | None:
         if opcode == Opcode.MESSAGE:
             if len(body) < 22:
                 raise _Unreadable('message record shorter than its header')
-            return Message.read(stream, len(body))
+            message: McapRecord = Message.read(stream, len(body))
+            return message
         reader = _READERS.get(opcode)
         return None if reader is None else reader(stream)
     except (_Unreadable, McapError, UnicodeDecodeError, struct.error, ValueError) as exc:
@@ -117,7 +118,7 @@ def _decompress(chunk: Chunk) -> bytes:
             data = zstandard.ZstdDecompressor().decompress(
                 chunk.data, max_output_size=chunk.uncompressed_size)
         elif chunk.compression == 'lz4':
-            import lz4.frame  # type: ignore[import-untyped]
+            import lz4.frame
             data = lz4.frame.decompress(chunk.data)
         elif chunk.compression == '':
             data = chunk.data
@@ -144,7 +145,7 @@ def _attachment_crc_ok(body: bytes) -> bool:
     (size,) = struct.unpack_from('<Q', body, at)
     at += 8 + size
     (crc,) = struct.unpack_from('<I', body, at)
-    return crc == 0 or zlib.crc32(body[:at]) == crc
+    return bool(crc == 0 or zlib.crc32(body[:at]) == crc)
 
 
 @dataclass(frozen=True)
@@ -400,7 +401,7 @@ class _Walk:
                                           record.message_index_length,
                                           (record.message_start_time,
                                            record.message_end_time)):
-                self._problem(f'the summary\'s index of the chunk at byte '
+                self._problem(f"the summary's index of the chunk at byte "
                               f'{record.chunk_start_offset} does not match it')
         elif isinstance(record, Statistics):
             counts = {c: n for c, n in record.channel_message_counts.items() if n}
@@ -529,7 +530,7 @@ def _write(source: Scan, out: Path) -> tuple[int, list[Dropped]]:
         extra = [Dropped(0, 0, 'messages', f'{count} messages of {key}', messages=count)
                  for key, count in lost.items()]
         writer.add_metadata(RECOVER_METADATA, provenance(source, extra))
-        writer.finish()
+        writer.finish()  # type: ignore[no-untyped-call]  # mcap's Writer is unannotated
         sink.flush()
         os.fsync(sink.fileno())
     return written, extra

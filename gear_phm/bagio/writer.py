@@ -10,12 +10,9 @@ serializer.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
 from dataclasses import dataclass, field
 import functools
 import os
-from pathlib import Path
 from pathlib import Path
 import struct
 import time
@@ -190,7 +187,7 @@ class Rosbag2McapWriter:
         and push the file to the OS (and to disk, with ``fsync``)."""
         if self._closed:
             return
-        self._writer.flush()
+        self._writer.flush()  # type: ignore[no-untyped-call]  # mcap's Writer is unannotated
         if self._fsync:
             os.fsync(self._file.fileno())
         self._last_flush = time.monotonic()
@@ -206,7 +203,7 @@ class Rosbag2McapWriter:
             return
         self._closed = True
         try:
-            self._writer.finish()
+            self._writer.finish()  # type: ignore[no-untyped-call]  # mcap, unannotated
             self._file.flush()
             os.fsync(self._file.fileno())
         finally:

@@ -47,15 +47,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('publish_rate', 10.0,
               'output rate in sample time between filter updates (0: only at updates)', 'Hz',
               0.0, 1e4),
-    ParamSpec('backwards_policy', 'reset', "a run of stamps far back in time (bag loop, rig "
-              "restart): 'reset' the estimator or 'skip' the samples",
+    ParamSpec('backwards_policy', 'reset', 'a run of stamps far back in time (bag loop, rig '
+              'restart): reset the estimator or skip the samples',
               choices=('reset', 'skip')),
     ParamSpec('stamp_run', 10, 'stamps in sequence that confirm a jump of the stamps: a run '
               'far back resets (backwards_policy reset), a run far ahead is accepted; a '
               'shorter run is dropped as stray (dropped_backwards, dropped_future)', '-', 1,
               100_000),
     ParamSpec('period_hold', 5.0, 'a longer sample period must last this long (in stamp time) '
-              'before it is taken as the rig\'s new rate; until then its gaps count as '
+              "before it is taken as the rig's new rate; until then its gaps count as "
               'samples_missing', 's', 0.0, 1e6),
     ParamSpec('loss_warn', 0.01, 'WARN when the share of samples missing over the last '
               'status period exceeds this', '-', 0.0, 1.0),

@@ -19,7 +19,6 @@ from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
-from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies

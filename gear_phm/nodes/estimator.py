@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import fields
-import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -50,9 +49,9 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'after the first of them arrived (at once when an output is due, or at 200 '
               'samples); outputs are stamped with sample time', 's', 0.0001, 10.0,
               read_only=True),
-    ParamSpec('executor', 'events', "rclpy executor: 'events' (rclpy.experimental."
-              "EventsExecutor, about 2.5x less CPU per message here) or 'single' "
-              "(SingleThreadedExecutor)", choices=('events', 'single'), read_only=True),
+    ParamSpec('executor', 'events', 'rclpy executor: events (rclpy.experimental.'
+              'EventsExecutor, about 2.5x less CPU per message here) or single '
+              '(SingleThreadedExecutor)', choices=('events', 'single'), read_only=True),
 )
 CONFIG_FIELDS = tuple(f.name for f in fields(EstimatorConfig))
 #: A buffer this long is processed at once.

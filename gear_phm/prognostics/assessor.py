@@ -138,5 +138,5 @@ class HealthAssessor:
             return ''
         denominator = 1.0 - estimate.eta_opposing * (1.0 + estimate.u)
         implied = estimate.u / denominator if denominator != 0.0 else math.inf
-        return (f'ratio mismatch: the estimator\'s efficiencies imply ratio {implied:.6g}, '
+        return (f"ratio mismatch: the estimator's efficiencies imply ratio {implied:.6g}, "
                 f'the diagnostics ratio is {self.config.ratio:.6g}; set the same ratio on both')
