@@ -126,15 +126,17 @@ def joint_state(stamp_ns: int, w_m: float, tau_m: float, w_l: float,
     return msg
 
 
-def publish_paced(driver: Driver, messages: list[JointState], rate: float) -> None:
-    """Publish at ``rate`` [Hz] of wall time (busy-wait pacing), spinning now and then."""
+def publish_paced(driver: Driver, messages: list[JointState], rate: float,
+                  spin_every: int = 500) -> None:
+    """Publish at ``rate`` [Hz] of wall time (busy-wait pacing), spinning every
+    ``spin_every`` messages."""
     start = time.perf_counter()
     for i, msg in enumerate(messages):
         target = start + i / rate
         while time.perf_counter() < target:
             pass
         driver.pub.publish(msg)
-        if i % 500 == 499:
+        if i % spin_every == spin_every - 1:
             rclpy.spin_once(driver.node, timeout_sec=0.0)
 
 
