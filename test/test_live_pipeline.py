@@ -7,8 +7,8 @@ from __future__ import annotations
 from collections import Counter
 import math
 import os
-import re
 from pathlib import Path
+import re
 import signal
 import subprocess
 import sys
