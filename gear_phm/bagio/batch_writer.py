@@ -269,7 +269,7 @@ def vector3_stamped_rows(stamps_ns: np.ndarray, xyz: np.ndarray,
     """Return the little-endian CDR payloads of N geometry_msgs/Vector3Stamped.
 
     An (N, L) uint8 array: row by row, the bytes of
-    :func:`gear_phm.bagio.writer.vector3_stamped_cdr`.
+    :func:`gear_phm.interfaces.vector3_stamped_cdr`.
     """
     frame = frame_id.encode() + b'\0'
     padding = (-(12 + len(frame))) % 8               # float64 alignment from the CDR origin

@@ -9,9 +9,8 @@ serializer.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-import functools
 import os
 from pathlib import Path
 import struct
@@ -26,7 +25,7 @@ import yaml
 
 from gear_phm.bagio.batch_writer import BatchWriter, vector3_stamped_rows
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_sec_nanosec,
-                                 VECTOR3_STAMPED_TYPE, Vector3Out)
+                                 vector3_stamped_cdr, VECTOR3_STAMPED_TYPE, Vector3Out)
 
 #: rosbags typestore for ROS 2 Jazzy message types.
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -331,23 +330,6 @@ def _header(stamp_ns: int, frame_id: str = '') -> Any:
     return TYPESTORE.types['std_msgs/msg/Header'](
         stamp=TYPESTORE.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
         frame_id=frame_id)
-
-
-def vector3_stamped_cdr(output: Vector3Out) -> bytes:
-    """Little-endian CDR of a geometry_msgs/Vector3Stamped, packed directly (about 50 times
-    faster than the generic serializer; the tests check it is byte-identical)."""
-    sec, nanosec = divmod(int(output.stamp_ns), 1_000_000_000)
-    frame, packer = _vector3_packer(output.frame_id)
-    return packer(b'\x00\x01\x00\x00', sec, nanosec, len(frame), frame, float(output.x),
-                  float(output.y), float(output.z))
-
-
-@functools.lru_cache(maxsize=64)
-def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
-    """(frame_id with its NUL, struct packer) of the Vector3Stamped layout for ``frame_id``."""
-    frame = frame_id.encode() + b'\0'
-    padding = (-(12 + len(frame))) % 8          # float64 alignment, from the CDR origin
-    return frame, struct.Struct(f'<4siII{len(frame)}s{padding}x3d').pack
 
 
 def diagnostic_array_cdr(output: DiagnosticsOut) -> bytes:
