@@ -130,7 +130,16 @@ def test_divergence_detector_mismatch_warn_and_lost_error() -> None:
     assert level == WARN and reason == 'model mismatch: mean NIS 25 over 10 updates > 2.98'
     for i in range(10):                                    # innovations 20x the prediction
         level, reason = detector.update(200.0 + i, 1.0, 400.0, 0.01)
-    assert level == ERROR and reason.startswith('filter lost the signal: mean NIS 400')
+    assert level == ERROR and reason == 'filter lost the signal: median NIS 400 over 10 ' \
+                                        'updates > 100'
+    # a step the filter follows (a sudden fault): three huge innovations, then consistent
+    # ones; the mean is far above the bound, the median is not: mismatch, not lost
+    step = DivergenceDetector(window=20)
+    nis_values = [0.5, 1.2, 0.1] * 5 + [1660.0, 1920.0, 528.0] + [0.03, 1.1]
+    for i, nis in enumerate(nis_values):
+        level, reason = step.update(float(i), 1.0, nis, 0.01)
+    assert step.nis_mean > 200.0 and step.nis_median < 1.0
+    assert level == WARN and reason.startswith('model mismatch: mean NIS 206')
     fresh = DivergenceDetector(window=3)
     for _ in range(5):                                     # republished, counted once
         fresh.update(3.0, 1.0, 9.0, 0.01)

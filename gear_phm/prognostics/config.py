@@ -33,9 +33,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'end of life (ERROR)'),
     ParamSpec('u_max', 0.0, 'end of life when u reaches this (0: criterion disabled)', '-',
               0.0, 1e6),
-    ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > '
-              'eta_opposing_min; nan: derived, eta_opposing_min + 0.25 (1 - eta_opposing_min))',
-              '-', -1.0, 1.0, nan_means='derived from eta_opposing_min'),
+    ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
+              '-', -1.0, 1.0,
+              nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
               1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when du/dt > detect_z sigma(du/dt); '
@@ -52,17 +52,17 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               100, 1_000_000),
     ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
               2**31 - 1),
-    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for divergence', '-', 1,
-              100_000),
-    ParamSpec('nis_probability', 0.999,
-              'chi-square probability of the NIS-average bound (divergence above)', '-', 0.5,
-              1.0 - 1e-12),
-    ParamSpec('max_u_sigma', 1.0, 'divergence when sigma_u exceeds this', '-', 1e-9, 1e6),
-    ParamSpec('nis_lost', 100.0, 'ERROR (filter lost the signal) when the mean NIS exceeds '
-              'this; between the chi-square bound and this it is a model mismatch (WARN)', '-',
-              1.0, 1e12),
+    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for the filter check',
+              '-', 1, 100_000),
+    ParamSpec('nis_probability', 0.999, 'chi-square probability of the NIS-average bound '
+              '(model mismatch, WARN, above)', '-', 0.5, 1.0 - 1e-12),
+    ParamSpec('max_u_sigma', 1.0, 'ERROR (filter lost the signal) when sigma_u exceeds this',
+              '-', 1e-9, 1e6),
+    ParamSpec('nis_lost', 25.0, 'ERROR (filter lost the signal) when the median of the NIS '
+              'window exceeds this; a mean above the chi-square bound alone is a model '
+              'mismatch (WARN)', '-', 1.0, 1e12),
     ParamSpec('level_hysteresis', 0.05, 'a level is left when its value is back by this '
-              'fraction of the threshold\'s distance from a new gearbox (eta_D 1, u 0, RUL 0)',
+              "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0, RUL 0)",
               '-', 0.0, 0.5),
     ParamSpec('level_dwell', 5.0, 'a level change (entering or leaving) must hold this long '
               'in stamp time before it is reported', 's', 0.0, 1e6),

@@ -4,7 +4,7 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 
 - ERROR: u >= u_eol (end of life; includes self-locking u >= 1 when enabled), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
-  finite, or a mean NIS above ``nis_lost``).
+  finite, or a median NIS above ``nis_lost``).
 - WARN: RUL 5 % bound < ``warn_horizon`` [s], eta_D < ``eta_warn``, or a model mismatch (mean
   NIS above its chi-square bound while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections import deque
 import math
+import statistics
 from statistics import NormalDist
 
 from gear_phm.status import ERROR, OK, WARN
@@ -43,9 +44,10 @@ class DivergenceDetector:
     """Judges the filter's consistency from its NIS and sigma_u: OK, mismatch or lost.
 
     - lost (ERROR): sigma_u above ``max_u_sigma`` or not finite (variance growing without
-      bound), or the mean of the last ``window`` NIS values above ``lost_nis``: innovations
-      that many times larger than the filter predicts mean the estimate no longer follows
-      the measurements.
+      bound), or the median of the last ``window`` NIS values above ``lost_nis``: most
+      innovations sqrt(lost_nis) times larger than the filter predicts mean the estimate no
+      longer follows the measurements. The median, not the mean, so that the few huge
+      innovations of a step the filter then follows (a sudden fault) are not a loss.
     - model mismatch (WARN): that mean above the chi-square bound
       :func:`chi_square_mean_bound` but not above ``lost_nis``: the innovations are larger
       than predicted (a plant that is not the lever model, wear faster than the filter's
@@ -56,7 +58,7 @@ class DivergenceDetector:
     """
 
     def __init__(self, window: int = 20, probability: float = 0.999,
-                 max_u_sigma: float = 1.0, lost_nis: float = 100.0) -> None:
+                 max_u_sigma: float = 1.0, lost_nis: float = 25.0) -> None:
         self.window = int(window)
         self.bound = chi_square_mean_bound(self.window, probability)
         self.max_u_sigma = float(max_u_sigma)
@@ -74,6 +76,11 @@ class DivergenceDetector:
         """Mean of the NIS window (NaN if empty)."""
         return sum(self._nis) / len(self._nis) if self._nis else math.nan
 
+    @property
+    def nis_median(self) -> float:
+        """Median of the NIS window (NaN if empty)."""
+        return statistics.median(self._nis) if self._nis else math.nan
+
     def update(self, innovation: float, innovation_variance: float, nis: float,
                u_sigma: float) -> tuple[int, str]:
         """Add one estimate; return (OK, ''), (WARN, mismatch reason) or (ERROR, lost reason)."""
@@ -85,10 +92,11 @@ class DivergenceDetector:
             return ERROR, f'filter lost the signal: sigma_u {u_sigma:.3g} > {self.max_u_sigma:.3g}'
         if len(self._nis) < self.window or not self.nis_mean > self.bound:
             return OK, ''
-        mean = f'mean NIS {self.nis_mean:.3g} over {self.window} updates'
-        if self.nis_mean > self.lost_nis:
-            return ERROR, f'filter lost the signal: {mean} > {self.lost_nis:.3g}'
-        return WARN, f'model mismatch: {mean} > {self.bound:.3g}'
+        if self.nis_median > self.lost_nis:
+            return ERROR, (f'filter lost the signal: median NIS {self.nis_median:.3g} over '
+                           f'{self.window} updates > {self.lost_nis:.3g}')
+        return WARN, (f'model mismatch: mean NIS {self.nis_mean:.3g} over {self.window} '
+                      f'updates > {self.bound:.3g}')
 
 
 class Latch:
@@ -170,7 +178,8 @@ class LevelTracker:
                           else f'{what}: u {u:.4g} reached u_eol {self.u_eol:.4g} '
                                f'(clears below {self.u_clear:.4g})')
         if lost:
-            errors.append(filter_reason or 'filter lost the signal (clearing)')
+            errors.append(filter_reason if filter_level == ERROR
+                          else 'filter lost the signal (clearing)')
         if errors:
             return ERROR, '; '.join(errors)
         warnings = []
