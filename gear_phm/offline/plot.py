@@ -176,12 +176,14 @@ def _plot_levels(ax: Any, t: np.ndarray, level: np.ndarray) -> None:
         ax.axvspan(start, end, color=LEVEL_COLOURS.get(value, 'k'), lw=0)
     width = max(float(t[-1] - t[0]), 1e-9) if t.size else 1.0
     for i, (start, end, value) in enumerate(spans):
-        if end - start < 0.08 * width and len(spans) > 1:
-            continue                                   # too short for a label to fit
+        # about 140 characters of 8-pt bold fit across the strip: the longest label that fits
+        room = 140.0 * (end - start) / width
+        name = LEVEL_NAMES.get(value, str(value))
+        text = next((x for x in (f' {name} {start:.0f} s ', f' {name} ', f' {name[0]} ')
+                     if len(x) <= room), '')
         last = i == len(spans) - 1 and i > 0          # right-aligned, so it is not cut off
-        ax.text(end if last else start, 0.5, f' {LEVEL_NAMES.get(value, value)} {start:.0f} s ',
-                va='center', ha='right' if last else 'left', fontsize=8, color='white',
-                fontweight='bold', clip_on=True)
+        ax.text(end if last else start, 0.5, text, va='center', ha='right' if last else 'left',
+                fontsize=8, color='white', fontweight='bold', clip_on=True)
     ax.set_yticks([])
     ax.set_ylim(0.0, 1.0)
     ax.set_ylabel('level', rotation=0, ha='right', va='center')
