@@ -35,8 +35,10 @@ def true_end_of_life(truth_u: np.ndarray | None, u_eol: float) -> int | None:
 
 
 def level_spans(t: np.ndarray, level: np.ndarray) -> list[tuple[float, float, int]]:
-    """(start [s], end [s], level) of each run of equal levels; a run ends where the next
-    starts, the last at the last stamp."""
+    """Return (start [s], end [s], level) of each run of equal levels.
+
+    A run ends where the next starts, the last at the last stamp.
+    """
     if t.size == 0:
         return []
     starts = np.concatenate(([0], np.flatnonzero(np.diff(level)) + 1))
@@ -169,8 +171,10 @@ def _plot_rul(ax: Any, h: HealthHistory, t0: int, t_eol: float | None, t_end: fl
 
 
 def _plot_levels(ax: Any, t: np.ndarray, level: np.ndarray) -> None:
-    """Horizontal strip of the health level over time; runs wide enough are labelled with
-    the level and its start [s]."""
+    """Draw a horizontal strip of the health level over time.
+
+    Each run is labelled with the level and its start [s], shortened to what fits.
+    """
     spans = level_spans(t, level)
     for start, end, value in spans:
         ax.axvspan(start, end, color=LEVEL_COLOURS.get(value, 'k'), lw=0)

@@ -108,8 +108,9 @@ class HealthAssessor:
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
         self.trend_detector.add(estimate.t, estimate.u, p_uu)
-        filter_check = self.divergence.update(estimate.innovation, estimate.innovation_variance,
-                                            estimate.nis, u_sigma)
+        filter_check = self.divergence.update(estimate.innovation,
+                                              estimate.innovation_variance, estimate.nis,
+                                              u_sigma)
         trend = self._trend()
         rul = self.predictor.predict_from(estimate.u, estimate.rate, *estimate.covariance,
                                           trend)

@@ -17,7 +17,7 @@ ETA_WARN_MARGIN = 0.25
 
 
 def derived_eta_warn(eta_opposing_min: float) -> float:
-    """Default WARN efficiency: eta_opposing_min + ETA_WARN_MARGIN (1 - eta_opposing_min)."""
+    """Return the default WARN efficiency, eta_min + ETA_WARN_MARGIN (1 - eta_min) [-]."""
     return eta_opposing_min + ETA_WARN_MARGIN * (1.0 - eta_opposing_min)
 
 

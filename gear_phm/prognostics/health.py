@@ -159,8 +159,11 @@ class LevelTracker:
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
                filter_check: tuple[int, str] = (OK, '')) -> tuple[int, str]:
-        """(level, message) at stamp ``t`` [s] for u [-], eta_D [-], the RUL p5 [s] and the
-        :meth:`DivergenceDetector.update` result."""
+        """Return (level, message) at stamp ``t`` [s].
+
+        Inputs: u [-], eta_D [-], the RUL p5 [s] and the :meth:`DivergenceDetector.update`
+        result.
+        """
         filter_level, filter_reason = filter_check
         if not math.isfinite(u):
             filter_level, filter_reason = ERROR, 'filter lost the signal: u is not finite'
