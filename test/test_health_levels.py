@@ -10,7 +10,7 @@ from scipy.stats import chi2
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.models.lever import efficiencies
 from gear_phm.prognostics import (derived_eta_warn, DivergenceDetector, HealthAssessor,
-                                  HealthConfig, LevelTracker)
+                                  HealthConfig, LevelTracker, PARAMETERS)
 from gear_phm.status import ERROR, OK, WARN
 
 
@@ -193,3 +193,14 @@ def test_eta_warn_derives_from_eta_opposing_min() -> None:
                                          r'derived default 0.8'):
         HealthConfig(eta_opposing_min=0.7333, eta_warn=0.7)
     assert HealthAssessor(config).levels.eta_warn == pytest.approx(0.8, abs=1e-4)
+
+
+def test_nan_accepted_only_where_it_means_something() -> None:
+    specs = {spec.name: spec for spec in PARAMETERS}
+    assert specs['eta_warn'].nan_means.startswith('derived')
+    assert math.isnan(specs['eta_warn'].parse('nan'))          # --eta-warn nan, YAML .nan
+    assert specs['eta_warn'].check(0.85) == 0.85
+    with pytest.raises(ValueError, match=r'eta_warn must be in \[-1, 1\]'):
+        specs['eta_warn'].check(1.5)                           # the range still holds
+    with pytest.raises(ValueError, match='eta_opposing_min must be in'):
+        specs['eta_opposing_min'].check(math.nan)              # no meaning: refused
