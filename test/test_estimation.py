@@ -203,7 +203,7 @@ def test_simplified_plant_accuracy_coverage_and_consistency() -> None:
     is autocorrelated). NIS: innovations are white, so all post-convergence NIS are pooled,
     vs chi2(K)/K. Accuracy and band coverage after 60 s.
     """
-    config = CONFIG.replace(process_noise=0.0)     # matched to the constant-u plant
+    config = CONFIG.replace(process_noise=0.0, adaptive=False)  # matched: constant-u plant
     final_nees, nis, cover = [], [], []
     runs = 16
     for seed in range(runs):
@@ -366,3 +366,18 @@ def test_config_validation_names_field_and_value() -> None:
     with pytest.raises(ValueError, match='unknown'):
         CONFIG.replace(windw=2.0)
     assert eta_opposing(0.0, 3.0) == 1.0 and eta_aiding(0.0, 3.0) == 1.0
+
+
+def test_process_noise_adapts_to_a_wear_rate_jump_and_stays_small_on_slow_wear() -> None:
+    """u's wear rate jumps from 0 to 5e-4 1/s at 200 s: q rises by decades and u tracks
+    within 3 sigma soon after; on constant u, q falls below 1e-13 1/s^3 (prior 1e-11)."""
+    jump = lambda t: 0.1 + 5e-4 * np.clip(t - 200.0, 0.0, None)  # noqa: E731
+    run = lever_plant(3, 400.0, jump)
+    pipeline = EstimatorPipeline(CONFIG)
+    _feed(pipeline, run)
+    fr = pipeline.filter
+    assert fr.process_noise > 1e-10
+    assert abs(fr.x[0] - jump(run.t[-1])) <= 3.0 * math.sqrt(fr.P[0, 0])
+    flat = EstimatorPipeline(CONFIG)
+    _feed(flat, lever_plant(4, 400.0, 0.1))
+    assert flat.filter.process_noise < 1e-13

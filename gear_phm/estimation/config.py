@@ -37,8 +37,18 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('max_consecutive_gated', 3, 'after this many gated windows in a row the filter '
               're-initialises on the measurement (step fault)', '-', 1, 1_000_000),
     ParamSpec('process_noise', 1e-11,
-              'spectral density of white noise on d2u/dt2 (constant-rate model)', '1/s^3', 0.0,
-              1e6),
+              'spectral density of white noise on d2u/dt2: the starting value, then learned '
+              'from the data (fixed when adaptive is false)', '1/s^3', 0.0, 1e6),
+    ParamSpec('adaptive', True, 'learn the process noise and the per-direction model-mismatch '
+              'variance from the innovations (false: fixed process_noise and model_sigma)'),
+    ParamSpec('adapt_memory', 5.0, 'length of the innovation whiteness test that drives the '
+              'process noise', 'updates', 2.0, 1e4),
+    ParamSpec('adapt_gain', 0.05, 'step of ln(process noise) per unit of the whiteness '
+              'statistic', '-', 0.0, 10.0),
+    ParamSpec('adapt_pull', 0.02, 'decrease of ln(process noise) per update, towards the '
+              'smallest q the data allow', '-', 0.0, 10.0),
+    ParamSpec('mismatch_memory', 50.0, 'window of the per-direction model-mismatch variance '
+              '(covariance matching)', 'updates', 1.0, 1e6),
     ParamSpec('initial_u', 0.05, 'prior friction parameter u', '-', 0.0, 1e3),
     ParamSpec('initial_u_sigma', 0.5, 'prior std dev of u', '-', 1e-9, 1e3),
     ParamSpec('initial_rate_sigma', 1e-3, 'prior std dev of du/dt', '1/s', 1e-12, 1e3),
@@ -83,6 +93,11 @@ class EstimatorConfig:
     gate_threshold: float = float(_D['gate_threshold'])
     max_consecutive_gated: int = int(_D['max_consecutive_gated'])
     process_noise: float = float(_D['process_noise'])
+    adaptive: bool = bool(_D['adaptive'])
+    adapt_memory: float = float(_D['adapt_memory'])
+    adapt_gain: float = float(_D['adapt_gain'])
+    adapt_pull: float = float(_D['adapt_pull'])
+    mismatch_memory: float = float(_D['mismatch_memory'])
     initial_u: float = float(_D['initial_u'])
     initial_u_sigma: float = float(_D['initial_u_sigma'])
     initial_rate_sigma: float = float(_D['initial_rate_sigma'])
@@ -99,13 +114,13 @@ class EstimatorConfig:
             raise ValueError(f'min_window must be < window ({self.window!r} s), '
                              f'got {self.min_window!r}')
 
-    def replace(self, **changes: float | str) -> EstimatorConfig:
+    def replace(self, **changes: float | str | bool) -> EstimatorConfig:
         """Return a validated copy with ``changes`` applied; unknown names raise ValueError."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
             raise ValueError(f'unknown estimator parameter(s): {sorted(unknown)}')
         return EstimatorConfig(**{**asdict(self), **changes})
 
-    def as_dict(self) -> dict[str, float | str]:
+    def as_dict(self) -> dict[str, float | str | bool]:
         """Plain dict of all parameters."""
         return asdict(self)

@@ -1,4 +1,18 @@
-"""Kalman filter on the friction parameter: x = [u, du/dt], filterpy underneath."""
+"""Kalman filter on the friction parameter: x = [u, du/dt], filterpy underneath.
+
+The filter adapts itself to the data (docs/estimation.md, "Adaptation"):
+
+- process noise q [1/s^3]: log q follows a whiteness test of the normalised innovations
+  (an exponentially weighted sum of them: a filter that lags makes them persist in sign, one
+  that is too nervous makes them alternate), with a slow pull towards small q; q never falls
+  below the wear-law floor ``r^3 / u`` (r: the part of |du/dt| beyond 2 sigma;
+  acceleration ~ rate^2/u over a time scale u/rate
+  for linear, exponential and power-law wear);
+- measurement side: per power-flow direction, an additive model-mismatch variance learned by
+  covariance matching on the innovations (their mean common to both directions, which is lag,
+  taken out), so a systematic disagreement between opposing and aiding windows becomes a
+  reported variance and not divergence.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,6 +31,25 @@ class UpdateResult:
     innovation_variance: float
     nis: float
     reinitialised: bool = False
+
+
+@dataclass(frozen=True)
+class Adaptation:
+    """Settings of the adaptation (see the module docstring); ``enabled`` False: fixed q, R.
+
+    ``memory`` [updates]: length of the whiteness test (weight lambda = 1 - 1/memory);
+    ``gain`` [-]: step of log q per unit of test statistic; ``pull`` [-]: decrease of log q
+    per update towards small q; ``mismatch_memory`` [updates per direction]: window of the
+    mismatch covariance matching; ``q_min``, ``q_max`` [1/s^3]: limits of q.
+    """
+
+    enabled: bool = True
+    memory: float = 5.0
+    gain: float = 0.05
+    pull: float = 0.02
+    mismatch_memory: float = 50.0
+    q_min: float = 1e-22
+    q_max: float = 1e-4
 
 
 def transition(dt: float) -> np.ndarray:
@@ -47,10 +80,23 @@ class FrictionFilter:
 
     def __init__(self, initial_u: float, initial_u_sigma: float, initial_rate_sigma: float,
                  process_noise: float, gate_threshold: float,
-                 max_consecutive_gated: int) -> None:
+                 max_consecutive_gated: int, adaptation: Adaptation | None = None) -> None:
         self.initial_u_sigma = float(initial_u_sigma)
         self.initial_rate_sigma = float(initial_rate_sigma)
         self.process_noise = float(process_noise)
+        self.adaptation = Adaptation(enabled=False) if adaptation is None else adaptation
+        #: q from the whiteness test alone [1/s^3] (process_noise is this or the floor).
+        self.q_test = self.process_noise
+        self._sum = 0.0               # weighted sum of normalised innovations
+        self._power = 1.0             # weighted mean of their squares
+        #: Per direction (0 opposing, 1 aiding/self-locking): updates seen, mean innovation
+        #: [-], mismatch variance before clipping at 0 [-].
+        self._n = [0, 0]
+        self._mean = [0.0, 0.0]
+        self._excess = [0.0, 0.0]
+        self._num = [0.0, 0.0]         # weighted sums of the covariance matching
+        self._den = [0.0, 0.0]
+        self._mean_den = [0.0, 0.0]
         self.gate_threshold = float(gate_threshold)
         self.max_consecutive_gated = int(max_consecutive_gated)
         self.kf = KalmanFilter(dim_x=2, dim_z=1)
@@ -64,6 +110,17 @@ class FrictionFilter:
     def _initialise(self, u: float, u_variance: float) -> None:
         self.kf.x = np.array([[u], [0.0]])
         self.kf.P = np.diag([u_variance, self.initial_rate_sigma ** 2])
+
+    def mismatch_variance(self, direction: int) -> float:
+        """Learned model-mismatch variance [-] of direction 0 (opposing) or 1 (aiding)."""
+        return max(self._excess[direction], 0.0) if self.adaptation.enabled else 0.0
+
+    @property
+    def direction_offset(self) -> float:
+        """Mean innovation of opposing minus aiding windows [-] (0 until both are seen)."""
+        if not (self.adaptation.enabled and self._n[0] and self._n[1]):
+            return 0.0
+        return self._mean[0] - self._mean[1]
 
     @property
     def x(self) -> np.ndarray:
@@ -95,21 +152,31 @@ class FrictionFilter:
         p = f @ self.kf.P @ f.T + process_covariance(dt, self.process_noise)
         return x, p
 
-    def update(self, z: float, r: float, t: float) -> UpdateResult:
-        """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes."""
+    def update(self, z: float, r: float, t: float, direction: int = 0) -> UpdateResult:
+        """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
+
+        ``direction``: 0 for an opposing-load window, 1 for aiding (or self-locking); with
+        adaptation its learned mismatch variance is added to ``r``.
+        """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
                              f'r={r!r}')
         self.predict(t)
         y = z - float(self.kf.x[0, 0])
-        s = float(self.kf.P[0, 0]) + r
+        p_uu = float(self.kf.P[0, 0])
+        r_total = r + self.mismatch_variance(direction)
+        s = p_uu + r_total
         nis = y * y / s
+        if self.adaptation.enabled and nis <= self.gate_threshold:
+            self._adapt(y, p_uu, r, s, direction)
+        r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1
             if self.consecutive_gated < self.max_consecutive_gated:
                 self.last = UpdateResult(False, y, s, nis)
                 return self.last
             self._initialise(z, r)
+            self._sum, self._power = 0.0, 1.0
             self.consecutive_gated = 0
             self.updates += 1
             self.last = UpdateResult(True, y, s, nis, reinitialised=True)
@@ -118,4 +185,44 @@ class FrictionFilter:
         self.kf.update(np.array([[z]]), R=r)
         self.updates += 1
         self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis)
+        if self.adaptation.enabled:
+            u, rate = float(self.kf.x[0, 0]), float(self.kf.x[1, 0])
+            # only a significant rate (beyond 2 sigma) sets the floor: no feedback from noise
+            rate = max(abs(rate) - 2.0 * math.sqrt(max(float(self.kf.P[1, 1]), 0.0)), 0.0)
+            floor = rate ** 3 / max(abs(u), 1e-3)
+            self.process_noise = min(max(self.q_test, floor), self.adaptation.q_max)
         return self.last
+
+    def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int) -> None:
+        """Run one step of both adaptations (before the update).
+
+        ``y`` innovation, ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance.
+        """
+        a = self.adaptation
+        n, mean = self._n, self._mean
+        both = n[0] > 0 and n[1] > 0
+        common = 0.5 * (mean[0] + mean[1]) if both else mean[direction]
+        offset = mean[direction] - common           # this direction's systematic part
+        n[direction] += 1
+        w = 1.0 / min(n[direction], a.mismatch_memory)
+        # means weighted 1/S, variances 1/S^2 (Fisher scoring of an additive variance), so
+        # precise windows are not drowned by noisy ones nor by the start-up transient
+        keep = 1.0 - w
+        self._mean_den[direction] = keep * self._mean_den[direction] + 1.0 / s
+        mean[direction] += (y - mean[direction]) / (s * self._mean_den[direction])
+        weight = 1.0 / (s * s)
+        self._num[direction] = keep * self._num[direction] \
+            + weight * ((y - common) ** 2 - p_uu - r)
+        self._den[direction] = keep * self._den[direction] + weight
+        # a variance is used once it is significant: estimate minus its standard error
+        # sqrt(2 / sum of weights), so a plant without mismatch is not made conservative
+        self._excess[direction] = (self._num[direction]
+                                   - math.sqrt(2.0 * self._den[direction])) / self._den[direction]
+        e = (y - offset) / math.sqrt(s)
+        lam = 1.0 - 1.0 / a.memory
+        lam2 = lam * lam
+        self._sum = lam * self._sum + e
+        self._power = lam2 * self._power + (1.0 - lam2) * e * e
+        h = ((1.0 - lam2) * self._sum ** 2 - self._power) / max(self._power, 1e-3)
+        h = min(max(h, -2.0), 10.0)
+        self.q_test = min(max(self.q_test * math.exp(a.gain * h - a.pull), a.q_min), a.q_max)

@@ -16,13 +16,13 @@ from typing import Any
 import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
-from gear_phm.estimation.kalman import FrictionFilter
+from gear_phm.estimation.kalman import Adaptation, FrictionFilter
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies
-from gear_phm.models.power_flow import IMPOSSIBLE
+from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
 from gear_phm.status import format_value, OK, StatusOut, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
@@ -75,7 +75,9 @@ class EstimatorPipeline:
         c = self.config
         self.filter = FrictionFilter(c.initial_u, c.initial_u_sigma, c.initial_rate_sigma,
                                      c.process_noise, c.gate_threshold,
-                                     c.max_consecutive_gated)
+                                     c.max_consecutive_gated, Adaptation(
+                                         c.adaptive, c.adapt_memory, c.adapt_gain,
+                                         c.adapt_pull, c.mismatch_memory))
         self.integrator = EnergyIntegrator(
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
@@ -317,7 +319,8 @@ class EstimatorPipeline:
         if isinstance(result, str):
             self.counts[result] += 1
             return []
-        update = self.filter.update(result.u, result.u_variance, result.t)
+        update = self.filter.update(result.u, result.u_variance, result.t,
+                                    0 if result.code == OPPOSING else 1)
         self._last_eta = result.eta
         if self.on_measurement is not None:
             self.on_measurement(result, update.accepted)
@@ -342,7 +345,10 @@ class EstimatorPipeline:
             stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
             self._last_eta, last.innovation, last.innovation_variance, last.nis,
             self.samples_used if used is None else used,
-            self.samples_rejected if rejected is None else rejected, self._last_code)
+            self.samples_rejected if rejected is None else rejected, self._last_code,
+            process_noise=self.filter.process_noise,
+            mismatch_variance=(self.filter.mismatch_variance(0),
+                               self.filter.mismatch_variance(1)))
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
@@ -354,6 +360,10 @@ class EstimatorPipeline:
             'eta_opposing': eta_d, 'eta_aiding': eta_i,
             'last_measured_efficiency': self._last_eta,
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
+            'process_noise': self.filter.process_noise,
+            'mismatch_sigma_opposing': math.sqrt(self.filter.mismatch_variance(0)),
+            'mismatch_sigma_aiding': math.sqrt(self.filter.mismatch_variance(1)),
+            'direction_offset': self.filter.direction_offset,
             'operating_time_s': self.operating_time,
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,
             'samples_missing': self.samples_missing,
@@ -394,7 +404,8 @@ class EstimatorPipeline:
             values.append(('messages_received', messages_received))
         values += [(key, summary[key]) for key in (
             'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
-            'samples_rejected', 'samples_missing', 'sample_period_s')]
+            'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
+            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset')]
         values.append(('loss_ratio', loss))
         for reason, count in sorted(summary['counts'].items()):
             if reason in WINDOW_REASONS:

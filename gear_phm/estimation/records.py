@@ -36,7 +36,9 @@ class FrictionEstimate:
     ``innovation`` [-], its variance ``innovation_variance`` S and ``nis`` come from the last
     filter update; ``samples_used``/``samples_rejected`` count samples so far;
     ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample;
-    ``samples_missing`` counts the samples the stamps show lost so far.
+    ``samples_missing`` counts the samples the stamps show lost so far; ``process_noise``
+    [1/s^3] is the filter's current (adapted) q and ``mismatch_variance`` [-] the learned
+    model-mismatch variance of (opposing, aiding) windows.
     """
 
     stamp_ns: int
@@ -53,6 +55,8 @@ class FrictionEstimate:
     samples_rejected: int = 0
     power_flow: int = 0
     samples_missing: int = 0
+    process_noise: float = math.nan
+    mismatch_variance: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def t(self) -> float:
