@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass, fields
 
 from gear_phm.parameters import check_values, defaults, ParamSpec
 
-TRENDS = ('auto', 'linear', 'exponential')
+TRENDS = ('auto', 'linear', 'exponential', 'power')
 
 #: The health parameters (diagnostics node parameters of the same names,
 #: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options).
@@ -28,16 +28,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               '-', -1.0, 1.0),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
               1e12),
-    ParamSpec('detect_z', 2.0, 'degradation is seen when du/dt > detect_z sigma(du/dt); '
-              'otherwise RUL = inf', '-', 0.0, 100.0),
-    ParamSpec('trend', 'auto', 'RUL trend model', choices=TRENDS),
-    ParamSpec('trend_window', 600.0, 'length of the u history used to detect acceleration',
-              's', 1e-3, 1e12),
-    ParamSpec('accel_z', 3.0, 'exponential trend when the fitted curvature of u(t) exceeds '
-              'accel_z std errors', '-', 0.0, 1e3),
-    ParamSpec('min_growth', 0.25,
-              'and when du/dt grows by at least this fraction over the trend window', '-', 0.0,
-              1e6),
+    ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
+              '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
+    ParamSpec('trend', 'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)',
+              choices=TRENDS),
     ParamSpec('mc_samples', 2000, 'Monte Carlo samples of the posterior for RUL bounds', '-',
               100, 1_000_000),
     ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
@@ -66,9 +60,6 @@ class HealthConfig:
     warn_horizon: float = float(_D['warn_horizon'])
     detect_z: float = float(_D['detect_z'])
     trend: str = str(_D['trend'])
-    trend_window: float = float(_D['trend_window'])
-    accel_z: float = float(_D['accel_z'])
-    min_growth: float = float(_D['min_growth'])
     mc_samples: int = int(_D['mc_samples'])
     seed: int = int(_D['seed'])
     nis_window: int = int(_D['nis_window'])
