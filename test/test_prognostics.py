@@ -228,7 +228,7 @@ def _run(kind: str, seed: int) -> dict:
 @pytest.mark.parametrize('kind', ['linear', 'exponential', 'power'])
 @pytest.mark.parametrize('seed', [0, 1, 2])
 def test_alpha_lambda_passes_at_three_quarter_life_and_the_band_holds(kind: str,
-                                                                       seed: int) -> None:
+                                                                      seed: int) -> None:
     """Whole-history fit, no tuning. At half life exponential and power-law (p = 3) wear are
     not always told apart through this slow filter (process_noise 1e-12): the median can be
     off by more than alpha, but the p5-p95 band holds the true RUL. (At 3/4 of life the band

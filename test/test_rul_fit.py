@@ -88,8 +88,11 @@ def test_growth_becomes_detectable_and_the_threshold_is_detect_z() -> None:
 
 
 def test_memory_and_refits_bounded_on_a_long_fast_history() -> None:
-    """1 kHz posteriors for 400 s: at most max_points bins, a bounded number of fits, and the
-    RUL between fits moves with time exactly."""
+    """Feed 1 kHz posteriors for 400 s: memory and refits stay bounded.
+
+    At most max_points bins, a bounded number of fits, and between fits the RUL moves with time
+    exactly.
+    """
     predictor = RulPredictor(U_EOL, max_points=256)
     rate = (U_EOL - U0) / 800.0
     rng = np.random.default_rng(5)

@@ -52,8 +52,11 @@ P_MIN = 0.05
 
 @dataclass(frozen=True)
 class Trend:
-    """Fitted wear law at the newest history time ``t_end`` [s]: u_end [-], slope r [1/s] and
-    their shape (k [1/s] or p [-], 0 for linear); ``covariance`` of (u_end, r, shape)."""
+    """Fitted wear law at the newest history time ``t_end`` [s].
+
+    u_end [-], slope r [1/s] and shape (k [1/s] or p [-], 0 for linear); ``covariance`` of
+    (u_end, r, shape), row-major.
+    """
 
     model: str = NONE
     t_end: float = 0.0
@@ -104,9 +107,10 @@ class WearHistory:
         self._n = [0] * m
         #: bins opened so far (counts up, also across merges: the refit clock)
         self.opened = 0
+        self._occupied = 0
 
     def __len__(self) -> int:
-        return sum(1 for n in self._n if n)
+        return self._occupied
 
     def add(self, t: float, u: float, u_variance: float) -> None:
         """Record a posterior at time t [s]; a time before the last one restarts the history."""
@@ -126,6 +130,7 @@ class WearHistory:
         w = 1.0 / u_variance
         if not self._n[index]:
             self.opened += 1
+            self._occupied += 1
         self._w[index] += w
         self._wt[index] += w * dt
         self._wu[index] += w * u
@@ -138,6 +143,7 @@ class WearHistory:
             merged = [values[2 * i] + values[2 * i + 1] for i in range(half)]
             setattr(self, name, merged + [type(values[0])(0)] * half)
         self.width *= 2.0
+        self._occupied = sum(1 for n in self._n if n)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Occupied bins: mean time since t_start [s], mean u [-], mean precision [1/-^2]."""
@@ -149,8 +155,10 @@ class WearHistory:
 
 def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closed-form WLS of u ~ b0 + b1 g for every row g of ``basis`` (m, n): weighted RSS,
-    b0, b1 (RSS inf where degenerate)."""
+    """Fit u ~ b0 + b1 g by closed-form WLS for every row g of ``basis`` (m, n).
+
+    Returns the weighted RSS, b0 and b1 (RSS inf where degenerate).
+    """
     sw, su, suu = w.sum(), w @ u, w @ (u * u)
     sg, sgg, sgu = basis @ w, (basis * basis) @ w, basis @ (w * u)
     det = sw * sgg - sg * sg
@@ -165,8 +173,10 @@ def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
 
 def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float
            ) -> tuple[np.ndarray, np.ndarray]:
-    """g(s; shape) rows for each shape and their derivative in shape (module docstring);
-    s = t - t_end [s], x = tau / T [-]."""
+    """Return the rows g(s; shape), one per shape, and their derivatives in shape.
+
+    See the module docstring; s = t - t_end [s], x = tau / T [-].
+    """
     shape = np.asarray(shape, dtype=float)[:, None]
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         if model == EXPONENTIAL:
@@ -183,10 +193,12 @@ def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: fl
 
 
 def _effective_points(residuals: np.ndarray) -> float:
-    """n / integrated autocorrelation time of the standardised residuals (Geyer's initial
-    positive sequence). The autocovariances are divided by the larger of the residuals' own
-    variance and 1 (the filter's P_uu): a misfit far below the filter's noise is not
-    evidence of correlated noise. n when the residuals are all zero."""
+    """Return n over the integrated autocorrelation time of the standardised residuals.
+
+    Geyer's initial positive sequence. The autocovariances are divided by the larger of the
+    residuals' own variance and 1 (the filter's P_uu): a misfit far below the filter's noise is not
+    evidence of correlated noise. n when the residuals are all zero.
+    """
     n = residuals.size
     centred = residuals - residuals.mean()
     c0 = max(float(centred @ centred), float(n))
@@ -240,7 +252,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
 
 
 def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float) -> np.ndarray | None:
-    """scale (J^T W J)^-1 with column equilibration; None when singular."""
+    """Return scale (J^T W J)^-1, with column equilibration; None when singular."""
     m = jacobian.T @ (jacobian * w[:, None])
     d = np.sqrt(np.diag(m))
     if not np.all(d > 0.0):
@@ -253,9 +265,11 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float) -> np.ndarray
 
 def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
              min_points: int = 8) -> tuple[Trend, ...]:
-    """Fit the wear laws to a history (times since its start [s], u [-], 1/P_uu): the one
-    ``trend`` names, or all of them for 'auto', best AICc first, each with its Akaike weight
-    (module docstring); () if too few points."""
+    """Fit the wear laws to a history: times since its start [s], u [-], 1/P_uu.
+
+    The law ``trend`` names, or all of them for 'auto', best AICc first, each with its Akaike
+    weight (module docstring); () if too few points.
+    """
     n = t.size
     if n < min_points or not t[-1] > t[0]:
         return ()
@@ -293,13 +307,13 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
 
 def fit_trend(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
               min_points: int = 8) -> Trend:
-    """The AICc-best law of :func:`fit_laws` (Trend() when none could be fitted)."""
+    """Return the AICc-best law of :func:`fit_laws` (Trend() when none could be fitted)."""
     laws = fit_laws(t, u, precision, trend, min_points)
     return laws[0] if laws else Trend(points=t.size)
 
 
 def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.ndarray:
-    """The fit's u at the history's times."""
+    """Return the fit's u at the history's times."""
     if fit.model == LINEAR:
         return np.asarray(fit.params[0] + fit.params[1] * s)
     g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
@@ -308,8 +322,11 @@ def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.n
 
 def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.ndarray,
                      span: float) -> np.ndarray:
-    """Time after t_end [s] at which u_end + r g(s) reaches u_end + gap, per draw: inf where
-    it never does (r <= 0, or a saturating exponential), -inf where gap <= 0 (already)."""
+    """Return, per draw, the time after t_end [s] at which u_end + r g(s) reaches u_end + gap.
+
+    inf where it never does (r <= 0, or a saturating exponential), -inf where gap <= 0
+    (already there).
+    """
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         ratio = gap / rate
         if model == EXPONENTIAL:
@@ -328,17 +345,21 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
 
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
                            ) -> list[float]:
-    """``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort (numpy's
-    vectorised sort beats ``np.quantile``, and ``np.partition`` with several ranks, for a few
-    thousand draws; the tests check they agree). NaN-free input."""
+    """Return ``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort.
+
+    numpy's vectorised sort beats ``np.quantile``, and ``np.partition`` with several ranks,
+    for a few thousand draws; the tests check they agree. NaN-free input.
+    """
     n = values.size
     ordered = np.sort(values)
     return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
 class RulPredictor:
-    """RUL quantiles from the whole posterior history (module docstring); fixed seeded draws,
-    a refit each time the history gained 1/``refit_fraction`` of its bins."""
+    """RUL quantiles from the whole posterior history (module docstring).
+
+    Fixed seeded draws; a refit each time the history gained 1/``refit_fraction`` of its bins.
+    """
 
     def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
                  seed: int = 0, trend: str = 'auto', max_points: int = 256,
@@ -368,6 +389,7 @@ class RulPredictor:
         self._trend = Trend()
         self._crossing = (math.inf, math.inf, math.inf)
         self._fitted_at = 0
+        self._due = 1
 
     def add(self, t: float, u: float, u_variance: float) -> None:
         """Record a posterior (t [s], u [-], P_uu [-^2])."""
@@ -375,14 +397,15 @@ class RulPredictor:
         self.history.add(t, u, u_variance)
         if self.history.opened < opened:        # time went backwards: the history restarted
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
+            self._due = 1
 
     @property
     def trend(self) -> Trend:
         """The current fit (refitted when due)."""
         history = self.history
-        due = max(1, len(history) // self.refit_fraction) if self._fitted_at else 1
-        if history.opened - self._fitted_at >= due:
+        if history.opened - self._fitted_at >= self._due:
             self._refit()
+            self._due = max(1, len(history) // self.refit_fraction)
         return self._trend
 
     def _refit(self) -> None:
@@ -398,8 +421,11 @@ class RulPredictor:
         self._crossing = self._crossing_quantiles(laws)
 
     def _crossing_quantiles(self, laws: tuple[Trend, ...]) -> tuple[float, float, float]:
-        """5/50/95 % quantiles of the absolute time [s] of reaching u_eol (inf: never) over
-        the laws' parameter draws, each law taking its Akaike weight's share of the draws."""
+        """Return the 5/50/95 % quantiles of the absolute time [s] of reaching u_eol.
+
+        inf: never. Over the laws' parameter draws, each law taking its Akaike weight's share
+        of the draws.
+        """
         if not laws or not laws[0].slope > self.detect_z * laws[0].slope_sigma:
             return (math.inf, math.inf, math.inf)
         crossing = np.empty(self._uniforms.size)
@@ -428,6 +454,7 @@ class RulPredictor:
         trend = self.trend
         if u >= self.u_eol:
             return RulEstimate(0.0, 0.0, 0.0, trend.model)
-        p5, median, p95 = (max(c - t, 0.0) for c in self._crossing)
+        c5, c50, c95 = self._crossing
+        p5, median, p95 = max(c5 - t, 0.0), max(c50 - t, 0.0), max(c95 - t, 0.0)
         model = trend.model if math.isfinite(median) or math.isfinite(p5) else NONE
         return RulEstimate(median, p5, p95, model)

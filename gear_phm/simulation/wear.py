@@ -50,8 +50,10 @@ class Wear:
     @classmethod
     def reaching(cls, kind: str, initial: float, final: float, duration: float,
                  exponent: float = 2.0) -> Wear:
-        """Linear, exponential or power wear going from ``initial`` to ``final`` in
-        ``duration`` [s]."""
+        """Return linear, exponential or power wear from ``initial`` to ``final`` in ``duration``.
+
+        ``duration`` [s]; ``exponent`` is the power law's.
+        """
         one_of('kind', kind, REACHING_KINDS)
         initial = non_negative('initial', initial)
         final = non_negative('final', final)
@@ -76,7 +78,9 @@ class Wear:
         if self.kind == 'exponential':
             return self.initial * np.exp(self.rate * t)
         if self.kind == 'power':
-            return self.initial + self.rate * np.power(np.maximum(t, 0.0), self.exponent)
+            grown: np.ndarray = self.initial + self.rate * np.power(np.maximum(t, 0.0),
+                                                                    self.exponent)
+            return grown
         if self.kind == 'step':
             return np.where(t >= self.t_fault, self.initial + self.step, self.initial)
         return np.full_like(t, self.initial)
