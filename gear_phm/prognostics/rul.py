@@ -401,7 +401,7 @@ class RulPredictor:
 
     @property
     def trend(self) -> Trend:
-        """The current fit (refitted when due)."""
+        """Return the current fit, refitted when due."""
         history = self.history
         if history.opened - self._fitted_at >= self._due:
             self._refit()
