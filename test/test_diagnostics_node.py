@@ -5,6 +5,7 @@ recording after kill -9.
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 import signal
@@ -19,7 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from geometry_msgs.msg import Vector3Stamped  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue  # noqa: E402
-from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 
 from gear_phm.bagio import BagReader, recover  # noqa: E402
@@ -97,7 +98,10 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         sub = ros.create_subscription(DiagnosticArray, DIAGNOSTICS, arrays.append, OUTPUT_QOS)
         feeder = Feeder(ros)
         wait_for(ros, lambda: feeder.matched() and arrays, 20.0, 'discovery')
-        assert arrays[-1].status[0].level == b'\x03'       # STALE before any estimate
+        # OK 'waiting for data' from start-up until the first input (STALE only once input
+        # has been seen and stopped, below)
+        assert arrays[-1].status[0].level == b'\x00', arrays[-1].status[0]
+        assert arrays[-1].status[0].message == 'waiting for data'
         # cross-field check in the on-set callback: eta_warn below eta_opposing_min
         client = ros.create_client(SetParameters, '/diagnostics/set_parameters')
         assert client.wait_for_service(timeout_sec=10.0)
@@ -124,8 +128,7 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         assert float(values['u']) == pytest.approx(0.05 + 1.5e-4 * 3990.0)
         assert values['rul_s'] == '0.0' and values['samples_used'] == '400'
         seen = [lv for i, lv in enumerate(levels) if i == 0 or lv != levels[i - 1]]
-        ok_warn_error = [lv for lv in seen if lv != b'\x03']
-        assert ok_warn_error == [b'\x00', b'\x01', b'\x02'], seen
+        assert seen == [b'\x00', b'\x01', b'\x02'], seen     # never STALE while fed
         stopped = time.monotonic()
         wait_for(ros, lambda: arrays[-1].status[0].level == b'\x03', 5.0, 'STALE')
         assert time.monotonic() - stopped < 0.5 + 0.5       # timeout + 10 status periods
@@ -146,6 +149,41 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         schemas = {s.name: s.encoding for s in reader.get_summary().schemas.values()}
         assert schemas['diagnostic_msgs/msg/DiagnosticArray'] == 'ros2msg'
         assert sum(1 for _ in reader.iter_messages(topics=['/gear_phm/health/rul'])) == 400
+
+
+def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
+    """eta_opposing_min 0.9 alone (above the old fixed eta_warn 0.6) starts; WARN at 0.925."""
+    proc = start('eta_opposing_min:=0.9', 'warn_horizon:=0.0')
+    try:
+        arrays: list[DiagnosticArray] = []
+        sub = ros.create_subscription(DiagnosticArray, DIAGNOSTICS, arrays.append, OUTPUT_QOS)
+        feeder = Feeder(ros)
+        wait_for(ros, lambda: feeder.matched() and arrays, 20.0, 'discovery')
+        client = ros.create_client(GetParameters, '/diagnostics/get_parameters')
+        assert client.wait_for_service(timeout_sec=10.0)
+        future = client.call_async(GetParameters.Request(names=['eta_warn', 'warn_horizon']))
+        wait_for(ros, future.done, 10.0, 'get_parameters')
+        eta_warn, warn_horizon = future.result().values
+        assert math.isnan(eta_warn.double_value) and warn_horizon.double_value == 0.0
+        statuses = []
+        for _ in range(30):              # u 0.05 + 1.5e-4 t: eta_D 0.925 at 64 s, EOL at 207 s
+            last_stamp = feeder.publish()
+            wait_for(ros, lambda: stamp_to_ns(arrays[-1].header.stamp) == last_stamp, 10.0,
+                     f'estimate {last_stamp} on /diagnostics')
+            statuses.append(arrays[-1].status[0])
+        ros.destroy_subscription(sub)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    levels = [s.level for s in statuses]
+    changes = [i for i in range(1, 30) if levels[i] != levels[i - 1]]
+    # committed after the 5 s dwell: the second 10-s estimate past each threshold
+    assert [(i, levels[i]) for i in changes] == [(8, b'\x01'), (22, b'\x02')], levels
+    assert statuses[8].message == f'eta_D {(3.0 - 0.062) / (3.0 * 1.062):.4g} < 0.925'  # t 80 s
+    assert 'end of life (eta_opposing_min)' in statuses[22].message
 
 
 def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,

@@ -52,6 +52,15 @@ def test_evaluate_csv_truth_and_stricter_eol(bags, tmp_path: Path) -> None:
     assert not result['alpha_lambda'][2]['passed']        # 1.1 (600 - t) vs 480 - t
 
 
+def test_evaluate_with_only_eta_opposing_min(bags) -> None:
+    """eta_opposing_min 0.7 alone (above the old fixed eta_warn 0.6): u_eol 0.29 at 262 s."""
+    run, truth = bags
+    assert main(['evaluate', str(run), '--truth', str(truth), '--eta-opposing-min', '0.7']) != 2
+    result = json.loads((run / 'bag' / 'evaluation.json').read_text())
+    assert result['u_eol'] == pytest.approx(0.9 / 3.1)         # eta_D = 0.7 at R = 3
+    assert result['t_eol_s'] == 270.0                           # first truth stamp past it
+
+
 def test_evaluate_errors_are_one_line(bags, tmp_path: Path, capsys) -> None:
     run, truth = bags
     assert main(['evaluate', str(truth), '--truth', str(truth)]) == 2

@@ -16,15 +16,12 @@ from scipy.stats import chi2
 from gear_phm import interfaces
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.prognostics import (end_of_life_u, health_level, HealthAssessor, HealthConfig,
-                                  RulPredictor)
-from gear_phm.prognostics.health import chi_square_mean_bound, DivergenceDetector
+from gear_phm.prognostics import end_of_life_u, HealthAssessor, HealthConfig, RulPredictor
+from gear_phm.prognostics.health import chi_square_mean_bound
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
 from gear_phm.simulation.wear import Wear
 from gear_phm.status import ERROR, OK, WARN
-
-TINY = np.diag([1e-12, 1e-16])
 
 
 # --- end of life ---------------------------------------------------------------------------
@@ -87,57 +84,15 @@ def test_rul_quantiles_ordered_and_deterministic(rate: float, sigma: float) -> N
     assert first == predictor.predict(398.0, 0.1 + rate * 398.0)
 
 
-# --- health levels -------------------------------------------------------------------------
-@pytest.mark.parametrize(('u', 'eta', 'p5', 'divergence', 'level', 'text'), [
-    (0.1, 0.9, math.inf, '', OK, 'ok'),
-    (0.1, 0.9, 100.0, '', WARN, 'RUL p5'),
-    (0.45, 0.55, math.inf, '', WARN, 'eta_D'),
-    (0.6, 0.5, 0.0, '', ERROR, 'end of life'),
-    (1.0, -0.2, 0.0, '', ERROR, 'self-locking'),
-    (0.1, 0.9, math.inf, 'filter diverged: x', ERROR, 'diverged'),
-])
-def test_health_level_rules(u: float, eta: float, p5: float, divergence: str, level: int,
-                            text: str) -> None:
-    u_eol, reason = (1.0, 'self_locking') if u >= 1.0 else (0.6, 'eta_opposing_min')
-    got, message = health_level(u, u_eol, reason, eta, 0.6, p5, 3600.0, divergence)
-    assert got == level and text in message
-
-
+# --- health levels (hysteresis, dwell, filter checks: test_health_levels.py) -----------
 @pytest.mark.parametrize('window', [3, 20, 100])
 def test_chi_square_bound_close_to_exact(window: int) -> None:
     exact = chi2.ppf(0.999, window) / window
     assert chi_square_mean_bound(window, 0.999) == pytest.approx(exact, rel=0.02)
 
 
-def test_divergence_detector() -> None:
-    detector = DivergenceDetector(window=10, probability=0.999, max_u_sigma=0.5)
-    exact = chi2.ppf(0.999, 10) / 10                       # the bound the detector approximates
-    rng = np.random.default_rng(1)
-    fed: list[float] = []
-    for _ in range(200):                                   # consistent filter: NIS ~ chi2(1)
-        y = rng.standard_normal()
-        fed.append(y * y)
-        assert detector.update(y, 1.0, y * y, 0.01) == ''
-    flagged = []
-    for i in range(9):                                     # inflated innovations
-        fed.append(25.0)
-        mean = sum(fed[-10:]) / 10
-        reason = detector.update(10.0 + i, 1.0, 25.0, 0.01)
-        assert detector.nis_mean == pytest.approx(mean)
-        if abs(mean - exact) > 0.03 * exact:               # away from the approximation error
-            assert bool(reason) == (mean > exact), (i, mean, reason)
-        flagged.append(bool(reason))
-    assert all(flagged[1:])                                # two of 25 in 10: mean > 5 > 2.96
-    assert 'mean NIS' in detector.update(99.0, 1.0, 25.0, 0.01)
-    fresh = DivergenceDetector(window=3)
-    for _ in range(5):                                     # republished, counted once
-        fresh.update(3.0, 1.0, 9.0, 0.01)
-    assert fresh.nis_mean == 9.0 and len(fresh._nis) == 1
-    assert 'sigma_u' in fresh.update(1.0, 1.0, 1.0, 2.0)
-
-
 def test_monitor_reports_levels_along_linear_wear() -> None:
-    monitor = HealthAssessor(HealthConfig(warn_horizon=600.0))
+    monitor = HealthAssessor(HealthConfig(warn_horizon=600.0, eta_warn=0.6, level_dwell=0.0))
     levels = []
     for t in np.arange(0.0, 4000.0, 10.0):
         u = 0.05 + 1.5e-4 * t

@@ -43,7 +43,7 @@ def test_readme_notebook_snippet_runs_verbatim() -> None:
 
 def test_api_histories_match_summary_and_outputs(tmp_path: Path) -> None:
     analysis = analyze_bag(ROOT / 'bags' / 'fault', ratio=3.0, out=tmp_path / 'run',
-                           plot=False, eta_opposing_min=0.7333, eta_warn=0.8)
+                           plot=False, eta_opposing_min=0.7333)
     e, h = analysis.estimates, analysis.health
     # the summary is the last posterior, the last estimate predicted to the newest sample
     assert e.u[-1] == pytest.approx(analysis.summary['u'], abs=3 * e.u_sigma[-1])
@@ -55,6 +55,9 @@ def test_api_histories_match_summary_and_outputs(tmp_path: Path) -> None:
     t = e.t - e.t[0]
     assert np.median(e.u[(t > 30) & (t < 55)]) == pytest.approx(0.05, abs=0.005)
     assert np.median(e.u[t > 90]) == pytest.approx(0.20, abs=0.01)
+    # eta_warn derived from eta_opposing_min alone: 0.7333 + 0.25 (1 - 0.7333) = 0.8; u 0.20
+    # gives eta_D 0.778 < 0.8
+    assert 'eta_D 0.77' in h.messages[-1] and h.messages[-1].endswith(' < 0.8')
 
 
 def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
@@ -64,7 +67,7 @@ def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
     with pytest.raises(AnalysisError, match=r"unknown option\(s\) \['proces_noise'\]"):
         analyze_bag(bag, ratio=3.0, proces_noise=1e-10)
     with pytest.raises(AnalysisError, match='eta_warn must be > eta_opposing_min'):
-        analyze_bag(bag, ratio=3.0, eta_opposing_min=0.9)
+        analyze_bag(bag, ratio=3.0, eta_opposing_min=0.9, eta_warn=0.85)
     with pytest.raises(AnalysisError, match='ratio must be in'):
         analyze_bag(bag, ratio=-3.0)
     with pytest.raises(AnalysisError, match="joints 'a' and 'b'"):

@@ -23,7 +23,8 @@ def _help(spec: ParamSpec) -> str:
         return f'{text} (default {spec.default})'
     low = '-inf' if spec.low is None else f'{spec.low:g}'
     high = 'inf' if spec.high is None else f'{spec.high:g}'
-    return f'{text} [{spec.unit}], in [{low}, {high}] (default {spec.default})'
+    default = f'nan, {spec.nan_means}' if spec.nan_means else spec.default
+    return f'{text} [{spec.unit}], in [{low}, {high}] (default {default})'
 
 
 def add_health_arguments(parser: argparse.ArgumentParser) -> None:

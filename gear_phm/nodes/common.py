@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
+import math
 import sys
 from typing import Any, TypeVar
 
@@ -81,6 +82,10 @@ def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]
         if spec.kind is float and high is not None:
             high = min(high, 1e300)              # a FloatingPointRange holds no inf
         constraints = f'one of {", ".join(map(repr, spec.choices))}' if spec.choices else ''
+        if spec.nan_means:                    # a FloatingPointRange would refuse the NaN
+            span = (-math.inf if low is None else low, math.inf if high is None else high)
+            constraints = f'nan ({spec.nan_means}) or in [{span[0]:g}, {span[1]:g}]'
+            low = high = None
         try:
             value = declare(node, spec.name, spec.default, spec.text, low=low, high=high,
                             constraints=constraints, read_only=spec.read_only)

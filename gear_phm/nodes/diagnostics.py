@@ -4,9 +4,10 @@
 :mod:`gear_phm.nodes.transport`, reassembles the estimator's topics), feeds each to the ROS-free
 :class:`gear_phm.prognostics.HealthAssessor`, publishes the health topics per update and
 ``/diagnostics`` at ``rate`` Hz (one status ``gear_phm: <transmission_name>``); the topics are
-listed in docs/architecture.md. STALE is judged on this node's clock (``use_sim_time``
-respected) against the arrival time of the last estimator message, and published at once
-when ``stale_timeout`` has passed (a one-shot timer restarted by each arrival), not only at
+listed in docs/architecture.md. From start-up until the first input the status is OK "waiting
+for data". STALE is judged on this node's clock (``use_sim_time`` respected) against the
+arrival time of the last estimator message, and published at once when ``stale_timeout`` has
+passed (a one-shot timer restarted by each arrival), not only at
 the next status tick. The estimator publishes nothing about a sensor timeout, so only real
 samples keep the input fresh. ``samples_missing`` comes from ``gear_phm/sample_loss``.
 
@@ -252,13 +253,18 @@ class DiagnosticsNode(Node):
 
     # -- /diagnostics -----------------------------------------------------------------------
     def current_status(self) -> HealthState:
-        """Latest state, turned STALE when the last input is older than stale_timeout."""
+        """Latest state, turned STALE when the last input is older than stale_timeout.
+
+        Before any input: OK "waiting for data" (nothing is known to be wrong). STALE only
+        once input has been seen and has stopped.
+        """
         now_ns = self.get_clock().now().nanoseconds
         latest = self.assessor.latest
+        if self.last_arrival_ns is None:
+            return latest if latest is not None else waiting_state(now_ns, self.assessor.u_eol)
         if latest is None:
-            return waiting_state(now_ns, self.assessor.u_eol)
-        silence = math.inf if self.last_arrival_ns is None \
-            else (now_ns - self.last_arrival_ns) * 1e-9
+            latest = waiting_state(now_ns, self.assessor.u_eol)
+        silence = (now_ns - self.last_arrival_ns) * 1e-9
         if silence >= self.health_config.stale_timeout:
             return latest.as_stale(silence)
         return latest

@@ -107,9 +107,11 @@ class EstimatePublisher:
                             for topic in interfaces.ESTIMATOR_TOPICS}
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
+        """Publish each estimate on the five topics, serialized by the package's packer
+        (rclpy's ``publish`` takes CDR bytes: no Python message object per output)."""
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id):
-                self._publishers[output.topic].publish(to_rclpy(output))
+                self._publishers[output.topic].publish(interfaces.vector3_stamped_cdr(output))
 
 
 class SampleLossPublisher:

@@ -2,23 +2,56 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
 from gear_phm import interfaces
 from gear_phm.models import eta_aiding, eta_opposing
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
+from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE, WARN
 
 if TYPE_CHECKING:
-    from gear_phm.offline.engine import Analysis
+    from gear_phm.offline.engine import Analysis, HealthHistory
+
+
+#: Level colours of the timeline strip: OK, WARN, ERROR, STALE.
+LEVEL_COLOURS = {OK: '#2ca02c', WARN: '#ff9f1c', ERROR: '#d62728', STALE: '#7f7f7f'}
+#: Half-width of the accuracy cone around the true RUL (Saxena's alpha, as in evaluate).
+ALPHA = 0.2
+
+
+def true_end_of_life(truth_u: np.ndarray | None, u_eol: float) -> int | None:
+    """Stamp [ns] of the first truth-friction sample with true u >= u_eol, or None.
+
+    The same rule as ``gear-phm evaluate``'s truth bag (:func:`gear_phm.cli.evaluate.truth_eol`).
+    """
+    if truth_u is None or not truth_u.size or not np.isfinite(u_eol):
+        return None
+    crossed = np.flatnonzero(truth_u[:, 1] >= u_eol)
+    return int(truth_u[crossed[0], 0]) if crossed.size else None
+
+
+def level_spans(t: np.ndarray, level: np.ndarray) -> list[tuple[float, float, int]]:
+    """Return (start [s], end [s], level) of each run of equal levels.
+
+    A run ends where the next starts, the last at the last stamp.
+    """
+    if t.size == 0:
+        return []
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(level)) + 1))
+    ends = np.concatenate((starts[1:], [t.size - 1]))
+    return [(float(t[a]), float(t[b]), int(level[a])) for a, b in zip(starts, ends)]
 
 
 def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[Path]) -> None:
-    """Plot measured and estimated efficiency (top), u with its 2-sigma band (bottom).
+    """Plot efficiency, u, the RUL and the health level against bag time [s].
 
-    Both against bag time [s], with the ground truth where the bag carries it.
+    Panels, top to bottom: measured and estimated efficiency; u with its 2-sigma band and
+    u_eol; the RUL median with its 5-95 % band (with ground truth: the true RUL, its
+    +/- alpha = 0.2 cone and the true end of life); a strip of the health level.
     """
     import matplotlib
     matplotlib.use('Agg')
@@ -30,7 +63,8 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     t0 = int(e.stamp_ns[0])
     t = (e.stamp_ns - t0) * 1e-9
     u, sigma = e.u, e.u_sigma
-    fig, (ax_eta, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(10, 7))
+    fig, (ax_eta, ax_u, ax_rul, ax_level) = plt.subplots(
+        4, 1, sharex=True, figsize=(10, 11), gridspec_kw={'height_ratios': [3, 3, 3, 0.5]})
     ax_eta.plot(t, eta_opposing(np.maximum(u, -0.5), ratio), color='C0',
                 label='eta_D from u_hat')
     ax_eta.plot(t, eta_aiding(np.maximum(u, -0.5), ratio), color='C1',
@@ -74,10 +108,86 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
         ax_u.set_ylim(lo - pad, hi + pad)
         lo_e = min(eta_opposing(max(hi, 0.0), ratio), eta_aiding(max(hi, 0.0), ratio))
         ax_eta.set_ylim(lo_e - 0.1, 1.02)
-    ax_u.set_xlabel('bag time [s]')
+    h = analysis.health
+    u_eol = float(h.u_eol[-1]) if h.u_eol.size else math.nan
+    if math.isfinite(u_eol):
+        ax_u.axhline(u_eol, color='C3', lw=1, ls='-.', label=f'u_eol {u_eol:.4g}')
+        if finite.any() and u_eol <= ax_u.get_ylim()[1] * 1.5:
+            ax_u.set_ylim(top=max(ax_u.get_ylim()[1], u_eol * 1.05))
     ax_u.set_ylabel('friction parameter u [-]')
     ax_u.legend(loc='best', fontsize=8)
     ax_u.grid(alpha=0.3)
+    eol_ns = true_end_of_life(truth_u, u_eol)
+    _plot_rul(ax_rul, h, t0, None if eol_ns is None else (eol_ns - t0) * 1e-9, float(t[-1]))
+    _plot_levels(ax_level, (h.stamp_ns - t0) * 1e-9, h.level)
+    ax_level.set_xlabel('bag time [s]')
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _plot_rul(ax: Any, h: HealthHistory, t0: int, t_eol: float | None, t_end: float) -> None:
+    """RUL median and p5-p95 band [s]; with t_eol [s] the true RUL and its alpha cone.
+
+    Infinite values (no growth detectable) are not drawn; the times with an infinite median
+    are shaded. The y range covers the true RUL, or the finite medians.
+    """
+    t = (h.stamp_ns - t0) * 1e-9
+    median, p5, p95 = h.rul_median, h.rul_p5, h.rul_p95
+    if t_eol is not None:
+        t_true = np.linspace(0.0, t_eol, 200)
+        true_rul = t_eol - t_true
+        ax.fill_between(t_true, (1 - ALPHA) * true_rul, (1 + ALPHA) * true_rul, color='k',
+                        alpha=0.08, label=f'true RUL +/- {ALPHA:g} (alpha cone)')
+        ax.plot(t_true, true_rul, 'k--', lw=1, label='true RUL')
+        ax.axvline(t_eol, color='C3', lw=1, ls='-.', label=f'true end of life {t_eol:.0f} s')
+        top = 1.3 * t_eol
+    else:
+        finite = median[np.isfinite(median)]
+        top = 1.3 * float(np.percentile(finite, 95)) if finite.size else t_end
+    top = max(top, 1.0)
+    band, shown = np.isfinite(p5), np.isfinite(median).any()
+    ax.fill_between(t, np.where(band, p5, np.nan), np.minimum(p95, 10.0 * top), color='C4',
+                    alpha=0.3, label='RUL 5-95 %' if band.any() else None)
+    ax.plot(t, np.where(np.isfinite(median), median, np.nan), color='C4',
+            label='RUL median' if shown else None)
+    above = np.isfinite(median) & (median > top)
+    if above.any():
+        ax.scatter(t[above], np.full(above.sum(), 0.985 * top), marker='^', s=10, color='C4',
+                   label=f'RUL median above {top:.0f} s', clip_on=False)
+    unknown = ~np.isfinite(median)
+    for start, end, value in level_spans(t, unknown.astype(int)):
+        if value:
+            ax.axvspan(start, end, facecolor='none', edgecolor='C4', hatch='//', lw=0,
+                       alpha=0.35, zorder=0)
+    if unknown.any():
+        ax.fill_between([], [], facecolor='none', edgecolor='C4', hatch='//', alpha=0.35,
+                        label='RUL inf (no growth detectable)')
+    ax.set_ylim(0.0, top)
+    ax.set_xlim(right=max(t_end, t_eol or 0.0) * 1.02)
+    ax.set_ylabel('remaining useful life [s]')
+    ax.legend(loc='upper right', fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+def _plot_levels(ax: Any, t: np.ndarray, level: np.ndarray) -> None:
+    """Draw a horizontal strip of the health level over time.
+
+    Each run is labelled with the level and its start [s], shortened to what fits.
+    """
+    spans = level_spans(t, level)
+    for start, end, value in spans:
+        ax.axvspan(start, end, color=LEVEL_COLOURS.get(value, 'k'), lw=0)
+    width = max(float(t[-1] - t[0]), 1e-9) if t.size else 1.0
+    for i, (start, end, value) in enumerate(spans):
+        # about 140 characters of 8-pt bold fit across the strip: the longest label that fits
+        room = 140.0 * (end - start) / width
+        name = LEVEL_NAMES.get(value, str(value))
+        text = next((x for x in (f' {name} {start:.0f} s ', f' {name} ', f' {name[0]} ')
+                     if len(x) <= room), '')
+        last = i == len(spans) - 1 and i > 0          # right-aligned, so it is not cut off
+        ax.text(end if last else start, 0.5, text, va='center', ha='right' if last else 'left',
+                fontsize=8, color='white', fontweight='bold', clip_on=True)
+    ax.set_yticks([])
+    ax.set_ylim(0.0, 1.0)
+    ax.set_ylabel('level', rotation=0, ha='right', va='center')

@@ -5,13 +5,15 @@
 stamps; nothing reads a clock.
 """
 from gear_phm.prognostics.assessor import HealthAssessor, HealthState, waiting_state
-from gear_phm.prognostics.config import cross_field_problem, HealthConfig, PARAMETERS
+from gear_phm.prognostics.config import (cross_field_problem, derived_eta_warn, HealthConfig,
+                                         PARAMETERS)
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
-from gear_phm.prognostics.health import DivergenceDetector, health_level
+from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.rul import fit_trend, RulEstimate, RulPredictor, Trend, WearHistory
 
 __all__ = [
     'PARAMETERS', 'DivergenceDetector', 'HealthAssessor', 'HealthConfig', 'HealthState',
-    'RulEstimate', 'RulPredictor', 'Trend', 'WearHistory', 'cross_field_problem',
-    'end_of_life_thresholds', 'end_of_life_u', 'fit_trend', 'health_level', 'waiting_state',
+    'LevelTracker', 'RulEstimate', 'RulPredictor', 'Trend', 'WearHistory',
+    'cross_field_problem', 'derived_eta_warn', 'end_of_life_thresholds', 'end_of_life_u',
+    'fit_trend', 'waiting_state',
 ]

@@ -15,9 +15,9 @@ from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u
-from gear_phm.prognostics.health import DivergenceDetector, health_level
+from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend
-from gear_phm.status import ERROR, LEVEL_NAMES, STALE
+from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
 #: of eq 10 is ~1e-16, a 0.1 % ratio error at u = 0.05 moves eta_D by ~4e-5.
@@ -56,9 +56,9 @@ class HealthState:
 
 
 def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
-    """STALE state before any estimate arrived."""
+    """OK state before any estimate arrived: nothing is known to be wrong yet."""
     nan = math.nan
-    return HealthState(stamp_ns, STALE, 'waiting for estimator output', nan, nan, nan, nan,
+    return HealthState(stamp_ns, OK, 'waiting for data', nan, nan, nan, nan,
                        RulEstimate(nan, nan, nan, 'none'), 0, 0, 0, u_eol, Trend())
 
 
@@ -72,7 +72,10 @@ class HealthAssessor:
         self.predictor = RulPredictor(self.u_eol, config.detect_z, int(config.mc_samples),
                                       int(config.seed), config.trend)
         self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
-                                             config.max_u_sigma)
+                                             config.max_u_sigma, config.nis_lost)
+        self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
+                                   config.warn_horizon, config.level_hysteresis,
+                                   config.level_dwell)
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
 
@@ -87,19 +90,20 @@ class HealthAssessor:
         if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
             self.predictor.reset()                         # replay restarted
             self.divergence.reset()
+            self.levels.reset()
         u_sigma = math.sqrt(max(p_uu, 0.0))
         if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
         self.predictor.add(estimate.t, estimate.u, p_uu)
-        divergence = self.divergence.update(estimate.innovation, estimate.innovation_variance,
-                                            estimate.nis, u_sigma)
+        filter_check = self.divergence.update(estimate.innovation,
+                                              estimate.innovation_variance, estimate.nis,
+                                              u_sigma)
         rul = self.predictor.predict(estimate.t, estimate.u)
         trend = self.predictor.trend
-        level, message = health_level(estimate.u, self.u_eol, self.eol_reason,
-                                      estimate.eta_opposing, self.config.eta_warn, rul.p5,
-                                      self.config.warn_horizon, divergence)
+        level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
+                                            rul.p5, filter_check)
         if level == 0 and rul.model != 'none':
             message = f'ok; {rul.model} trend, RUL {rul.median:.4g} s'
         mismatch = self._ratio_mismatch(estimate)

@@ -7,10 +7,19 @@ range, same description); ``gear-phm analyze`` exposes them as ``--kebab-case`` 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
+import math
 
 from gear_phm.parameters import check_values, defaults, ParamSpec
 
 TRENDS = ('auto', 'linear', 'exponential', 'power')
+#: The derived eta_warn lies this fraction of the way from eta_opposing_min up to 1 [-].
+ETA_WARN_MARGIN = 0.25
+
+
+def derived_eta_warn(eta_opposing_min: float) -> float:
+    """Return the default WARN efficiency, eta_min + ETA_WARN_MARGIN (1 - eta_min) [-]."""
+    return eta_opposing_min + ETA_WARN_MARGIN * (1.0 - eta_opposing_min)
+
 
 #: The health parameters (diagnostics node parameters of the same names,
 #: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options).
@@ -24,8 +33,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'end of life (ERROR)'),
     ParamSpec('u_max', 0.0, 'end of life when u reaches this (0: criterion disabled)', '-',
               0.0, 1e6),
-    ParamSpec('eta_warn', 0.6, 'WARN when eta_D is below this (must be > eta_opposing_min)',
-              '-', -1.0, 1.0),
+    ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
+              '-', -1.0, 1.0,
+              nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
               1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
@@ -36,12 +46,20 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               100, 1_000_000),
     ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
               2**31 - 1),
-    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for divergence', '-', 1,
-              100_000),
-    ParamSpec('nis_probability', 0.999,
-              'chi-square probability of the NIS-average bound (divergence above)', '-', 0.5,
-              1.0 - 1e-12),
-    ParamSpec('max_u_sigma', 1.0, 'divergence when sigma_u exceeds this', '-', 1e-9, 1e6),
+    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for the filter check',
+              '-', 1, 100_000),
+    ParamSpec('nis_probability', 0.999, 'chi-square probability of the NIS-average bound '
+              '(model mismatch, WARN, above)', '-', 0.5, 1.0 - 1e-12),
+    ParamSpec('max_u_sigma', 1.0, 'ERROR (filter lost the signal) when sigma_u exceeds this',
+              '-', 1e-9, 1e6),
+    ParamSpec('nis_lost', 25.0, 'ERROR (filter lost the signal) when the median of the NIS '
+              'window exceeds this; a mean above the chi-square bound alone is a model '
+              'mismatch (WARN)', '-', 1.0, 1e12),
+    ParamSpec('level_hysteresis', 0.05, 'a level is left when its value is back by this '
+              "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0, RUL 0)",
+              '-', 0.0, 0.5),
+    ParamSpec('level_dwell', 5.0, 'a level change (entering or leaving) must hold this long '
+              'in stamp time before it is reported', 's', 0.0, 1e6),
     ParamSpec('stale_timeout', 2.0, 'STALE when no estimator input arrives for this long', 's',
               1e-3, 1e6),
 )
@@ -65,6 +83,9 @@ class HealthConfig:
     nis_window: int = int(_D['nis_window'])
     nis_probability: float = float(_D['nis_probability'])
     max_u_sigma: float = float(_D['max_u_sigma'])
+    nis_lost: float = float(_D['nis_lost'])
+    level_hysteresis: float = float(_D['level_hysteresis'])
+    level_dwell: float = float(_D['level_dwell'])
     stale_timeout: float = float(_D['stale_timeout'])
 
     def __post_init__(self) -> None:
@@ -80,6 +101,13 @@ class HealthConfig:
             raise ValueError(f'unknown health parameter(s): {sorted(unknown)}')
         return HealthConfig(**{**asdict(self), **changes})
 
+    @property
+    def effective_eta_warn(self) -> float:
+        """``eta_warn``, or :func:`derived_eta_warn` when it is NaN (the default) [-]."""
+        if math.isnan(self.eta_warn):
+            return derived_eta_warn(self.eta_opposing_min)
+        return self.eta_warn
+
     def as_dict(self) -> dict[str, object]:
         """Plain dict of all parameters."""
         return asdict(self)
@@ -88,15 +116,17 @@ class HealthConfig:
 def cross_field_problem(values: dict[str, object]) -> str:
     """Reason why a set of parameter values is inconsistent, or '' if it is fine.
 
-    Checks: ``eta_warn > eta_opposing_min`` (the warning must come before end of life) and
-    ``eta_opposing_min > -1/ratio`` (below that no friction parameter reaches it).
+    Checks: an explicit ``eta_warn > eta_opposing_min`` (the warning must come before end of
+    life; NaN, the derived default, always is) and ``eta_opposing_min > -1/ratio`` (below that
+    no friction parameter reaches it).
     """
     eta_min = float(values['eta_opposing_min'])  # type: ignore[arg-type]
     eta_warn = float(values['eta_warn'])  # type: ignore[arg-type]
     ratio = float(values['ratio'])  # type: ignore[arg-type]
-    if not eta_warn > eta_min:
+    if not math.isnan(eta_warn) and not eta_warn > eta_min:
         return (f'eta_warn must be > eta_opposing_min ({eta_min!r}) so WARN comes before end '
-                f'of life, got {eta_warn!r}')
+                f'of life, got {eta_warn!r}; leave it unset (nan) for the derived default '
+                f'{derived_eta_warn(eta_min):.4g}')
     if not eta_min > -1.0 / ratio:
         return (f'eta_opposing_min must be > -1/ratio = {-1.0 / ratio:.4g} (no friction '
                 f'parameter reaches it), got {eta_min!r}')

@@ -1,19 +1,25 @@
-"""Health-level rules, filter-divergence and staleness checks (pure, time passed in).
+"""Health-level rules, filter-consistency and staleness checks (pure, time passed in).
 
 Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 
 - ERROR: u >= u_eol (end of life; includes self-locking u >= 1 when enabled), or the filter
-  diverged (:class:`DivergenceDetector`).
-- WARN: RUL 5 % bound < ``warn_horizon`` [s], or eta_D < ``eta_warn``.
+  has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
+  finite, or a median NIS above ``nis_lost``).
+- WARN: RUL 5 % bound < ``warn_horizon`` [s], eta_D < ``eta_warn``, or a model mismatch (mean
+  NIS above its chi-square bound while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
   current.
 - OK otherwise.
+
+:class:`LevelTracker` applies hysteresis and a minimum dwell to every condition, so that one
+real crossing gives one transition (the diagnostic_aggregator convention of not flapping).
 """
 from __future__ import annotations
 
 from collections import deque
 import math
+import statistics
 from statistics import NormalDist
 
 from gear_phm.status import ERROR, OK, WARN
@@ -35,20 +41,28 @@ def chi_square_mean_bound(window: int, probability: float) -> float:
 
 
 class DivergenceDetector:
-    """Flags a diverging filter.
+    """Judges the filter's consistency from its NIS and sigma_u: OK, mismatch or lost.
 
-    Diverged when (a) the mean of the last ``window`` NIS values exceeds the chi-square bound
-    :func:`chi_square_mean_bound` (innovations persistently larger than the filter predicts),
-    or (b) sigma_u exceeds ``max_u_sigma`` or is not finite (variance growing without bound).
-    NIS values are only counted when the innovation changes, because the estimator republishes
-    the last innovation between filter updates.
+    - lost (ERROR): sigma_u above ``max_u_sigma`` or not finite (variance growing without
+      bound), or the median of the last ``window`` NIS values above ``lost_nis``: most
+      innovations sqrt(lost_nis) times larger than the filter predicts mean the estimate no
+      longer follows the measurements. The median, not the mean, so that the few huge
+      innovations of a step the filter then follows (a sudden fault) are not a loss.
+    - model mismatch (WARN): that mean above the chi-square bound
+      :func:`chi_square_mean_bound` but not above ``lost_nis``: the innovations are larger
+      than predicted (a plant that is not the lever model, wear faster than the filter's
+      random walk) while the estimate still tracks.
+
+    NIS values are only counted when the innovation changes, because the estimator
+    republishes the last innovation between filter updates.
     """
 
     def __init__(self, window: int = 20, probability: float = 0.999,
-                 max_u_sigma: float = 1.0) -> None:
+                 max_u_sigma: float = 1.0, lost_nis: float = 25.0) -> None:
         self.window = int(window)
         self.bound = chi_square_mean_bound(self.window, probability)
         self.max_u_sigma = float(max_u_sigma)
+        self.lost_nis = float(lost_nis)
         self._nis: deque[float] = deque(maxlen=self.window)
         self._last_innovation: tuple[float, float] | None = None
 
@@ -62,39 +76,132 @@ class DivergenceDetector:
         """Mean of the NIS window (NaN if empty)."""
         return sum(self._nis) / len(self._nis) if self._nis else math.nan
 
+    @property
+    def nis_median(self) -> float:
+        """Median of the NIS window (NaN if empty)."""
+        return statistics.median(self._nis) if self._nis else math.nan
+
     def update(self, innovation: float, innovation_variance: float, nis: float,
-               u_sigma: float) -> str:
-        """Add one estimate; return '' or the reason the filter is considered diverged."""
+               u_sigma: float) -> tuple[int, str]:
+        """Add one estimate; return (OK, ''), (WARN, mismatch reason) or (ERROR, lost reason)."""
         key = (innovation, innovation_variance)
         if math.isfinite(nis) and key != self._last_innovation:
             self._nis.append(float(nis))
             self._last_innovation = key
         if not math.isfinite(u_sigma) or u_sigma > self.max_u_sigma:
-            return f'filter diverged: sigma_u {u_sigma:.3g} > {self.max_u_sigma:.3g}'
-        if len(self._nis) == self.window and self.nis_mean > self.bound:
-            return (f'filter diverged: mean NIS {self.nis_mean:.3g} over {self.window} '
-                    f'updates > {self.bound:.3g}')
-        return ''
+            return ERROR, f'filter lost the signal: sigma_u {u_sigma:.3g} > {self.max_u_sigma:.3g}'
+        if len(self._nis) < self.window or not self.nis_mean > self.bound:
+            return OK, ''
+        if self.nis_median > self.lost_nis:
+            return ERROR, (f'filter lost the signal: median NIS {self.nis_median:.3g} over '
+                           f'{self.window} updates > {self.lost_nis:.3g}')
+        return WARN, (f'model mismatch: mean NIS {self.nis_mean:.3g} over {self.window} '
+                      f'updates > {self.bound:.3g}')
 
 
-def health_level(u: float, u_eol: float, eol_reason: str, eta_opposing: float, eta_warn: float,
-                 rul_p5: float, warn_horizon: float, divergence: str) -> tuple[int, str]:
-    """(level, message) for one estimate by the rules of the module docstring."""
-    if divergence:
-        return ERROR, divergence
-    if not math.isfinite(u):
-        return ERROR, 'friction estimate is not finite'
-    if u >= u_eol:
-        what = 'self-locking' if eol_reason == 'self_locking' else f'end of life ({eol_reason})'
-        return ERROR, f'{what}: u {u:.4g} >= u_eol {u_eol:.4g}'
-    reasons = []
-    if rul_p5 < warn_horizon:
-        reasons.append(f'RUL p5 {rul_p5:.4g} s < {warn_horizon:.4g} s')
-    if eta_opposing < eta_warn:
-        reasons.append(f'eta_D {eta_opposing:.4g} < {eta_warn:.4g}')
-    if reasons:
-        return WARN, '; '.join(reasons)
-    return OK, 'ok'
+class Latch:
+    """One threshold condition with hysteresis and a minimum dwell, on stamp time [s].
+
+    Inactive, it becomes active once ``enter`` has held for ``dwell`` seconds without a
+    break; active, it clears once ``stay`` has been false that long. ``stay`` is the entry
+    test with the threshold moved back by the hysteresis margin.
+    """
+
+    def __init__(self, dwell: float) -> None:
+        self.dwell = float(dwell)
+        self.active = False
+        self._since: float | None = None
+
+    def reset(self) -> None:
+        """Inactive, nothing pending."""
+        self.active = False
+        self._since = None
+
+    def update(self, t: float, enter: bool, stay: bool) -> bool:
+        """Feed the tests at stamp ``t`` [s]; return whether the condition is active."""
+        wanted = stay if self.active else enter
+        if wanted == self.active:
+            self._since = None
+        else:
+            if self._since is None or t < self._since:
+                self._since = t
+            if t - self._since >= self.dwell:
+                self.active = wanted
+                self._since = None
+        return self.active
 
 
-__all__ = ['DivergenceDetector', 'chi_square_mean_bound', 'health_level']
+class LevelTracker:
+    """Health level of a stream of estimates by the rules of the module docstring.
+
+    Every condition is a :class:`Latch`: it is entered when its value crosses the threshold
+    and left when the value is back by ``hysteresis`` times the threshold's distance from a
+    new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
+    eta_warn + h (1 - eta_warn), u below u_eol (1 - h), RUL p5 above warn_horizon (1 + h).
+    Either change must hold for ``dwell`` [s] of stamp time first. The filter conditions
+    (mismatch, lost) have the dwell only.
+    """
+
+    def __init__(self, u_eol: float, eol_reason: str, eta_warn: float, warn_horizon: float,
+                 hysteresis: float = 0.05, dwell: float = 5.0) -> None:
+        self.u_eol, self.eol_reason = float(u_eol), eol_reason
+        self.eta_warn, self.warn_horizon = float(eta_warn), float(warn_horizon)
+        self.hysteresis, self.dwell = float(hysteresis), float(dwell)
+        self.eta_clear = self.eta_warn + self.hysteresis * (1.0 - self.eta_warn)
+        self.u_clear = self.u_eol * (1.0 - self.hysteresis)
+        self.rul_clear = self.warn_horizon * (1.0 + self.hysteresis)
+        self.latches = {name: Latch(dwell) for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
+
+    def reset(self) -> None:
+        """Back to OK with nothing pending (a replay restarted)."""
+        for latch in self.latches.values():
+            latch.reset()
+
+    def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
+               filter_check: tuple[int, str] = (OK, '')) -> tuple[int, str]:
+        """Return (level, message) at stamp ``t`` [s].
+
+        Inputs: u [-], eta_D [-], the RUL p5 [s] and the :meth:`DivergenceDetector.update`
+        result.
+        """
+        filter_level, filter_reason = filter_check
+        if not math.isfinite(u):
+            filter_level, filter_reason = ERROR, 'filter lost the signal: u is not finite'
+        latch = self.latches
+        lost = latch['lost'].update(t, filter_level == ERROR, filter_level == ERROR)
+        mismatch = latch['mismatch'].update(t, filter_level >= WARN, filter_level >= WARN)
+        eol = latch['eol'].update(t, u >= self.u_eol, u >= self.u_clear)
+        eta = latch['eta'].update(t, eta_opposing < self.eta_warn, eta_opposing < self.eta_clear)
+        rul = latch['rul'].update(t, rul_p5 < self.warn_horizon, rul_p5 < self.rul_clear)
+        errors = []
+        if eol:
+            what = 'self-locking' if self.eol_reason == 'self_locking' \
+                else f'end of life ({self.eol_reason})'
+            errors.append(f'{what}: u {u:.4g} >= u_eol {self.u_eol:.4g}' if u >= self.u_eol
+                          else f'{what}: u {u:.4g} reached u_eol {self.u_eol:.4g} '
+                               f'(clears below {self.u_clear:.4g})')
+        if lost:
+            errors.append(filter_reason if filter_level == ERROR
+                          else 'filter lost the signal (clearing)')
+        if errors:
+            return ERROR, '; '.join(errors)
+        warnings = []
+        if rul:
+            warnings.append(f'RUL p5 {rul_p5:.4g} s < {self.warn_horizon:.4g} s'
+                            if rul_p5 < self.warn_horizon
+                            else f'RUL p5 {rul_p5:.4g} s (WARN below {self.warn_horizon:.4g} s, '
+                                 f'clears above {self.rul_clear:.4g} s)')
+        if eta:
+            warnings.append(f'eta_D {eta_opposing:.4g} < {self.eta_warn:.4g}'
+                            if eta_opposing < self.eta_warn
+                            else f'eta_D {eta_opposing:.4g} (WARN below {self.eta_warn:.4g}, '
+                                 f'clears above {self.eta_clear:.4g})')
+        if mismatch:
+            warnings.append(filter_reason if filter_level >= WARN
+                            else 'model mismatch (clearing)')
+        if warnings:
+            return WARN, '; '.join(warnings)
+        return OK, 'ok'
+
+
+__all__ = ['DivergenceDetector', 'Latch', 'LevelTracker', 'chi_square_mean_bound']

@@ -1,0 +1,156 @@
+"""The vectorised MCAP writer of ``gear-phm analyze`` against mcap's own Writer.
+
+The same calls give byte-identical files; through Rosbag2McapWriter both give the same
+messages to mcap's reader, rosbags and the package's reader; analyze's columns equal the
+records the nodes publish.
+"""
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import get_typestore, Stores
+
+from gear_phm.bagio import BagReader, Rosbag2McapWriter
+from gear_phm.bagio.batch_writer import BatchWriter, vector3_stamped_rows
+from gear_phm.bagio.writer import vector3_stamped_cdr
+from gear_phm.estimation import FrictionEstimate
+from gear_phm.interfaces import (DiagnosticsOut, estimate_outputs, health_outputs, StatusOut,
+                                 Vector3Out)
+from gear_phm.offline.engine import output_columns
+from gear_phm.prognostics.assessor import HealthState
+from gear_phm.prognostics.rul import RulEstimate, Trend
+
+
+@pytest.mark.parametrize('frame_id', ['', 'a', 'flap_drive_left_outboard'])
+def test_rows_equal_the_scalar_packer(frame_id: str) -> None:
+    rng = np.random.default_rng(3)
+    stamps = np.sort(rng.integers(-10**12, 10**13, 40))
+    xyz = rng.normal(size=(40, 3))
+    xyz[0] = (math.inf, -math.inf, math.nan)
+    rows = vector3_stamped_rows(stamps, xyz, frame_id)
+    for i in range(40):
+        expected = vector3_stamped_cdr(Vector3Out('t', int(stamps[i]), *xyz[i], frame_id))
+        assert rows[i].tobytes() == expected
+
+
+def test_rows_refuse_a_stamp_beyond_int32_seconds() -> None:
+    with pytest.raises(ValueError, match='int32'):
+        vector3_stamped_rows(np.array([2**31 * 10**9]), np.zeros((1, 3)))
+
+
+def _calls(writer, rng: np.random.Generator) -> None:
+    """Make the same sequence of calls on either writer.
+
+    Schemas and channels between messages, blocks across chunk boundaries, single messages of
+    other sizes.
+    """
+    writer.start(profile='ros2', library='test')
+    schema = writer.register_schema('geometry_msgs/msg/Vector3Stamped', 'ros2msg', b'x y z')
+    a = writer.register_channel('/a', 'cdr', schema, {'k': 'v'})
+    b = writer.register_channel('/b', 'cdr', schema)
+    t = 10**9
+    for block in range(30):
+        n = int(rng.integers(1, 60))
+        times = t + np.sort(rng.integers(0, 10**8, n))
+        channels = rng.choice([a, b], n)
+        payloads = rng.integers(0, 256, (n, 24), dtype=np.uint8)
+        sequences = np.arange(n) + 7 * block
+        if isinstance(writer, BatchWriter):
+            writer.add_block(channels, times, payloads, times + 5, sequences)
+        else:
+            for i in range(n):
+                writer.add_message(int(channels[i]), int(times[i]), payloads[i].tobytes(),
+                                   int(times[i]) + 5, int(sequences[i]))
+        writer.add_message(a, int(times[-1]), b'diag' * int(rng.integers(1, 9)), int(times[-1]),
+                           block)
+        if block == 10:
+            c = writer.register_channel('/c', 'cdr', schema)
+            writer.add_message(c, int(times[-1]), b'late channel', int(times[-1]), 0)
+        if block == 20:
+            writer.flush()
+        t += 10**8
+    writer.finish()
+
+
+@pytest.mark.parametrize('compression', [CompressionType.ZSTD, CompressionType.LZ4,
+                                         CompressionType.NONE])
+def test_byte_identical_to_mcaps_writer(compression: CompressionType) -> None:
+    ours, theirs = io.BytesIO(), io.BytesIO()
+    _calls(BatchWriter(ours, chunk_size=3000, compression=compression),
+           np.random.default_rng(11))
+    _calls(Writer(theirs, chunk_size=3000, compression=compression, enable_data_crcs=True),
+           np.random.default_rng(11))
+    assert len(ours.getvalue()) > 10_000
+    assert ours.getvalue() == theirs.getvalue()
+
+
+def test_negative_log_time_is_refused() -> None:
+    writer = BatchWriter(io.BytesIO())
+    writer.start()
+    with pytest.raises(ValueError, match='unsigned'):
+        writer.add_block(np.array([1]), np.array([-1]), np.zeros((1, 4), dtype=np.uint8))
+
+
+def _bag(directory: Path, batch: bool) -> Path:
+    rng = np.random.default_rng(5)
+    stamps = 10**12 + np.cumsum(rng.integers(1, 10**7, 3000))
+    with Rosbag2McapWriter(directory, batch=batch, chunk_size=20_000,
+                           flush_period_s=None) as writer:
+        for part in np.array_split(np.arange(3000), 7):
+            s, xyz = stamps[part], rng.normal(size=(part.size, 3))
+            writer.write_vector3_columns([('gear_phm/friction', s, xyz),
+                                          ('gear_phm/counts', s, xyz * 2),
+                                          ('gear_phm/health/rul', s[::4], xyz[::4])])
+            writer.write_output(DiagnosticsOut(int(s[-1]), (StatusOut(
+                0, 'gear_phm: flap', 'ok', 'rig', (('u', '0.1'),)),)))
+    return directory
+
+
+def test_rosbag2_writer_batch_and_library_give_the_same_messages(tmp_path: Path) -> None:
+    bags = {batch: _bag(tmp_path / f'bag_{batch}', batch) for batch in (False, True)}
+    seen = {}
+    for batch, bag in bags.items():
+        with open(next(bag.glob('*.mcap')), 'rb') as stream:
+            reader = make_reader(stream)
+            messages = [(c.topic, m.log_time, m.publish_time, m.sequence, m.data)
+                        for _, c, m in reader.iter_messages()]
+            statistics = reader.get_summary().statistics
+        with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+            rosbags = [(c.topic, t, raw) for c, t, raw in reader.messages()]
+        with BagReader(bag) as reader:
+            ours = sum(len(batch_) for batch_ in reader.raw_batches(
+                ['/gear_phm/friction', '/gear_phm/counts', '/gear_phm/health/rul',
+                 '/diagnostics'], batch_size=500))
+        seen[batch] = (messages, statistics, rosbags, ours)
+        assert len(messages) == 3000 * 2 + sum(
+            len(p[::4]) for p in np.array_split(np.arange(3000), 7)) + 7
+        assert ours == len(messages) == len(rosbags)
+        times = [m[1] for m in messages]
+        assert times == sorted(times)
+    assert seen[True][0] == seen[False][0]
+    assert seen[True][1] == seen[False][1]
+    assert seen[True][2] == seen[False][2]
+
+
+def test_analyze_columns_are_the_published_records() -> None:
+    estimates = [FrictionEstimate(10**9 * (k + 1), 0.1 + k, 1e-5, (1e-4, 2e-7, 3e-9), 0.9 - k,
+                                  0.8, 0.85, 0.01 * k, 0.02, 0.5, 100 + k, k, 1 + k % 2)
+                 for k in range(4)]
+    states = [HealthState(e.stamp_ns, k % 3, 'x', e.u, 0.01, e.eta_opposing, e.eta_aiding,
+                          RulEstimate(100.0 - k, 50.0, math.inf, 'linear'), e.power_flow, 1, 0,
+                          0.6, Trend())
+              for k, e in enumerate(estimates) if k != 2]
+    columns = output_columns(estimates, states)
+    got = [Vector3Out(topic, int(s), *xyz) for topic, stamps, xyzs in columns
+           for s, xyz in zip(stamps, xyzs.tolist())]
+    expected = [r for e in estimates for r in estimate_outputs(e)] + \
+        [r for s in states for r in health_outputs(s)]
+    key = (lambda r: (r.topic, r.stamp_ns))
+    assert sorted(got, key=key) == sorted(expected, key=key)

@@ -1,0 +1,206 @@
+"""Health levels: rules, hysteresis and dwell, filter checks, the derived eta_warn."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from gear_phm.estimation import FrictionEstimate
+from gear_phm.models.lever import efficiencies
+from gear_phm.prognostics import (derived_eta_warn, DivergenceDetector, HealthAssessor,
+                                  HealthConfig, LevelTracker, PARAMETERS)
+from gear_phm.status import ERROR, OK, WARN
+
+
+def transitions(levels: list[int]) -> list[tuple[int, int]]:
+    """(from, to) of each change of level."""
+    return [(a, b) for a, b in zip(levels, levels[1:]) if a != b]
+
+
+# --- rules ---------------------------------------------------------------------------------
+@pytest.mark.parametrize(('u', 'eta', 'p5', 'check', 'level', 'text'), [
+    (0.1, 0.9, math.inf, (OK, ''), OK, 'ok'),
+    (0.1, 0.9, 100.0, (OK, ''), WARN, 'RUL p5'),
+    (0.45, 0.55, math.inf, (OK, ''), WARN, 'eta_D 0.55 < 0.6'),
+    (0.6, 0.5, 0.0, (OK, ''), ERROR, 'end of life (eta_opposing_min): u 0.6 >= u_eol 0.6'),
+    (1.0, -0.2, 0.0, (OK, ''), ERROR, 'self-locking'),
+    (0.1, 0.9, math.inf, (WARN, 'model mismatch: x'), WARN, 'model mismatch: x'),
+    (0.1, 0.9, math.inf, (ERROR, 'filter lost the signal: x'), ERROR, 'lost the signal'),
+    (math.nan, 0.9, math.inf, (OK, ''), ERROR, 'u is not finite'),
+])
+def test_level_rules_without_dwell(u: float, eta: float, p5: float, check: tuple[int, str],
+                                   level: int, text: str) -> None:
+    u_eol, reason = (1.0, 'self_locking') if u >= 1.0 else (0.6, 'eta_opposing_min')
+    tracker = LevelTracker(u_eol, reason, 0.6, 3600.0, hysteresis=0.0, dwell=0.0)
+    got, message = tracker.update(0.0, u, eta, p5, check)
+    assert got == level and text in message, message
+
+
+def test_dwell_and_hysteresis_thresholds_exact() -> None:
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 100.0, hysteresis=0.05, dwell=5.0)
+    assert tracker.eta_clear == pytest.approx(0.81)
+    assert tracker.u_clear == pytest.approx(0.2375)
+    assert tracker.rul_clear == pytest.approx(105.0)
+    # below eta_warn from t = 10 s: WARN only once it has held 5 s (at t = 15 s)
+    levels = [tracker.update(t, 0.1, 0.79 if t >= 10.0 else 0.9, math.inf)[0]
+              for t in np.arange(0.0, 20.0, 1.0)]
+    assert levels.index(WARN) == 15
+    # back above eta_warn but inside the hysteresis band (0.8 .. 0.81): stays WARN
+    level, message = tracker.update(30.0, 0.1, 0.805, math.inf)
+    assert level == WARN and 'clears above 0.81' in message
+    assert tracker.update(100.0, 0.1, 0.805, math.inf)[0] == WARN
+    # above the band: OK after the dwell
+    assert tracker.update(101.0, 0.1, 0.82, math.inf)[0] == WARN
+    assert tracker.update(105.9, 0.1, 0.82, math.inf)[0] == WARN
+    assert tracker.update(106.0, 0.1, 0.82, math.inf) == (OK, 'ok')
+    # a RUL p5 between 100 s and 105 s keeps a RUL WARN, above 105 s clears it
+    tracker.reset()
+    assert tracker.update(0.0, 0.1, 0.9, 50.0)[0] == OK
+    assert tracker.update(5.0, 0.1, 0.9, 50.0)[0] == WARN
+    assert tracker.update(50.0, 0.1, 0.9, 104.0)[0] == WARN
+    assert tracker.update(60.0, 0.1, 0.9, 104.0)[0] == WARN
+    assert tracker.update(61.0, 0.1, 0.9, 106.0)[0] == WARN
+    assert tracker.update(66.0, 0.1, 0.9, 106.0)[0] == OK
+
+
+def test_noisy_crossing_gives_exactly_one_transition() -> None:
+    """eta_D drifts through eta_warn with noise 6x the hysteresis margin's sixth: one OK->WARN.
+
+    The same stream without hysteresis and dwell flaps tens of times (the issue's complaint).
+    """
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 1000.0, 0.1)                            # 10 Hz for 1000 s
+    eta = 0.83 - 6e-5 * t + rng.normal(0.0, 0.003, t.size)       # crosses 0.8 at t = 500 s
+    steady = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0)   # defaults: 0.05, 5 s
+    raw = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, hysteresis=0.0, dwell=0.0)
+    levels = [steady.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
+    flapping = [raw.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
+    assert transitions(levels) == [(OK, WARN)]
+    assert len(transitions(flapping)) > 20
+    committed = t[levels.index(WARN)]
+    assert 500.0 < committed < 600.0                           # a few sigma past the mean
+
+
+def _lever_estimate(t: float, u: float, u_sigma: float, nis: float, step: int) -> FrictionEstimate:
+    eta_d, eta_i = efficiencies(u, 3.0)
+    innovation = math.sqrt(nis) * (1.0 if step % 2 else -1.0) * 1e-3
+    return FrictionEstimate(int(round(t * 1e9)), u, 1e-5, (u_sigma ** 2, 0.0, 1e-14),
+                            eta_opposing=eta_d, eta_aiding=eta_i, innovation=innovation,
+                            innovation_variance=1e-6, nis=nis)
+
+
+def test_noisy_wear_through_warn_and_end_of_life_one_transition_each() -> None:
+    """Noisy u estimates of linear wear (sigma 0.5 % of u_eol): OK -> WARN -> ERROR, once each."""
+    config = HealthConfig(eta_opposing_min=0.7333, warn_horizon=0.0, mc_samples=200)
+    assessor = HealthAssessor(config)
+    rng = np.random.default_rng(3)
+    levels = []
+    for step, t in enumerate(np.arange(0.0, 400.0, 0.1)):
+        u = 0.05 + 0.2 * t / 300.0 + rng.normal(0.0, 0.00125)    # true u_eol 0.25 at 300 s
+        state = assessor.on_estimate(_lever_estimate(t, u, 0.00125, 1.0, step))
+        levels.append(state.level)
+    assert transitions(levels) == [(OK, WARN), (WARN, ERROR)]
+    assert assessor.latest is not None and 'end of life' in assessor.latest.message
+
+
+# --- filter checks -------------------------------------------------------------------------
+def test_divergence_detector_mismatch_warn_and_lost_error() -> None:
+    detector = DivergenceDetector(window=10, probability=0.999, max_u_sigma=0.5, lost_nis=100.0)
+    exact = chi2.ppf(0.999, 10) / 10                       # the bound the detector approximates
+    rng = np.random.default_rng(1)
+    fed: list[float] = []
+    for _ in range(200):                                   # consistent filter: NIS ~ chi2(1)
+        y = rng.standard_normal()
+        fed.append(y * y)
+        assert detector.update(y, 1.0, y * y, 0.01) == (OK, '')
+    flagged = []
+    for i in range(9):                                     # inflated innovations
+        fed.append(25.0)
+        mean = sum(fed[-10:]) / 10
+        level, reason = detector.update(10.0 + i, 1.0, 25.0, 0.01)
+        assert detector.nis_mean == pytest.approx(mean)
+        if abs(mean - exact) > 0.03 * exact:               # away from the approximation error
+            assert (level == WARN) == (mean > exact), (i, mean, reason)
+        assert level != ERROR
+        flagged.append(level == WARN)
+    assert all(flagged[1:])                                # two of 25 in 10: mean > 5 > 2.96
+    level, reason = detector.update(99.0, 1.0, 25.0, 0.01)
+    assert level == WARN and reason == 'model mismatch: mean NIS 25 over 10 updates > 2.98'
+    for i in range(10):                                    # innovations 20x the prediction
+        level, reason = detector.update(200.0 + i, 1.0, 400.0, 0.01)
+    assert level == ERROR and reason == 'filter lost the signal: median NIS 400 over 10 ' \
+                                        'updates > 100'
+    # a step the filter follows (a sudden fault): three huge innovations, then consistent
+    # ones; the mean is far above the bound, the median is not: mismatch, not lost
+    step = DivergenceDetector(window=20)
+    nis_values = [0.5, 1.2, 0.1] * 5 + [1660.0, 1920.0, 528.0] + [0.03, 1.1]
+    for i, nis in enumerate(nis_values):
+        level, reason = step.update(float(i), 1.0, nis, 0.01)
+    assert step.nis_mean > 200.0 and step.nis_median < 1.0
+    assert level == WARN and reason.startswith('model mismatch: mean NIS 206')
+    fresh = DivergenceDetector(window=3)
+    for _ in range(5):                                     # republished, counted once
+        fresh.update(3.0, 1.0, 9.0, 0.01)
+    assert fresh.nis_mean == 9.0 and len(fresh._nis) == 1
+    level, reason = fresh.update(1.0, 1.0, 1.0, 2.0)
+    assert level == ERROR and 'sigma_u 2 > 1' in reason
+
+
+@pytest.mark.parametrize(('nis', 'worst'), [(3.6, WARN), (400.0, ERROR)])
+def test_accelerating_wear_tracked_with_high_nis_is_warn_not_error(nis: float,
+                                                                   worst: int) -> None:
+    """Exponential wear, estimate tracking it, innovations 1.9x larger than the filter says.
+
+    The issue's false ERROR ('mean NIS 3.64') is a model mismatch: WARN with its reason, never
+    ERROR before u_eol. Control: with NIS 400 the filter has lost the signal and it is ERROR.
+    """
+    config = HealthConfig(eta_opposing_min=0.7333, warn_horizon=0.0, mc_samples=200)
+    assessor = HealthAssessor(config)
+    rng = np.random.default_rng(11)
+    k = math.log(0.25 / 0.05) / 3000.0                      # u = 0.05 e^(k t): u_eol at 3000 s
+    before_eol, after_eol, messages = [], [], set()
+    for step, t in enumerate(np.arange(0.0, 3200.0, 1.0)):
+        true_u = 0.05 * math.exp(k * t)
+        u = true_u + rng.normal(0.0, 0.002 * true_u)       # tracks: error 0.2 % of u
+        state = assessor.on_estimate(_lever_estimate(t, u, 0.002 * true_u,
+                                                     nis * rng.chisquare(1), step))
+        (before_eol if true_u < 0.25 * 0.995 else after_eol).append(state.level)
+        messages.add(state.message.split(':')[0])
+    assert max(before_eol) == worst
+    if worst == WARN:
+        assert 'model mismatch' in messages
+        assert after_eol[-1] == ERROR and transitions(before_eol + after_eol)[-1] == (WARN, ERROR)
+        assert assessor.latest is not None and 'end of life' in assessor.latest.message
+    else:
+        assert 'filter lost the signal' in messages
+
+
+# --- the derived eta_warn ------------------------------------------------------------------
+def test_eta_warn_derives_from_eta_opposing_min() -> None:
+    config = HealthConfig(eta_opposing_min=0.7333)
+    assert math.isnan(config.eta_warn)
+    assert config.effective_eta_warn == pytest.approx(0.8, abs=1e-4)
+    assert derived_eta_warn(0.5) == 0.625
+    assert HealthConfig().effective_eta_warn == 0.625
+    # any eta_opposing_min works alone, also one above the old fixed default 0.6
+    assert HealthConfig(eta_opposing_min=0.9).effective_eta_warn == pytest.approx(0.925)
+    assert config.replace(eta_opposing_min=0.95).effective_eta_warn == pytest.approx(0.9625)
+    # an explicit eta_warn is kept and still checked, with a reason naming the default
+    assert HealthConfig(eta_opposing_min=0.7333, eta_warn=0.85).effective_eta_warn == 0.85
+    with pytest.raises(ValueError, match=r'eta_warn must be > eta_opposing_min \(0.7333\).*'
+                                         r'derived default 0.8'):
+        HealthConfig(eta_opposing_min=0.7333, eta_warn=0.7)
+    assert HealthAssessor(config).levels.eta_warn == pytest.approx(0.8, abs=1e-4)
+
+
+def test_nan_accepted_only_where_it_means_something() -> None:
+    specs = {spec.name: spec for spec in PARAMETERS}
+    assert specs['eta_warn'].nan_means.startswith('derived')
+    assert math.isnan(specs['eta_warn'].parse('nan'))          # --eta-warn nan, YAML .nan
+    assert specs['eta_warn'].check(0.85) == 0.85
+    with pytest.raises(ValueError, match=r'eta_warn must be in \[-1, 1\]'):
+        specs['eta_warn'].check(1.5)                           # the range still holds
+    with pytest.raises(ValueError, match='eta_opposing_min must be in'):
+        specs['eta_opposing_min'].check(math.nan)              # no meaning: refused
