@@ -65,8 +65,7 @@ def test_three_processes_levels_recording_and_stale(tmp_path: Path,
     diagnostics = _spawn('diagnostics', f'record_path:={record}', 'record_inputs:=true',
                          'ratio:=3.0', 'eta_opposing_min:=0.7333', 'eta_warn:=0.8',
                          'warn_horizon:=0.0', f'rate:={DIAGNOSTICS_RATE}',
-                         f'stale_timeout:={STALE_TIMEOUT}',
-                         'trend_window:=60.0', 'transmission_name:=wearing')
+                         f'stale_timeout:={STALE_TIMEOUT}', 'transmission_name:=wearing')
     estimator = _spawn('estimator', 'ratio:=3.0', 'process_noise:=1e-10')
     procs = [diagnostics, estimator]
     rclpy.init()

@@ -27,7 +27,6 @@ DOCSTRING_TODO = [
     'gear_phm/nodes/estimator.py',
     'gear_phm/nodes/transport.py',
     'gear_phm/prognostics/assessor.py',
-    'gear_phm/prognostics/rul.py',
     'test/test_bag_paths.py',
     'test/test_bag_variants.py',
     'test/test_bagio.py',

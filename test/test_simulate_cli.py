@@ -142,7 +142,7 @@ def test_truth_every_and_joint_names(tmp_path: Path) -> None:
     (['--rate', '-1'], '--rate must be > 0'),
     (['--duration', '0'], '--duration must be > 0'),
     (['--ratio', '0'], 'ratio must be >= 1e-06'),
-    (['--friction-final', '0.3'], '--friction-final needs --wear linear or exponential'),
+    (['--friction-final', '0.3'], '--friction-final needs --wear linear, exponential or power'),
     (['--wear', 'linear', '--wear-rate', '1.0', '--duration', '10'], 'gearbox jams'),
     (['--plant', 'worm'], 'plant must be one of lever, spur'),
     (['--noise-effort-load', '-0.1'], 'noise_effort_load must be >= 0'),
@@ -362,3 +362,17 @@ def test_fault_and_healthy_bags() -> None:
     np.testing.assert_allclose(friction[:, 0], 0.05)
     ratios = steady_energy_ratios(batch, efficiency)
     assert max(abs(m - e) for _, m, e in ratios) < 0.01
+
+
+def test_power_law_wear_from_the_command_line(tmp_path: Path) -> None:
+    """--wear power --wear-exponent 3: u = 0.05 + rate t^3, slow at first, then faster."""
+    from gear_phm.cli.evaluate import read_vector_topic
+    from gear_phm.interfaces import TRUTH_FRICTION
+    out = tmp_path / 'power'
+    assert simulate_cli(out, '--duration', '20', '--rate', '20', '--wear', 'power',
+                        '--wear-exponent', '3', '--friction-initial', '0.05',
+                        '--friction-final', '0.25') == 0
+    times, values = read_vector_topic(out, TRUTH_FRICTION)
+    t = times - times[0]
+    np.testing.assert_allclose(values[:, 0], 0.05 + 0.2 * (t / 20.0) ** 3, rtol=1e-9)
+    assert values[np.searchsorted(t, 10.0), 0] == pytest.approx(0.05 + 0.2 / 8.0)

@@ -179,20 +179,28 @@ def test_seeded_and_chunk_invariant() -> None:
     ('constant', [0.1, 0.1, 0.1]),
     ('linear', [0.1, 0.1 + 0.02 * 5, 0.1 + 0.02 * 10]),
     ('exponential', [0.1, 0.1 * np.exp(0.1), 0.1 * np.exp(0.2)]),
+    ('power', [0.1, 0.1 + 0.02 * 5 ** 3, 0.1 + 0.02 * 10 ** 3]),
     ('step', [0.1, 0.1 + 0.3, 0.1 + 0.3]),
 ])
 def test_wear_trajectories(kind: str, expected: list[float]) -> None:
-    wear = Wear(kind, 0.1, 0.02, t_fault=5.0, step=0.3)
+    wear = Wear(kind, 0.1, 0.02, t_fault=5.0, step=0.3, exponent=3.0)
     np.testing.assert_allclose(wear.value([0.0, 5.0, 10.0]), expected)
     if kind == 'step':
         assert wear.value(4.999) == pytest.approx(0.1)
 
 
 def test_wear_reaching_and_time_to_reach() -> None:
-    for kind in ('linear', 'exponential'):
-        wear = Wear.reaching(kind, 0.05, 0.3, 200.0)
+    for kind in ('linear', 'exponential', 'power'):
+        wear = Wear.reaching(kind, 0.05, 0.3, 200.0, exponent=3.0)
         assert wear.value(200.0) == pytest.approx(0.3)
         assert wear.time_to_reach(0.3) == pytest.approx(200.0)
+        assert wear.time_to_reach(0.1) == pytest.approx(float(
+            {'linear': 40.0, 'exponential': 200.0 * np.log(2.0) / np.log(6.0),
+             'power': 200.0 * 0.2 ** (1.0 / 3.0)}[kind]))
+    assert Wear.reaching('power', 0.05, 0.3, 200.0, exponent=3.0).value(100.0) \
+        == pytest.approx(0.05 + 0.25 / 8.0)                   # slow at first, then faster
+    with pytest.raises(ValueError, match='exponent must be > 0'):
+        Wear('power', 0.1, 0.02, exponent=0.0)
     assert Wear('constant', 0.1).time_to_reach(0.2) == np.inf
     assert Wear('step', 0.1, t_fault=3.0, step=0.2).time_to_reach(0.25) == 3.0
 

@@ -20,8 +20,8 @@ from gear_phm.bagio import BagError, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli.main import CliError
 from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, ns_to_sec_nanosec,
                                  TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
-from gear_phm.simulation import (config_from_parameters, PARAMETERS, SimulationConfig,
-                                 SimulationResult, Simulator, Wear)
+from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
+                                 SimulationConfig, SimulationResult, Simulator, Wear)
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
 
@@ -39,8 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--motor-joint', default='motor', help='motor joint name (motor)')
     parser.add_argument('--load-joint', default='load', help='load joint name (load)')
     parser.add_argument('--friction-final', type=float, default=None,
-                        help='linear/exponential wear: friction value reached at the end of '
-                             'the run (sets --wear-rate)')
+                        help='linear/exponential/power wear: friction value reached at the '
+                             'end of the run (sets --wear-rate)')
     parser.add_argument('--truth-every', type=int, default=1,
                         help='write the truth topics every N-th sample (1)')
     parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
@@ -66,12 +66,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _config(args: argparse.Namespace) -> SimulationConfig:
     values = {spec.name: getattr(args, spec.name) for spec in PARAMETERS}
     if args.friction_final is not None:
-        if args.wear not in ('linear', 'exponential'):
-            raise CliError(f'--friction-final needs --wear linear or exponential, '
+        if args.wear not in REACHING_KINDS:
+            raise CliError(f'--friction-final needs --wear linear, exponential or power, '
                            f'got --wear {args.wear}')
         try:
             wear = Wear.reaching(args.wear, args.friction_initial, args.friction_final,
-                                 args.duration)
+                                 args.duration, args.wear_exponent)
         except ValueError as exc:
             raise CliError(str(exc)) from None
         values['wear_rate'] = wear.rate
@@ -183,7 +183,8 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
                 operating_offset=k * args.duration)
         truth = {'ratio': config.plant.ratio, 'plant': config.plant.efficiency_model,
                  'wear': {'kind': wear.kind, 'initial': initial, 'rate': rate,
-                          't_fault': wear.t_fault, 'step': wear.step},
+                          't_fault': wear.t_fault, 'step': wear.step,
+                          'exponent': wear.exponent},
                  'recording_duration_s': args.duration, 'gap_s': args.gap,
                  'recording_start_s': starts, 'rate_hz': args.rate, 'seed': config.seed,
                  'note': 'wear advances with operating time only: the friction value of the '

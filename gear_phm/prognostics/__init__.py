@@ -9,11 +9,11 @@ from gear_phm.prognostics.config import (cross_field_problem, derived_eta_warn, 
                                          PARAMETERS)
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend, TrendDetector
+from gear_phm.prognostics.rul import fit_trend, RulEstimate, RulPredictor, Trend, WearHistory
 
 __all__ = [
     'PARAMETERS', 'DivergenceDetector', 'HealthAssessor', 'HealthConfig', 'HealthState',
-    'LevelTracker', 'RulEstimate', 'RulPredictor', 'Trend', 'TrendDetector',
+    'LevelTracker', 'RulEstimate', 'RulPredictor', 'Trend', 'WearHistory',
     'cross_field_problem', 'derived_eta_warn', 'end_of_life_thresholds', 'end_of_life_u',
-    'waiting_state',
+    'fit_trend', 'waiting_state',
 ]

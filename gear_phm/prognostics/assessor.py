@@ -16,7 +16,7 @@ from gear_phm.models.lever import efficiencies
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend, TrendDetector
+from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
@@ -70,9 +70,7 @@ class HealthAssessor:
         self.u_eol, self.eol_reason = end_of_life_u(
             config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
         self.predictor = RulPredictor(self.u_eol, config.detect_z, int(config.mc_samples),
-                                      int(config.seed))
-        self.trend_detector = TrendDetector(config.trend_window, config.accel_z,
-                                            config.min_growth)
+                                      int(config.seed), config.trend)
         self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
                                              config.max_u_sigma, config.nis_lost)
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
@@ -80,15 +78,6 @@ class HealthAssessor:
                                    config.level_dwell)
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
-
-    def _trend(self) -> Trend:
-        if self.config.trend == 'linear':
-            return Trend()
-        fitted = self.trend_detector.fit()
-        if self.config.trend == 'exponential' and fitted.model != 'exponential':
-            return Trend('exponential', max(fitted.k, 0.0), fitted.k_sigma,
-                         fitted.curvature_z, fitted.growth)
-        return fitted
 
     def on_estimate(self, estimate: FrictionEstimate) -> HealthState | None:
         """Process one update; None (counted in ``rejected``) if it is unusable."""
@@ -99,7 +88,7 @@ class HealthAssessor:
                                                                      0) + 1
             return None
         if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
-            self.trend_detector.reset()                    # replay restarted
+            self.predictor.reset()                         # replay restarted
             self.divergence.reset()
             self.levels.reset()
         u_sigma = math.sqrt(max(p_uu, 0.0))
@@ -107,13 +96,12 @@ class HealthAssessor:
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
-        self.trend_detector.add(estimate.t, estimate.u, p_uu)
+        self.predictor.add(estimate.t, estimate.u, p_uu)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
                                               u_sigma)
-        trend = self._trend()
-        rul = self.predictor.predict_from(estimate.u, estimate.rate, *estimate.covariance,
-                                          trend)
+        rul = self.predictor.predict(estimate.t, estimate.u)
+        trend = self.predictor.trend
         level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
                                             rul.p5, filter_check)
         if level == 0 and rul.model != 'none':

@@ -11,7 +11,7 @@ import math
 
 from gear_phm.parameters import check_values, defaults, ParamSpec
 
-TRENDS = ('auto', 'linear', 'exponential')
+TRENDS = ('auto', 'linear', 'exponential', 'power')
 #: The derived eta_warn lies this fraction of the way from eta_opposing_min up to 1 [-].
 ETA_WARN_MARGIN = 0.25
 
@@ -38,16 +38,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
               1e12),
-    ParamSpec('detect_z', 2.0, 'degradation is seen when du/dt > detect_z sigma(du/dt); '
-              'otherwise RUL = inf', '-', 0.0, 100.0),
-    ParamSpec('trend', 'auto', 'RUL trend model', choices=TRENDS),
-    ParamSpec('trend_window', 600.0, 'length of the u history used to detect acceleration',
-              's', 1e-3, 1e12),
-    ParamSpec('accel_z', 3.0, 'exponential trend when the fitted curvature of u(t) exceeds '
-              'accel_z std errors', '-', 0.0, 1e3),
-    ParamSpec('min_growth', 0.25,
-              'and when du/dt grows by at least this fraction over the trend window', '-', 0.0,
-              1e6),
+    ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
+              '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
+    ParamSpec('trend', 'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)',
+              choices=TRENDS),
     ParamSpec('mc_samples', 2000, 'Monte Carlo samples of the posterior for RUL bounds', '-',
               100, 1_000_000),
     ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
@@ -84,9 +78,6 @@ class HealthConfig:
     warn_horizon: float = float(_D['warn_horizon'])
     detect_z: float = float(_D['detect_z'])
     trend: str = str(_D['trend'])
-    trend_window: float = float(_D['trend_window'])
-    accel_z: float = float(_D['accel_z'])
-    min_growth: float = float(_D['min_growth'])
     mc_samples: int = int(_D['mc_samples'])
     seed: int = int(_D['seed'])
     nis_window: int = int(_D['nis_window'])

@@ -1,64 +1,76 @@
-"""Remaining useful life from the friction filter's posterior on x = [u, du/dt].
+"""Remaining useful life from the whole history of the friction filter's posteriors.
 
-Trend models (time to go tau [s] from the current posterior u, r = du/dt to u_eol):
+History (:class:`WearHistory`): every posterior (t, u, P_uu) goes into one of at most
+``max_points`` bins of equal width in time. When a new point falls past the last bin, the bins
+are merged pairwise and the width doubles, so memory is bounded for any length of input and the
+bins always cover the whole history, evenly. A bin is summarised by its precision-weighted
+mean time and u, and its mean precision 1/P_uu (not the sum: neighbouring Kalman posteriors
+are strongly correlated, so averaging them does not make u more certain).
 
-- linear:       u(t + tau) = u + r tau                    ->  tau = (u_eol - u) / r
-- exponential:  du/dt grows like r exp(k tau), i.e. u(t + tau) = u + (r / k)(exp(k tau) - 1)
-                                                          ->  tau = ln(1 + k (u_eol - u) / r) / k
+Wear laws (:func:`fit_trend`), all written with the level u_end and the slope r = du/dt at the
+newest bin time t_end (s = t - t_end <= 0, tau = t - t_start >= 0, T = t_end - t_start):
 
-The exponential form is ``u = c + a exp(k t)`` for any offset c, so k = u'' / u' does not need
-to know the offset (the spur plant's u has one from the bearings).
+- linear:       u = u_end + r s
+- exponential:  u = u_end + r (exp(k s) - 1) / k                 (u = c + a exp(k t), k > 0)
+- power:        u = u_end + r T / p ((tau / T)^p - 1)            (u = c + a (t - t_start)^p)
 
-Choice (``trend='auto'``): :class:`TrendDetector` keeps a history of (t, u, P_uu) posteriors
-over the last ``trend_window`` seconds and fits, by least squares weighted with 1/P_uu
-(s = t - t_now), a line u = a + b s and an exponential u = c + a exp(k s) (k on a log grid,
-c and a in closed form). The trend is exponential when both
+The shape (k or p) is found on a log grid (refined by a parabola through the three best grid
+points) with u_end and r in closed form (weighted least squares with the bins' precisions).
+The residual scale is the reduced chi-square, at least 1 (the residuals of a smooth fit
+cannot show the filter's slowly wandering error, P_uu does). The residuals are autocorrelated,
+so the effective number of points n_eff comes from their autocorrelation (Geyer's initial
+positive sequence) and the parameter covariance is inflated by n / n_eff. The law is chosen by
+AICc with that n_eff (``trend='auto'``), or fixed by ``trend``.
 
-1. the exponential lowers the weighted residual sum of squares by more than accel_z^2
-   residual variances, and
-2. the rate grows materially over the span: exp(k span) - 1 > min_growth,
+RUL (:class:`RulPredictor`): the parameters (u_end, r, shape) are drawn from their Gaussian
+(fixed standard-normal draws from ``seed``: common random numbers, no jitter between fits),
+each draw's first passage of u_eol after t_end is solved in closed form (inf where the draw
+never reaches it, e.g. r <= 0), and the 5/50/95 % inverted-CDF quantiles of the crossing time
+are kept. At time t the RUL quantiles are max(t_cross - t, 0), so between refits (at most
+every 1/16 of the history's growth) the RUL costs a subtraction.
 
-and linear otherwise. k's standard error comes from the curvature of the RSS at its minimum.
-
-Rate of the exponential branch: the fitted slope a k at s = 0, not the filter's r. The filter
-models a constant rate, so under accelerating wear its r lags (16 % low at half-life on the
-seed-12 bag of docs/prognostics.md, while u_hat lags by ~2.5 s only), and a lagging r makes
-the RUL too long. The spread of the rate draws stays the filter's P.
-
-Uncertainty: Monte Carlo. (u, r) is drawn from N(x, P) (r centred on the fitted slope in the
-exponential branch) and k from N(k, se_k) (clipped at 0),
-tau is computed per draw (inf where the draw never reaches u_eol, 0 where it already has), and
-the 5 %, 50 % and 95 % quantiles are taken (inverted-CDF, so inf quantiles stay inf). Monte
-Carlo rather than the analytic first-passage formula because the exponential model and draws
-with r <= 0 make tau non-Gaussian and possibly infinite. The standard-normal draws are fixed
-once from ``seed`` (common random numbers), so the same posterior always gives the same RUL
-and successive RULs do not jitter from resampling.
-
-No degradation: when r <= detect_z * sigma_r the rate is not significantly > 0 and every RUL
-quantile is inf. Already worn (u >= u_eol): every quantile is 0.
+Detection: the RUL is finite only when the fitted slope at the newest time is significant,
+r > detect_z sigma_r; otherwise every quantile is inf (model 'none'). Already worn (the
+filter's u >= u_eol): every quantile is 0.
 """
 from __future__ import annotations
 
-from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 import numpy as np
 
-LINEAR, EXPONENTIAL, NONE = 'linear', 'exponential', 'none'
+LINEAR, EXPONENTIAL, POWER, NONE = 'linear', 'exponential', 'power', 'none'
+MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER)
+
+#: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
+K_SPAN_GRID = np.geomspace(0.02, 30.0, 80)
+P_GRID = np.geomspace(0.25, 10.0, 60)
+#: Smallest exponent a power-law draw may take (keeps u increasing in tau).
+P_MIN = 0.05
 
 
 @dataclass(frozen=True)
 class Trend:
-    """Fitted trend: ``model`` (linear/exponential), k [1/s] and its standard error [1/s]."""
+    """Fitted wear law at the newest history time ``t_end`` [s].
 
-    model: str = LINEAR
-    k: float = 0.0
-    k_sigma: float = 0.0
-    curvature_z: float = 0.0
-    growth: float = 0.0
-    #: Slope du/dt [1/s] of the fitted exponential at the newest point (0: not fitted).
+    u_end [-], slope r [1/s] and shape (k [1/s] or p [-], 0 for linear); ``covariance`` of
+    (u_end, r, shape), row-major.
+    """
+
+    model: str = NONE
+    t_end: float = 0.0
+    u_end: float = 0.0
     slope: float = 0.0
+    slope_sigma: float = math.inf
+    shape: float = 0.0
+    #: t_end - t_start [s] (the power law's T)
+    span: float = 0.0
+    covariance: tuple[float, ...] = ()
+    points: int = 0
+    effective_points: float = 0.0
+    #: Akaike weight of this law among those fitted (1 when only one)
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -71,188 +83,378 @@ class RulEstimate:
     model: str
 
 
-class TrendDetector:
-    """History of (t, u, P_uu) and the linear/exponential decision (module docstring)."""
+class WearHistory:
+    """At most ``max_points`` equal-width time bins of (t, u, 1/P_uu) (module docstring)."""
 
-    def __init__(self, window: float, accel_z: float = 3.0, min_growth: float = 0.25,
-                 max_points: int = 200, min_points: int = 10, min_span: float = 0.25
-                 ) -> None:
-        if not window > 0.0:
-            raise ValueError(f'window must be > 0 s, got {window!r}')
-        self.window = float(window)
-        self.accel_z = float(accel_z)
-        self.min_growth = float(min_growth)
-        self.min_points = int(min_points)
-        self.min_span = float(min_span)
-        self._period = self.window / max_points
-        self._history: deque[tuple[float, float, float]] = deque()
-        self._fitted: Trend | None = None          # fit() of the current history
+    def __init__(self, max_points: int = 256, initial_width: float = 0.01) -> None:
+        if max_points < 8 or max_points % 2:
+            raise ValueError(f'max_points must be even and >= 8, got {max_points!r}')
+        if not initial_width > 0.0:
+            raise ValueError(f'initial_width must be > 0 s, got {initial_width!r}')
+        self.max_points = int(max_points)
+        self.initial_width = float(initial_width)
+        self.reset()
 
     def reset(self) -> None:
         """Forget the history (e.g. after the filter re-initialised)."""
-        self._history.clear()
-        self._fitted = None
+        m = self.max_points
+        self.t_start = math.nan
+        self.t_last = math.nan
+        self.width = self.initial_width
+        self._w = [0.0] * m          # sum of 1/P
+        self._wt = [0.0] * m         # sum of (t - t_start)/P
+        self._wu = [0.0] * m         # sum of u/P
+        self._n = [0] * m
+        #: bins opened so far (counts up, also across merges: the refit clock)
+        self.opened = 0
+        self._occupied = 0
 
     def __len__(self) -> int:
-        return len(self._history)
+        return self._occupied
 
     def add(self, t: float, u: float, u_variance: float) -> None:
-        """Record a posterior at time t [s]; at most one point per window/max_points."""
+        """Record a posterior at time t [s]; a time before the last one restarts the history."""
         if not (math.isfinite(t) and math.isfinite(u) and math.isfinite(u_variance)
                 and u_variance > 0.0):
             return
-        if self._history and t < self._history[-1][0]:
-            self.reset()                                   # time went backwards: new run
-        if self._history and t - self._history[-1][0] < self._period:
-            return
-        self._history.append((t, u, u_variance))
-        while self._history and self._history[0][0] < t - self.window:
-            self._history.popleft()
-        self._fitted = None
+        if self.t_last == self.t_last and t < self.t_last:
+            self.reset()
+        if self.t_start != self.t_start:
+            self.t_start = t
+        self.t_last = t
+        dt = t - self.t_start
+        index = int(dt / self.width)
+        while index >= self.max_points:
+            self._merge()
+            index = int(dt / self.width)
+        w = 1.0 / u_variance
+        if not self._n[index]:
+            self.opened += 1
+            self._occupied += 1
+        self._w[index] += w
+        self._wt[index] += w * dt
+        self._wu[index] += w * u
+        self._n[index] += 1
 
-    def fit(self) -> Trend:
-        """Decide the trend from the history; linear when too short or not accelerating.
+    def _merge(self) -> None:
+        half = self.max_points // 2
+        for name in ('_w', '_wt', '_wu', '_n'):
+            values = getattr(self, name)
+            merged = [values[2 * i] + values[2 * i + 1] for i in range(half)]
+            setattr(self, name, merged + [type(values[0])(0)] * half)
+        self.width *= 2.0
+        self._occupied = sum(1 for n in self._n if n)
 
-        The result depends on the history only, so it is cached until the history changes.
-        """
-        if self._fitted is None:
-            self._fitted = self._fit()
-        return self._fitted
-
-    def _fit(self) -> Trend:
-        if len(self._history) < self.min_points:
-            return Trend()
-        data = np.asarray(self._history)
-        t_now = data[-1, 0]
-        span = t_now - data[0, 0]
-        if span < self.min_span * self.window:
-            return Trend()
-        s = data[:, 0] - t_now                              # <= 0 [s]
-        weights = 1.0 / data[:, 2]
-        weights = weights / weights.mean()
-        u = data[:, 1]
-        rss_linear = _wls_rss(np.column_stack([np.ones_like(s), s]), u, weights)
-        ks = np.geomspace(0.01, 20.0, 120) / span
-        rss, amplitude = _exponential_fits(ks, s, u, weights)
-        best = int(np.argmin(rss))
-        k = float(ks[best])
-        dof = len(s) - 3
-        sigma2 = rss[best] / dof
-        improvement_z = (rss_linear - rss[best]) / sigma2 if sigma2 > 0.0 else math.inf
-        growth = math.expm1(k * span)
-        # curvature of RSS(k) at the minimum (log-spaced grid: central differences in k)
-        lo, hi = max(best - 1, 0), min(best + 1, len(ks) - 1)
-        k_sigma = k
-        if 0 < best < len(ks) - 1 and sigma2 > 0.0:
-            d1, d2 = ks[best] - ks[lo], ks[hi] - ks[best]
-            second = 2.0 * (d1 * rss[hi] - (d1 + d2) * rss[best] + d2 * rss[lo]) \
-                / (d1 * d2 * (d1 + d2))
-            if second > 0.0:
-                k_sigma = math.sqrt(2.0 * sigma2 / second)
-        accelerating = (0 < best < len(ks) - 1 and improvement_z > self.accel_z ** 2
-                        and growth > self.min_growth)
-        if accelerating:
-            return Trend(EXPONENTIAL, k, float(k_sigma), float(math.sqrt(improvement_z)),
-                         float(growth), float(k * amplitude[best]))   # du/ds at s = 0
-        return Trend(LINEAR, 0.0, 0.0, float(math.sqrt(max(improvement_z, 0.0))),
-                     float(growth))
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Occupied bins: mean time since t_start [s], mean u [-], mean precision [1/-^2]."""
+        n = np.asarray(self._n, dtype=float)
+        keep = n > 0
+        w = np.asarray(self._w)[keep]
+        return (np.asarray(self._wt)[keep] / w, np.asarray(self._wu)[keep] / w, w / n[keep])
 
 
-def _exponential_fits(ks: np.ndarray, s: np.ndarray, u: np.ndarray,
-                      weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted RSS and amplitude a of u ~ c + a exp(k s) for every k in ``ks`` (closed-form
-    2x2 WLS); RSS inf and a 0 where the fit is degenerate."""
-    e = np.exp(np.outer(ks, s))                              # (k, n)
-    sw, su, suu = weights.sum(), weights @ u, weights @ (u * u)
-    se, see, seu = e @ weights, (e * e) @ weights, e @ (weights * u)
-    det = sw * see - se * se
-    valid = det > 1e-12 * sw * see
+def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fit u ~ b0 + b1 g by closed-form WLS for every row g of ``basis`` (m, n).
+
+    Returns the weighted RSS, b0 and b1 (RSS inf where degenerate).
+    """
+    sw, su, suu = w.sum(), w @ u, w @ (u * u)
+    sg, sgg, sgu = basis @ w, (basis * basis) @ w, basis @ (w * u)
+    det = sw * sgg - sg * sg
+    valid = det > 1e-12 * sw * sgg
     with np.errstate(divide='ignore', invalid='ignore'):
-        explained = (see * su * su - 2.0 * se * su * seu + sw * seu * seu) / det
-        amplitude = (sw * seu - se * su) / det
-    return np.where(valid, suu - explained, np.inf), np.where(valid, amplitude, 0.0)
+        b1 = (sw * sgu - sg * su) / det
+        b0 = (su - b1 * sg) / sw
+        rss = suu - b0 * su - b1 * sgu
+    rss = np.where(valid, np.maximum(rss, 0.0), np.inf)
+    return rss, np.where(valid, b0, 0.0), np.where(valid, b1, 0.0)
 
 
-def _wls_rss(design: np.ndarray, values: np.ndarray, weights: np.ndarray) -> float:
-    """Weighted residual sum of squares of a least-squares fit."""
-    root = np.sqrt(weights)
-    a = design * root[:, None]
-    b = values * root
-    coef, *_ = np.linalg.lstsq(a, b, rcond=None)
-    residual = b - a @ coef
-    return float(residual @ residual)
+def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Return the rows g(s; shape), one per shape, and their derivatives in shape.
+
+    See the module docstring; s = t - t_end [s], x = tau / T [-].
+    """
+    shape = np.asarray(shape, dtype=float)[:, None]
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        if model == EXPONENTIAL:
+            ks = shape * s
+            e = np.exp(ks)
+            g = np.expm1(ks) / shape
+            dg = (ks * e - np.expm1(ks)) / (shape * shape)
+        else:
+            xp = np.power(x, shape)
+            logx = np.log(np.where(x > 0.0, x, 1.0))
+            g = span / shape * (xp - 1.0)
+            dg = span * (xp * logx * shape - (xp - 1.0)) / (shape * shape)
+    return g, dg
 
 
-class RulPredictor:
-    """RUL quantiles from a posterior (module docstring); fixed seeded draws."""
+def _effective_points(residuals: np.ndarray) -> float:
+    """Return n over the integrated autocorrelation time of the standardised residuals.
 
-    def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
-                 seed: int = 0) -> None:
-        if not math.isfinite(u_eol):
-            raise ValueError(f'u_eol must be finite, got {u_eol!r}')
-        if samples < 2:
-            raise ValueError(f'samples must be >= 2, got {samples!r}')
-        self.u_eol = float(u_eol)
-        self.detect_z = float(detect_z)
-        normals = np.random.default_rng(seed).standard_normal((int(samples), 3))
-        self._n0, self._n1, self._n2 = (np.ascontiguousarray(normals[:, i]) for i in range(3))
+    Geyer's initial positive sequence. The autocovariances are divided by the larger of the
+    residuals' own variance and 1 (the filter's P_uu): a misfit far below the filter's noise is not
+    evidence of correlated noise. n when the residuals are all zero.
+    """
+    n = residuals.size
+    centred = residuals - residuals.mean()
+    c0 = max(float(centred @ centred), float(n))
+    rho = np.correlate(centred, centred, 'full')[n - 1:] / c0
+    rho[0] = 1.0
+    tau = -1.0
+    for m in range(0, (n - 1) // 2):
+        pair = rho[2 * m] + rho[2 * m + 1]
+        if not pair > 0.0:
+            break
+        tau += 2.0 * pair
+    return float(min(max(n / max(tau, 1.0), 1.0), n))
 
-    def predict(self, u: float, rate: float, covariance: np.ndarray,
-                trend: Trend = Trend()) -> RulEstimate:
-        """RUL [s] from posterior mean (u [-], rate [1/s]) and 2x2 covariance."""
-        cov = np.asarray(covariance, dtype=float).reshape(2, 2)
-        return self.predict_from(u, rate, float(cov[0, 0]), 0.5 * float(cov[0, 1] + cov[1, 0]),
-                                 float(cov[1, 1]), trend)
 
-    def predict_from(self, u: float, rate: float, p_uu: float, p_ur: float, p_rr: float,
-                     trend: Trend = Trend()) -> RulEstimate:
-        """:meth:`predict` with the covariance as its three entries P_uu [-], P_ur [1/s],
-        P_rr [1/s^2] (the per-update path: no matrix is built)."""
-        if not (math.isfinite(u) and math.isfinite(rate) and math.isfinite(p_uu)
-                and math.isfinite(p_ur) and math.isfinite(p_rr)):
-            raise ValueError(f'posterior must be finite, got u={u!r}, rate={rate!r}, '
-                             f'P=[[{p_uu!r}, {p_ur!r}], [{p_ur!r}, {p_rr!r}]]')
-        if u >= self.u_eol:
-            return RulEstimate(0.0, 0.0, 0.0, trend.model)
-        rate_sigma = math.sqrt(max(p_rr, 0.0))
-        if not rate > self.detect_z * rate_sigma or rate <= 0.0:
-            return RulEstimate(math.inf, math.inf, math.inf, NONE)
-        l_uu, l_ru, l_rr = _psd_cholesky(p_uu, p_ur, p_rr)
-        n0, n1 = self._n0, self._n1           # draws: [u, rate] + L @ [n0, n1], L lower
-        gap = (self.u_eol - u) - l_uu * n0
-        r_i = l_ru * n0
-        r_i += l_rr * n1
-        r_i += trend.slope if trend.model == EXPONENTIAL and trend.slope > 0.0 else rate
-        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-            tau = gap / r_i
-            if trend.model == EXPONENTIAL and trend.k > 0.0:
-                k_i = np.maximum(trend.k + trend.k_sigma * self._n2, 0.0)
-                growth = np.where(r_i > 0.0, k_i * tau, np.inf)
-                tau_exp = np.log1p(growth) / np.where(k_i > 0.0, k_i, 1.0)
-                tau = np.where(k_i > 0.0, tau_exp, tau)
-        if not r_i.min() > 0.0:
-            tau[r_i <= 0.0] = np.inf                  # never reaches u_eol
-        if not gap.min() > 0.0:
-            tau[gap <= 0.0] = 0.0                     # already past u_eol
-        p5, median, p95 = inverted_cdf_quantiles(tau, (0.05, 0.5, 0.95))
-        return RulEstimate(median, p5, p95, trend.model)
+@dataclass(frozen=True)
+class _Fit:
+    model: str
+    params: np.ndarray           # u_end, r (, shape)
+    rss: float
+    jacobian: np.ndarray         # (n, 2 or 3)
+
+
+def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndarray,
+               w: np.ndarray) -> _Fit | None:
+    """Best fit of one law on the history (None when degenerate)."""
+    if model == LINEAR:
+        rss, b0, b1 = _profile(s[None, :], u, w)
+        if not math.isfinite(rss[0]):
+            return None
+        return _Fit(LINEAR, np.array([b0[0], b1[0]]), float(rss[0]),
+                    np.column_stack([np.ones_like(s), s]))
+    grid = K_SPAN_GRID / span if model == EXPONENTIAL else P_GRID
+    g, _ = _basis(model, grid, s, x, span)
+    rss, _, _ = _profile(g, u, w)
+    best = int(np.argmin(rss))
+    if not math.isfinite(rss[best]):
+        return None
+    shape = float(grid[best])
+    if 0 < best < grid.size - 1:                   # parabola in log(shape) through 3 points
+        y0, y1, y2 = rss[best - 1], rss[best], rss[best + 1]
+        denominator = y0 - 2.0 * y1 + y2
+        if denominator > 0.0:
+            step = math.log(grid[best + 1] / grid[best])
+            shape = float(grid[best] * math.exp(0.5 * step * (y0 - y2) / denominator))
+    g, dg = _basis(model, np.array([shape, float(grid[best])]), s, x, span)
+    rss2, b0, b1 = _profile(g, u, w)
+    i = 0 if rss2[0] <= rss2[1] else 1
+    shape = shape if i == 0 else float(grid[best])
+    jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
+    return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian)
+
+
+def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float) -> np.ndarray | None:
+    """Return scale (J^T W J)^-1, with column equilibration; None when singular."""
+    m = jacobian.T @ (jacobian * w[:, None])
+    d = np.sqrt(np.diag(m))
+    if not np.all(d > 0.0):
+        return None
+    normalised = m / np.outer(d, d)
+    if not np.linalg.cond(normalised) < 1e12:
+        return None
+    return np.asarray(scale * np.linalg.inv(normalised) / np.outer(d, d))
+
+
+def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
+             min_points: int = 8) -> tuple[Trend, ...]:
+    """Fit the wear laws to a history: times since its start [s], u [-], 1/P_uu.
+
+    The law ``trend`` names, or all of them for 'auto', best AICc first, each with its Akaike
+    weight (module docstring); () if too few points.
+    """
+    n = t.size
+    if n < min_points or not t[-1] > t[0]:
+        return ()
+    t_end = float(t[-1])
+    s, span = t - t_end, t_end
+    x = np.clip(t / span, 0.0, None)
+    models = MODELS if trend == 'auto' else (trend,)
+    fits = {m: f for m in models if (f := _fit_model(m, s, x, span, u, precision)) is not None}
+    if not fits:
+        return ()
+    flexible = min(fits.values(), key=lambda f: (-f.params.size, f.rss))
+    residuals = np.sqrt(precision) * (u - _fitted_values(flexible, s, x, span))
+    n_eff = _effective_points(residuals)
+    sigma2 = max(flexible.rss / max(n - flexible.params.size, 1), 1.0)
+    laws = []
+    for name, fit in fits.items():
+        k = fit.params.size
+        if not n_eff > k + 1.0:
+            continue
+        aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
+        scale = max(fit.rss / max(n - k, 1), 1.0) * n / n_eff
+        cov = _covariance(fit.jacobian, precision, scale)
+        if cov is not None:
+            laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
+                                     math.sqrt(max(float(cov[1, 1]), 0.0)),
+                                     float(fit.params[2]) if k == 3 else 0.0, span,
+                                     tuple(float(v) for v in cov.ravel()), n, n_eff)))
+    if not laws:
+        return ()
+    laws.sort(key=lambda law: law[0])
+    weights = np.exp(-0.5 * (np.array([law[0] for law in laws]) - laws[0][0]))
+    weights /= weights.sum()
+    return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
+
+
+def fit_trend(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
+              min_points: int = 8) -> Trend:
+    """Return the AICc-best law of :func:`fit_laws` (Trend() when none could be fitted)."""
+    laws = fit_laws(t, u, precision, trend, min_points)
+    return laws[0] if laws else Trend(points=t.size)
+
+
+def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.ndarray:
+    """Return the fit's u at the history's times."""
+    if fit.model == LINEAR:
+        return np.asarray(fit.params[0] + fit.params[1] * s)
+    g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
+    return np.asarray(fit.params[0] + fit.params[1] * g[0])
+
+
+def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.ndarray,
+                     span: float) -> np.ndarray:
+    """Return, per draw, the time after t_end [s] at which u_end + r g(s) reaches u_end + gap.
+
+    inf where it never does (r <= 0, or a saturating exponential), -inf where gap <= 0
+    (already there).
+    """
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        ratio = gap / rate
+        if model == EXPONENTIAL:
+            growth = shape * ratio
+            offset = np.where(np.abs(growth) < 1e-9, ratio, np.log1p(growth) / shape)
+            offset = np.where(growth > -1.0, offset, np.inf)
+        elif model == POWER:
+            p = np.maximum(shape, P_MIN)
+            offset = span * (np.power(1.0 + p * ratio / span, 1.0 / p) - 1.0)
+        else:
+            offset = ratio
+    offset = np.where(rate > 0.0, offset, np.inf)
+    offset = np.where(np.isnan(offset), np.inf, offset)
+    return np.asarray(np.where(gap > 0.0, offset, -np.inf))
 
 
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
                            ) -> list[float]:
-    """``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort (numpy's
-    vectorised sort beats ``np.quantile``, and ``np.partition`` with several ranks, for a few
-    thousand draws; the tests check they agree). NaN-free input."""
+    """Return ``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort.
+
+    numpy's vectorised sort beats ``np.quantile``, and ``np.partition`` with several ranks,
+    for a few thousand draws; the tests check they agree. NaN-free input.
+    """
     n = values.size
     ordered = np.sort(values)
     return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
-def _psd_cholesky(p_uu: float, p_ur: float, p_rr: float) -> tuple[float, float, float]:
-    """Lower factor (l_uu, l_ru, l_rr) of a 2x2 covariance, L L^T = P, in closed form;
-    tolerates semi-definite P (a zero or negative variance gives a zero column)."""
-    if p_uu > 0.0:
-        l_uu = math.sqrt(p_uu)
-        l_ru = p_ur / l_uu
-        return l_uu, l_ru, math.sqrt(max(p_rr - l_ru * l_ru, 0.0))
-    return 0.0, 0.0, math.sqrt(max(p_rr, 0.0))
+class RulPredictor:
+    """RUL quantiles from the whole posterior history (module docstring).
+
+    Fixed seeded draws; a refit each time the history gained 1/``refit_fraction`` of its bins.
+    """
+
+    def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
+                 seed: int = 0, trend: str = 'auto', max_points: int = 256,
+                 min_points: int = 8, refit_fraction: int = 16) -> None:
+        if not math.isfinite(u_eol):
+            raise ValueError(f'u_eol must be finite, got {u_eol!r}')
+        if samples < 2:
+            raise ValueError(f'samples must be >= 2, got {samples!r}')
+        if trend != 'auto' and trend not in MODELS:
+            raise ValueError(f'trend must be auto or one of {MODELS}, got {trend!r}')
+        self.u_eol = float(u_eol)
+        self.detect_z = float(detect_z)
+        self.trend_choice = trend
+        self.min_points = int(min_points)
+        self.refit_fraction = int(refit_fraction)
+        self.history = WearHistory(max_points)
+        rng = np.random.default_rng(seed)
+        self._normals = rng.standard_normal((3, int(samples)))
+        self._uniforms = rng.random(int(samples))
+        #: number of fits so far (the cost is bounded: tests count them)
+        self.fits = 0
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history and the fit."""
+        self.history.reset()
+        self._trend = Trend()
+        self._crossing = (math.inf, math.inf, math.inf)
+        self._fitted_at = 0
+        self._due = 1
+
+    def add(self, t: float, u: float, u_variance: float) -> None:
+        """Record a posterior (t [s], u [-], P_uu [-^2])."""
+        opened = self.history.opened
+        self.history.add(t, u, u_variance)
+        if self.history.opened < opened:        # time went backwards: the history restarted
+            self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
+            self._due = 1
+
+    @property
+    def trend(self) -> Trend:
+        """Return the current fit, refitted when due."""
+        history = self.history
+        if history.opened - self._fitted_at >= self._due:
+            self._refit()
+            self._due = max(1, len(history) // self.refit_fraction)
+        return self._trend
+
+    def _refit(self) -> None:
+        history = self.history
+        self._fitted_at = history.opened
+        t, u, precision = history.arrays()
+        if t.size < self.min_points:
+            return
+        self.fits += 1
+        laws = tuple(replace(law, t_end=law.t_end + history.t_start)
+                     for law in fit_laws(t, u, precision, self.trend_choice, self.min_points))
+        self._trend = laws[0] if laws else Trend(points=t.size)
+        self._crossing = self._crossing_quantiles(laws)
+
+    def _crossing_quantiles(self, laws: tuple[Trend, ...]) -> tuple[float, float, float]:
+        """Return the 5/50/95 % quantiles of the absolute time [s] of reaching u_eol.
+
+        inf: never. Over the laws' parameter draws, each law taking its Akaike weight's share
+        of the draws.
+        """
+        if not laws or not laws[0].slope > self.detect_z * laws[0].slope_sigma:
+            return (math.inf, math.inf, math.inf)
+        crossing = np.empty(self._uniforms.size)
+        edges = np.cumsum([law.weight for law in laws])
+        edges[-1] = 1.0
+        lower = 0.0
+        for law, upper in zip(laws, edges):
+            chosen = (self._uniforms >= lower) & (self._uniforms < upper)
+            lower = upper
+            if not chosen.any():
+                continue
+            k = 3 if law.model != LINEAR else 2
+            cov = np.asarray(law.covariance).reshape(k, k)
+            values, vectors = np.linalg.eigh(0.5 * (cov + cov.T))
+            root = vectors * np.sqrt(np.maximum(values, 0.0))
+            draws = root @ self._normals[:k, chosen]
+            rate = law.slope + draws[1]
+            shape = law.shape + draws[2] if k == 3 else np.zeros_like(rate)
+            crossing[chosen] = law.t_end + crossing_offsets(
+                law.model, self.u_eol - (law.u_end + draws[0]), rate, shape, law.span)
+        p5, median, p95 = inverted_cdf_quantiles(crossing, (0.05, 0.5, 0.95))
+        return (p5, median, p95)
+
+    def predict(self, t: float, u: float) -> RulEstimate:
+        """RUL [s] at time t [s] given the filter's current u [-] (0 once u >= u_eol)."""
+        trend = self.trend
+        if u >= self.u_eol:
+            return RulEstimate(0.0, 0.0, 0.0, trend.model)
+        c5, c50, c95 = self._crossing
+        p5, median, p95 = max(c5 - t, 0.0), max(c50 - t, 0.0), max(c95 - t, 0.0)
+        model = trend.model if math.isfinite(median) or math.isfinite(p5) else NONE
+        return RulEstimate(median, p5, p95, model)

@@ -18,10 +18,10 @@ from gear_phm.simulation.plant import (
 from gear_phm.simulation.sensors import Channel, CHANNELS, Sensors
 from gear_phm.simulation.simulator import (sample_times, simulate, SimulationConfig,
                                            SimulationResult, Simulator)
-from gear_phm.simulation.wear import Wear, WEAR_KINDS
+from gear_phm.simulation.wear import REACHING_KINDS, Wear, WEAR_KINDS
 
 __all__ = [
     'CHANNELS', 'Channel', 'DutyCycle', 'EFFICIENCY_MODELS', 'PARAMETERS', 'Plant', 'Sensors',
-    'SimulationConfig', 'SimulationResult', 'Simulator', 'WEAR_KINDS', 'Wear',
+    'SimulationConfig', 'SimulationResult', 'Simulator', 'REACHING_KINDS', 'WEAR_KINDS', 'Wear',
     'config_from_parameters', 'sample_times', 'simulate',
 ]

@@ -64,7 +64,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('friction_initial', _WEAR.initial,
               'friction value at t = 0: lever u, or tooth coefficient f (spur)', '-', 0.0),
     ParamSpec('wear_rate', _WEAR.rate, 'linear: friction increase per second; exponential: '
-              'relative growth rate', '1/s', 0.0),
+              'relative growth rate; power: friction increase at t = 1 s (coefficient of '
+              't^wear_exponent)', '1/s', 0.0),
+    ParamSpec('wear_exponent', _WEAR.exponent, 'power wear: exponent of t in '
+              'friction_initial + wear_rate t^wear_exponent', '-', 1e-3, 100.0),
     ParamSpec('t_fault', _WEAR.t_fault, 'step wear: fault time after the start', 's', 0.0),
     ParamSpec('fault_step', _WEAR.step, 'step wear: friction increase at t_fault', '-', 0.0),
     *_sensor_specs(),
@@ -87,7 +90,7 @@ def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
                      retract_time=v['retract_time'], accel_time=v['accel_time'],
                      dwell_extended=v['dwell_extended'], dwell_retracted=v['dwell_retracted'])
     wear = Wear(kind=v['wear'], initial=v['friction_initial'], rate=v['wear_rate'],
-                t_fault=v['t_fault'], step=v['fault_step'])
+                t_fault=v['t_fault'], step=v['fault_step'], exponent=v['wear_exponent'])
     sensors = Sensors(*(Channel(sigma=_named(v, f'noise_{c}'), bias=_named(v, f'bias_{c}'))
                         for c in ('velocity_motor', 'velocity_load', 'effort_motor',
                                   'effort_load')))

@@ -1,0 +1,90 @@
+"""RUL wear-law matrix: simulate -> analyze -> evaluate, no tuning (docs/prognostics.md).
+
+For linear, exponential and power-law (exponent 3) wear from u = 0.05 to u_eol = 0.6
+(eta_opposing_min 0.5, ratio 3) in LIFE seconds at 100 Hz, per seed: alpha-lambda at 0.5,
+0.75 and 0.9, the prognostic horizon, from which fraction of the life the RUL stays finite, and
+the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL. Prints one
+markdown row per run and writes OUT/table.md.
+
+Usage: .venv/bin/python bench/rul_matrix.py OUT [--lives 300 3000] [--seeds 1 2 3]
+       [-- extra analyze options]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+from gear_phm.cli.evaluate import _find_bag, read_vector_topic
+from gear_phm.interfaces import HEALTH_RUL
+
+GEAR_PHM = [sys.executable, '-m', 'gear_phm.cli.main']
+RATES = {'linear': lambda life: 0.55 / life, 'exponential': lambda life: math.log(12) / life,
+         'power': lambda life: 0.55 / life ** 3}
+HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']
+
+
+def run(out: Path, law: str, life: float, seed: int, extra: list[str]) -> str:
+    """One scenario; returns its markdown row."""
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    bag, analysis = out / 'bag', out / 'a'
+    quiet = {'check': True, 'stdout': subprocess.DEVNULL, 'stderr': subprocess.DEVNULL}
+    subprocess.run([*GEAR_PHM, 'simulate', '--rate', '100', '--out', str(bag), '--duration',
+                    str(1.1 * life), '--seed', str(seed), '--wear', law, '--wear-rate',
+                    repr(RATES[law](life)), '--friction-initial', '0.05', '--wear-exponent',
+                    '3', '--truth-every', '10'], **quiet)
+    subprocess.run([*GEAR_PHM, 'analyze', str(bag), *HEALTH, '--out', str(analysis),
+                    '--no-plot', '--no-progress', *extra], **quiet)
+    subprocess.run([*GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag), *HEALTH,
+                    '--lambdas', '0.25', '0.5', '0.75', '0.9'], **quiet)
+    metrics = json.loads((analysis / 'evaluation.json').read_text())
+    t, rul = read_vector_topic(_find_bag(analysis), HEALTH_RUL)
+    t_eol = metrics['t_eol_s']
+    t = t - t[0]
+    before = t < t_eol
+    infinite = ~np.isfinite(rul[:, 0]) & before
+    finite_from = t[infinite].max() / t_eol if infinite.any() else 0.0
+    scored = (t >= 0.25 * t_eol) & before
+    truth = t_eol - t[scored]
+    band = float(np.mean((rul[scored, 1] <= truth) & (truth <= rul[scored, 2])))
+    checks = {check['lam']: check for check in metrics['alpha_lambda']}
+
+    def cell(lam: float) -> str:
+        check = checks[lam]
+        predicted = check['predicted_rul']
+        error = predicted / check['true_rul'] - 1.0 if isinstance(predicted, float) else math.inf
+        return f"{'pass' if check['passed'] else 'FAIL'} {error:+.0%}"
+
+    horizon = metrics['prognostic_horizon_s']
+    return (f'| {law} | {life:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | {cell(0.9)} | '
+            f'{horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | {band:.0%} |')
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('out', type=Path)
+    parser.add_argument('--lives', type=float, nargs='+', default=[300.0, 3000.0])
+    parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
+    parser.add_argument('extra', nargs='*', help='extra analyze options (after --)')
+    args = parser.parse_args()
+    rows = []
+    for life in args.lives:
+        for law in RATES:
+            for seed in args.seeds:
+                rows.append(run(args.out / f'{law}_{life:.0f}_{seed}', law, life, seed,
+                                args.extra))
+                print(rows[-1], flush=True)
+    (args.out / 'table.md').write_text('\n'.join(rows) + '\n')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

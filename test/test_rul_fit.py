@@ -1,0 +1,162 @@
+"""RUL from the whole posterior history: wear-law choice by AICc, early finite RUL, memory."""
+from __future__ import annotations
+
+from collections.abc import Callable
+import math
+
+import numpy as np
+import pytest
+
+from gear_phm.prognostics.rul import (crossing_offsets, fit_trend, RulPredictor, Trend,
+                                      WearHistory)
+from gear_phm.simulation.wear import Wear
+
+LIFE, U0, U_EOL = 3000.0, 0.05, 0.6
+SIGMA = 2e-3                                  # noise of the synthetic u histories [-]
+
+
+def _law(kind: str) -> Callable[[np.ndarray], np.ndarray]:
+    """u(t) going from U0 to U_EOL in LIFE seconds (power: exponent 3)."""
+    wear = Wear.reaching(kind, U0, U_EOL, LIFE, exponent=3.0)
+    assert wear.time_to_reach(U_EOL) == pytest.approx(LIFE)
+    return wear.value
+
+
+def _feed(predictor: RulPredictor, kind: str, until: float, seed: int,
+          step: float = 1.0) -> float:
+    """Noisy u history of ``kind`` from 0 to ``until`` [s]; returns the last time."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, until, step)
+    u = _law(kind)(t) + SIGMA * rng.standard_normal(t.size)
+    for ti, ui in zip(t.tolist(), u.tolist()):
+        predictor.add(ti, ui, SIGMA ** 2)
+    return float(t[-1])
+
+
+@pytest.mark.parametrize('kind', ['linear', 'exponential', 'power'])
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_aicc_picks_the_wear_law(kind: str, seed: int) -> None:
+    predictor = RulPredictor(U_EOL)
+    t_now = _feed(predictor, kind, 0.5 * LIFE, seed)
+    trend = predictor.trend
+    assert trend.model == kind
+    assert trend.weight > (0.5 if kind == 'linear' else 0.9)   # linear nests in both others
+    if kind == 'exponential':
+        assert trend.shape == pytest.approx(math.log(U_EOL / U0) / LIFE, rel=0.1)
+    if kind == 'power':
+        assert trend.shape == pytest.approx(3.0, rel=0.1)
+    true_rul = LIFE - t_now
+    rul = predictor.predict(t_now, float(_law(kind)(t_now)))
+    assert rul.p5 <= true_rul <= rul.p95
+    assert rul.median == pytest.approx(true_rul, rel=0.06)
+
+
+@pytest.mark.parametrize('kind', ['linear', 'exponential', 'power'])
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_rul_finite_at_a_quarter_of_life_with_a_band_holding_the_truth(kind: str,
+                                                                       seed: int) -> None:
+    predictor = RulPredictor(U_EOL)
+    t_now = _feed(predictor, kind, 0.25 * LIFE, seed)
+    rul = predictor.predict(t_now, float(_law(kind)(t_now)))
+    true_rul = LIFE - t_now
+    assert math.isfinite(rul.median) and math.isfinite(rul.p95)
+    assert rul.p5 <= true_rul <= rul.p95, (rul, true_rul)
+    # an honest band, not an arbitrarily wide one
+    assert rul.p95 < 3.0 * true_rul and rul.p5 > 0.25 * true_rul
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_rul_inf_on_a_flat_history(seed: int) -> None:
+    predictor = RulPredictor(U_EOL)
+    rng = np.random.default_rng(seed)
+    for t in np.arange(0.0, 1500.0, 1.0):
+        predictor.add(float(t), U0 + SIGMA * rng.standard_normal(), SIGMA ** 2)
+    rul = predictor.predict(1499.0, U0)
+    assert (rul.median, rul.p5, rul.p95, rul.model) == (math.inf, math.inf, math.inf, 'none')
+    assert predictor.trend.model != 'none'              # fitted, but no significant growth
+    assert not predictor.trend.slope > 2.0 * predictor.trend.slope_sigma
+
+
+def test_growth_becomes_detectable_and_the_threshold_is_detect_z() -> None:
+    """Finite exactly when the fitted slope now exceeds detect_z sigma."""
+    for detect_z in (2.0, 50.0):
+        predictor = RulPredictor(U_EOL, detect_z=detect_z)
+        t_now = _feed(predictor, 'linear', 300.0, 0)
+        trend, rul = predictor.trend, predictor.predict(t_now, U0)
+        assert math.isfinite(rul.median) == (trend.slope > detect_z * trend.slope_sigma)
+    assert math.isfinite(RulPredictor(U_EOL, detect_z=2.0).predict(0.0, U0).median) is False
+
+
+def test_memory_and_refits_bounded_on_a_long_fast_history() -> None:
+    """Feed 1 kHz posteriors for 400 s: memory and refits stay bounded.
+
+    At most max_points bins, a bounded number of fits, and between fits the RUL moves with time
+    exactly.
+    """
+    predictor = RulPredictor(U_EOL, max_points=256)
+    rate = (U_EOL - U0) / 800.0
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 400.0, 1e-3)
+    u = U0 + rate * t + 1e-3 * rng.standard_normal(t.size)
+    for ti, ui in zip(t.tolist(), u.tolist()):
+        predictor.add(ti, ui, 1e-6)
+    assert len(predictor.history) <= 256
+    assert len(predictor.history._w) == 256
+    first = predictor.predict(400.0, 0.3)
+    assert predictor.fits < 150
+    assert first.median == pytest.approx(400.0, rel=0.02)
+    later = predictor.predict(410.0, 0.3)                  # no new data: same fit
+    assert later.median == pytest.approx(first.median - 10.0)
+    assert predictor.predict(410.0, U_EOL).median == 0.0   # the filter says worn
+
+
+def test_history_bins_merge_evenly_and_restart_when_time_goes_back() -> None:
+    history = WearHistory(max_points=8, initial_width=1.0)
+    for t in range(20):
+        history.add(float(t), 0.1 + 0.01 * t, 1e-4)
+    t_mean, u_mean, precision = history.arrays()
+    assert history.width == 4.0 and len(history) == 5
+    assert t_mean.tolist() == pytest.approx([1.5, 5.5, 9.5, 13.5, 17.5])
+    assert u_mean == pytest.approx(0.1 + 0.01 * t_mean)
+    assert precision == pytest.approx(np.full(5, 1e4))     # mean, not summed, precision
+    history.add(3.0, 0.2, 1e-4)
+    assert len(history) == 1 and history.t_start == 3.0
+
+
+@pytest.mark.parametrize('model, shape', [('linear', 0.0), ('exponential', 2e-3),
+                                          ('exponential', -1e-3), ('power', 3.0),
+                                          ('power', 0.5)])
+def test_crossing_offsets_solve_the_law(model: str, shape: float) -> None:
+    span, u_end, rate, gap = 500.0, 0.1, 1e-4, 0.05
+    s = crossing_offsets(model, np.array([gap]), np.array([rate]), np.array([shape]),
+                         span)[0]
+    if model == 'exponential' and shape < 0.0:       # saturates at u_end + rate/|k| = 0.2
+        assert s == pytest.approx(math.log1p(shape * gap / rate) / shape)
+    assert math.isfinite(s) and s > 0.0
+    if model == 'linear':
+        g = s
+    elif model == 'exponential':
+        g = math.expm1(shape * s) / shape
+    else:
+        g = span / shape * (((span + s) / span) ** shape - 1.0)
+    assert u_end + rate * g == pytest.approx(u_end + gap, rel=1e-9)
+    never = crossing_offsets(model, np.array([gap, -0.01]), np.array([-rate, rate]),
+                             np.array([shape, shape]), span)
+    assert never[0] == math.inf and never[1] == -math.inf
+    saturating = crossing_offsets('exponential', np.array([0.5]), np.array([rate]),
+                                  np.array([-1e-3]), span)
+    assert saturating[0] == math.inf                  # u_end + rate/|k| = 0.2 < 0.6
+
+
+def test_rul_deterministic_and_trend_choice_fixed() -> None:
+    first, second = RulPredictor(U_EOL, seed=4), RulPredictor(U_EOL, seed=4)
+    t_now = _feed(first, 'exponential', 1500.0, 3)
+    _feed(second, 'exponential', 1500.0, 3)
+    assert first.predict(t_now, 0.2) == second.predict(t_now, 0.2)
+    forced = RulPredictor(U_EOL, trend='linear')
+    _feed(forced, 'exponential', 1500.0, 3)
+    assert forced.trend.model == 'linear'
+    with pytest.raises(ValueError, match='trend'):
+        RulPredictor(U_EOL, trend='quadratic')
+    t = np.arange(5.0)
+    assert fit_trend(t, t, np.ones(5)) == Trend(points=5)       # too few points
