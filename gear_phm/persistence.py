@@ -100,7 +100,7 @@ def set_aside(path: Path, suffix: str) -> Path:
 
 def document(kind: str, identity: Mapping[str, Any], state: Mapping[str, Any],
              saved_stamp_ns: int | None) -> dict[str, Any]:
-    """The state document (module docstring)."""
+    """Return the state document described in the module docstring."""
     return {'schema': SCHEMA, 'kind': kind, 'identity': dict(identity),
             'saved_stamp_ns': saved_stamp_ns, 'state': dict(state)}
 
@@ -160,19 +160,19 @@ def load_state(path: str | os.PathLike[str], kind: str, identity: Mapping[str, A
         return None
     except (OSError, UnicodeDecodeError) as exc:
         reason = f'unreadable: {" ".join(str(exc).split())}'
-        return _corrupt(target, reason)
+        raise set_aside_corrupt(target, reason)
     try:
         doc = json.loads(text)
     except ValueError as exc:
-        return _corrupt(target, f'not JSON: {exc}')
+        raise set_aside_corrupt(target, f'not JSON: {exc}')
     if not isinstance(doc, dict):
-        return _corrupt(target, 'not a JSON object')
+        raise set_aside_corrupt(target, 'not a JSON object')
     if doc.get('schema') != SCHEMA:
-        return _corrupt(target, f'schema {doc.get("schema")!r}, expected {SCHEMA}')
+        raise set_aside_corrupt(target, f'schema {doc.get("schema")!r}, expected {SCHEMA}')
     if doc.get('kind') != kind:
-        return _corrupt(target, f'kind {doc.get("kind")!r}, expected {kind!r}')
+        raise set_aside_corrupt(target, f'kind {doc.get("kind")!r}, expected {kind!r}')
     if not isinstance(doc.get('identity'), dict) or not isinstance(doc.get('state'), dict):
-        return _corrupt(target, 'identity or state missing')
+        raise set_aside_corrupt(target, 'identity or state missing')
     difference = identity_difference(doc['identity'], identity)
     if difference:
         if reset:
@@ -184,10 +184,11 @@ def load_state(path: str | os.PathLike[str], kind: str, identity: Mapping[str, A
     return state
 
 
-def _corrupt(target: Path, reason: str) -> None:
+def set_aside_corrupt(target: Path, reason: str) -> StateCorrupt:
+    """Rename a bad file ``<name>.bad-<UTC time>``; return the error to raise."""
     try:
         moved: Path | None = set_aside(target, 'bad')
     except OSError:
         moved = None
     where = f'kept as {moved}' if moved is not None else 'could not be moved aside'
-    raise StateCorrupt(f'state file {target} {reason}; starting fresh ({where})', moved)
+    return StateCorrupt(f'state file {target} {reason}; starting fresh ({where})', moved)

@@ -1,5 +1,8 @@
-"""Persisted wear state (no ROS): the document, its atomic write and typed load errors, and the
-to_state/from_state round trips of the estimator pipeline and the health assessor."""
+"""Persisted wear state (no ROS).
+
+The document, its atomic write and typed load errors, and the to_state/from_state round trips
+of the estimator pipeline and the health assessor.
+"""
 from __future__ import annotations
 
 import json

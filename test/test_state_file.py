@@ -1,7 +1,9 @@
-"""state_file through the real node processes: a stream in one go and in 5 parts with the
-estimator and diagnostics nodes stopped between parts (SIGTERM, one kill -9) gives the same
-final u and RUL; a corrupt file is a WARN and is kept aside; a file for another ratio is
-refused (exit 2) unless state_reset."""
+"""state_file through the real node processes.
+
+A stream in one go and in 5 parts with the estimator and diagnostics nodes stopped between
+parts (SIGTERM, one kill -9) gives the same final u and RUL; a corrupt file is a WARN and is
+kept aside; a file for another ratio is refused (exit 2) unless state_reset.
+"""
 from __future__ import annotations
 
 import json
@@ -19,7 +21,7 @@ from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402
 from gear_phm.interfaces import HEALTH_RUL  # noqa: E402
 from gear_phm.persistence import save_state  # noqa: E402
 from test_estimation_plant import lever_plant  # noqa: E402
-from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402
+from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402, I100, I201
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 BIN = Path(sys.executable).parent

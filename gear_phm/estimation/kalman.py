@@ -197,7 +197,7 @@ class FrictionFilter:
         return self.last
 
     def to_state(self) -> dict[str, Any]:
-        """What a restart needs to continue (JSON-safe, see :mod:`gear_phm.persistence`).
+        """Return what a restart needs to continue (JSON-safe, :mod:`gear_phm.persistence`).
 
         x, P (row-major), time t [s], q and the adaptation's sums; the settings come from the
         configuration, not from the state.

@@ -163,7 +163,7 @@ class DiagnosticsNode(Node):
         self.state.start_timer()
 
     def _identity(self) -> dict[str, Any]:
-        """What a state_file must match: the ratio (this node knows no joint names)."""
+        """Return what a state_file must match: the ratio (this node knows no joint names)."""
         return {'ratio': float(self.health_config.ratio)}
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:

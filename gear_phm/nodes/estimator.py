@@ -67,7 +67,7 @@ def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
 
 
 def state_identity(values: dict[str, Any]) -> dict[str, Any]:
-    """What a state_file must match: the ratio and the joint names."""
+    """Return what a state_file must match: the ratio and the joint names."""
     return {'ratio': float(values['ratio']), 'motor_joint': values['motor_joint'],
             'load_joint': values['load_joint']}
 

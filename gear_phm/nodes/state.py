@@ -25,12 +25,12 @@ from rclpy.node import Node
 
 from gear_phm.nodes.common import ConfigError
 from gear_phm.parameters import ParamSpec
-from gear_phm.persistence import (load_state, save_state, set_aside, StateCorrupt,
+from gear_phm.persistence import (load_state, save_state, set_aside_corrupt, StateCorrupt,
                                   StateMismatch)
 
 
 def state_parameters(what: str) -> tuple[ParamSpec, ...]:
-    """The three state parameters of a node whose state is ``what``."""
+    """Return the three state parameters of a node whose state is ``what``."""
     return (
         ParamSpec('state_file', '', f'JSON file holding {what} across restarts (empty: not '
                   'persisted); loaded at start, written atomically every state_save_period '
@@ -98,25 +98,17 @@ class StateKeeper:
             restore(state)
         except (KeyError, ValueError, TypeError, IndexError, AttributeError) as exc:
             reason = f'cannot be restored ({type(exc).__name__}: {exc})'
-            self.load_problem = str(self._set_aside(reason))
+            self.load_problem = str(set_aside_corrupt(self.path, reason))
             logger.warn(self.load_problem)
             return False
         logger.info(f'restored state from {self.path}')
         return True
 
-    def _set_aside(self, reason: str) -> StateCorrupt:
-        assert self.path is not None
-        moved: Path | None = None
-        try:
-            moved = set_aside(self.path, 'bad')
-            where = f'kept as {moved}'
-        except OSError:
-            where = 'could not be moved aside'
-        return StateCorrupt(f'state file {self.path} {reason}; starting fresh ({where})', moved)
-
     def start_timer(self, callback: Callable[[], Any] | None = None) -> None:
-        """Call ``callback`` (default :meth:`save`) every ``state_save_period``; no timer when
-        disabled."""
+        """Call ``callback`` (default :meth:`save`) every ``state_save_period``.
+
+        No timer when state_file is empty.
+        """
         if self.path is not None:
             self.node.create_timer(self.period, self.save if callback is None else callback)
 

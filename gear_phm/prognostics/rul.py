@@ -87,7 +87,7 @@ class RulEstimate:
 
 
 def trend_to_state(trend: Trend) -> dict[str, Any]:
-    """A :class:`Trend` as a JSON-safe dict (floats via :func:`encode_float`)."""
+    """Return a :class:`Trend` as a JSON-safe dict (floats via :func:`encode_float`)."""
     state: dict[str, Any] = {}
     for item in fields(Trend):
         value = getattr(trend, item.name)
@@ -165,7 +165,7 @@ class WearHistory:
         self._n[index] += 1
 
     def to_state(self) -> dict[str, Any]:
-        """The bins and their clock (JSON-safe, see :mod:`gear_phm.persistence`)."""
+        """Return the bins and their clock (JSON-safe, see :mod:`gear_phm.persistence`)."""
         return {'max_points': self.max_points, 't_start': encode_float(self.t_start),
                 't_last': encode_float(self.t_last), 'width': encode_float(self.width),
                 'w': encode_floats(self._w), 'wt': encode_floats(self._wt),
@@ -452,7 +452,7 @@ class RulPredictor:
             self._due = 1
 
     def to_state(self) -> dict[str, Any]:
-        """History, current fit and refit clock (JSON-safe); the draws come from the seed."""
+        """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
         return {'history': self.history.to_state(), 'trend': trend_to_state(self._trend),
                 'crossing': encode_floats(self._crossing), 'fitted_at': self._fitted_at,
                 'due': self._due, 'fits': self.fits}
