@@ -17,9 +17,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
+from typing import Any
 
 from filterpy.kalman import KalmanFilter
 import numpy as np
+
+from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
 
 @dataclass(frozen=True)
@@ -192,6 +195,55 @@ class FrictionFilter:
             floor = rate ** 3 / max(abs(u), 1e-3)
             self.process_noise = min(max(self.q_test, floor), self.adaptation.q_max)
         return self.last
+
+    def to_state(self) -> dict[str, Any]:
+        """Return what a restart needs to continue (JSON-safe, :mod:`gear_phm.persistence`).
+
+        x, P (row-major), time t [s], q and the adaptation's sums; the settings come from the
+        configuration, not from the state.
+        """
+        last = self.last
+        return {
+            'x': encode_floats(self.kf.x[:, 0]), 'P': encode_floats(self.kf.P.ravel()),
+            't': None if self.t is None else encode_float(self.t),
+            'process_noise': encode_float(self.process_noise),
+            'q_test': encode_float(self.q_test), 'sum': encode_float(self._sum),
+            'power': encode_float(self._power), 'n': list(self._n),
+            'mean': encode_floats(self._mean), 'excess': encode_floats(self._excess),
+            'num': encode_floats(self._num), 'den': encode_floats(self._den),
+            'mean_den': encode_floats(self._mean_den),
+            'consecutive_gated': self.consecutive_gated, 'updates': self.updates,
+            'last': [last.accepted, encode_float(last.innovation),
+                     encode_float(last.innovation_variance), encode_float(last.nis),
+                     last.reinitialised],
+        }
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; KeyError/ValueError/TypeError on a malformed dict."""
+        x = decode_floats(state['x'])
+        p = decode_floats(state['P'])
+        if len(x) != 2 or len(p) != 4:
+            raise ValueError('filter state: x needs 2 values and P 4')
+        pairs = {key: decode_floats(state[key])
+                 for key in ('mean', 'excess', 'num', 'den', 'mean_den')}
+        n = [int(v) for v in state['n']]
+        if len(n) != 2 or any(len(v) != 2 for v in pairs.values()):
+            raise ValueError('filter state: per-direction values need 2 entries')
+        last = state['last']
+        self.kf.x = np.array(x).reshape(2, 1)
+        self.kf.P = np.array(p).reshape(2, 2)
+        self.t = None if state['t'] is None else decode_float(state['t'])
+        self.process_noise = decode_float(state['process_noise'])
+        self.q_test = decode_float(state['q_test'])
+        self._sum = decode_float(state['sum'])
+        self._power = decode_float(state['power'])
+        self._n = n
+        self._mean, self._excess = pairs['mean'], pairs['excess']
+        self._num, self._den, self._mean_den = pairs['num'], pairs['den'], pairs['mean_den']
+        self.consecutive_gated = int(state['consecutive_gated'])
+        self.updates = int(state['updates'])
+        self.last = UpdateResult(bool(last[0]), decode_float(last[1]), decode_float(last[2]),
+                                 decode_float(last[3]), bool(last[4]))
 
     def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int) -> None:
         """Run one step of both adaptations (before the update).

@@ -23,6 +23,7 @@ from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
+from gear_phm.persistence import decode_float, encode_float
 from gear_phm.status import format_value, OK, StatusOut, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
@@ -96,6 +97,49 @@ class EstimatorPipeline:
         self._max_stamp = None
         self.screen.configure(config.stamp_run, _ns(config.sensor_timeout),
                               _ns(config.period_hold), config.backwards_policy == 'reset')
+
+    def to_state(self) -> dict[str, Any]:
+        """What a restart needs to continue as if it never stopped (JSON-safe; see
+        :mod:`gear_phm.persistence`): the filter, counters, operating time and stamp origin.
+
+        Not kept: the open energy window and the stamp screen's learnt period (a restart
+        loses at most the window that was open, and relearns the period).
+        """
+        return {
+            'filter': self.filter.to_state(), 'counts': dict(self.counts),
+            'samples_seen': self.samples_seen, 'samples_used': self.samples_used,
+            'samples_rejected': self.samples_rejected,
+            'samples_missing': self.samples_missing, 'windows_used': self.windows_used,
+            'operating_time': encode_float(self.operating_time),
+            'max_stamp': self._max_stamp, 'last_group_stamp': self._last_group_stamp,
+            'origin_ns': self._origin_ns, 'grid': self._grid, 'last_code': self._last_code,
+            'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
+        }
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state` into a pipeline built with the same configuration.
+
+        KeyError/ValueError/TypeError on a malformed dict (the pipeline is then unchanged).
+        """
+        def stamp(value: Any) -> int | None:
+            return None if value is None else int(value)
+
+        fresh = EstimatorPipeline(self.config)      # validate everything before changing self
+        fresh.filter.from_state(state['filter'])
+        counts = {key: int(state['counts'].get(key, 0)) for key in self.counts}
+        values = (int(state['samples_seen']), int(state['samples_used']),
+                  int(state['samples_rejected']), int(state['samples_missing']),
+                  int(state['windows_used']), decode_float(state['operating_time']),
+                  stamp(state['max_stamp']), stamp(state['last_group_stamp']),
+                  stamp(state['origin_ns']), stamp(state['grid']), int(state['last_code']),
+                  decode_float(state['last_eta']), stamp(state['last_stamp']))
+        self.filter = fresh.filter
+        self.counts = counts
+        (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
+         self.windows_used, self.operating_time, self._max_stamp, self._last_group_stamp,
+         self._origin_ns, self._grid, self._last_code, self._last_eta,
+         self._last_stamp) = values
+        self._status_mark = (self.samples_seen, self.samples_missing)
 
     def _t(self, stamp_ns: int) -> float:
         return (stamp_ns - self._origin_ns) * 1e-9

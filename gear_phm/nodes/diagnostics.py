@@ -40,11 +40,12 @@ from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, Diagnostics
                                  ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL, health_status,
                                  SAMPLE_LOSS, VECTOR3_STAMPED_TYPE)
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
 from gear_phm.parameters import ParamSpec
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
-from gear_phm.status import STALE
+from gear_phm.status import STALE, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -62,6 +63,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               choices=('', 'zstd', 'lz4'), read_only=True),
     ParamSpec('record_flush_period', 0.5, 'the recording is flushed at least this often, so '
               'data older than this survives kill -9', 's', 0.01, 60.0, read_only=True),
+    *state_parameters('the RUL history and fit, the level latches and the NIS window'),
 )
 
 
@@ -137,6 +139,9 @@ class DiagnosticsNode(Node):
         except ValueError as exc:
             raise ConfigError(f'invalid health parameters: {exc}') from None
         self.assessor = HealthAssessor(self.health_config)
+        self.state = StateKeeper(self, values, 'diagnostics', self._identity(),
+                                 self._current_state)
+        self.state.load(self.assessor.from_state)
         self.assembler = EstimateAssembler()
         self.last_arrival_ns: int | None = None
         self.received = 0
@@ -155,6 +160,15 @@ class DiagnosticsNode(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
+        self.state.start_timer()
+
+    def _identity(self) -> dict[str, Any]:
+        """Return what a state_file must match: the ratio (this node knows no joint names)."""
+        return {'ratio': float(self.health_config.ratio)}
+
+    def _current_state(self) -> tuple[dict[str, Any], int | None]:
+        latest = self.assessor.latest
+        return self.assessor.to_state(), None if latest is None else latest.stamp_ns
 
     def _make_stale_timer(self) -> Any:
         """One-shot: fires stale_timeout after the last arrival (restarted by each)."""
@@ -190,6 +204,7 @@ class DiagnosticsNode(Node):
         if changed:
             self.health_config = self.health_config.replace(**changed)
             self.assessor = HealthAssessor(self.health_config)
+            self.state.identity = self._identity()
             if 'stale_timeout' in changed:
                 self.destroy_timer(self.stale_timer)
                 self.stale_timer = self._make_stale_timer()
@@ -224,6 +239,8 @@ class DiagnosticsNode(Node):
                               serialize_message(msg))
 
     def destroy_node(self) -> None:
+        """Save the state (SIGINT/SIGTERM pass here), close the recording, destroy."""
+        self.state.save()
         if self.recorder is not None:
             self.recorder.close()
             self.recorder = None
@@ -280,6 +297,9 @@ class DiagnosticsNode(Node):
         if self.recorder is not None and self.recorder.error is not None:
             state = replace(state, message=f'{state.message}; recording failed: '
                                            f'{self.recorder.error}')
+        if self.state.problem:
+            state = replace(state, level=max(state.level, WARN),
+                            message=f'{state.message}; {self.state.problem}')
         status = health_status(state, self.transmission_name, self.hardware_id)
         msg = to_rclpy(DiagnosticsOut(state.stamp_ns, (status,)))
         self.diag_pub.publish(msg)

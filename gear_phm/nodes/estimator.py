@@ -21,7 +21,7 @@ node wakes only for its status.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import fields
+from dataclasses import fields, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -34,9 +34,11 @@ from gear_phm import interfaces
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, JointStateDecoder,
                                       SampleLossPublisher, subscribe_joint_states_raw)
 from gear_phm.parameters import ParamSpec
+from gear_phm.status import WARN
 
 #: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
@@ -52,6 +54,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('executor', 'events', 'rclpy executor: events (rclpy.experimental.'
               'EventsExecutor, about 2.5x less CPU per message here) or single '
               '(SingleThreadedExecutor)', choices=('events', 'single'), read_only=True),
+    *state_parameters('the filter state, its adaptation, counters and operating time'),
 )
 CONFIG_FIELDS = tuple(f.name for f in fields(EstimatorConfig))
 #: A buffer this long is processed at once.
@@ -61,6 +64,12 @@ MAX_BUFFER = 200
 def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
     """EstimatorConfig from parameter values; ValueError with the reason."""
     return EstimatorConfig(**{name: values[name] for name in CONFIG_FIELDS if name in values})
+
+
+def state_identity(values: dict[str, Any]) -> dict[str, Any]:
+    """Return what a state_file must match: the ratio and the joint names."""
+    return {'ratio': float(values['ratio']), 'motor_joint': values['motor_joint'],
+            'load_joint': values['load_joint']}
 
 
 def joint_names_problem(values: dict[str, Any]) -> str:
@@ -86,6 +95,9 @@ class EstimatorNode(Node):
             raise ConfigError(f'estimator parameters: {exc}') from None
         self.pipeline = EstimatorPipeline(self.config)
         self.values = values
+        self.state = StateKeeper(self, values, 'estimator', state_identity(values),
+                                 self._current_state)
+        self.state.load(self.pipeline.from_state)
         self.outputs = EstimatePublisher(self, values['frame_id'])
         self.loss_outputs = SampleLossPublisher(self, values['frame_id'])
         self.diag_pub = self.create_publisher(DiagnosticArray, interfaces.DIAGNOSTICS,
@@ -107,6 +119,31 @@ class EstimatorNode(Node):
         self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
         self.subscription = subscribe_joint_states_raw(self, self._on_message)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.state.start_timer(self._save_state)
+
+    def _current_state(self) -> tuple[dict[str, Any], int | None]:
+        """The pipeline's state and its newest stamp (for a save)."""
+        state = self.pipeline.to_state()
+        return state, state['last_stamp']
+
+    def _save_state(self) -> None:
+        """Timer: publish what the buffer gives, then save."""
+        self._flush()
+        self.state.save()
+
+    def destroy_node(self) -> None:
+        """Process the buffer without publishing (the context may be shut down), save the
+        state (SIGINT/SIGTERM and normal exits pass here), then destroy."""
+        if self.state.enabled and self.stamps:
+            stamps, rows = self.stamps, self.rows
+            self.stamps, self.rows = [], []
+            try:
+                columns = np.array(rows, dtype=float).reshape(-1, 4).T
+                self.pipeline.on_batch(np.array(stamps, dtype=np.int64), *columns)
+            except ValueError:
+                pass
+        self.state.save()
+        super().destroy_node()
 
     def _set_window_watch(self) -> None:
         """Thresholds of the per-sample guess of when an energy window closes."""
@@ -205,6 +242,10 @@ class EstimatorNode(Node):
         now = self.get_clock().now().nanoseconds
         self._flush()
         status = self.pipeline.status(self.status_name, self.messages_received)
+        problem = self.state.problem
+        if problem:
+            status = replace(status, level=max(status.level, WARN),
+                             message=f'{status.message}; {problem}')
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 
@@ -226,6 +267,7 @@ class EstimatorNode(Node):
         self.outputs.frame_id = self.loss_outputs.frame_id = values['frame_id']
         self.decoder = JointStateDecoder(values['motor_joint'], values['load_joint'])
         self.pipeline.reconfigure(config)
+        self.state.identity = state_identity(values)
         self._set_window_watch()
         if timeout_changed:
             self.destroy_timer(self.watchdog)

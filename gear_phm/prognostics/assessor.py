@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 import math
+from typing import Any
 
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies
+from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import RulEstimate, RulPredictor, Trend
+from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, Trend, trend_from_state,
+                                      trend_to_state)
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
@@ -60,6 +63,34 @@ def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
     nan = math.nan
     return HealthState(stamp_ns, OK, 'waiting for data', nan, nan, nan, nan,
                        RulEstimate(nan, nan, nan, 'none'), 0, 0, 0, u_eol, Trend())
+
+
+_RUL_FIELDS = ('median', 'p5', 'p95')
+_STATE_FLOATS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'u_eol')
+_STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejected',
+               'samples_missing')
+
+
+def health_state_to_state(state: HealthState) -> dict[str, Any]:
+    """A :class:`HealthState` as a JSON-safe dict."""
+    out: dict[str, Any] = {key: int(getattr(state, key)) for key in _STATE_INTS}
+    out.update({key: encode_float(getattr(state, key)) for key in _STATE_FLOATS})
+    out['message'] = state.message
+    out['rul'] = {key: encode_float(getattr(state.rul, key)) for key in _RUL_FIELDS}
+    out['rul']['model'] = state.rul.model
+    out['trend'] = trend_to_state(state.trend)
+    return out
+
+
+def health_state_from_state(state: dict[str, Any]) -> HealthState:
+    """Inverse of :func:`health_state_to_state`; KeyError/ValueError/TypeError if bad."""
+    rul = state['rul']
+    values: dict[str, Any] = {key: int(state[key]) for key in _STATE_INTS}
+    values.update({key: decode_float(state[key]) for key in _STATE_FLOATS})
+    return HealthState(message=str(state['message']),
+                       rul=RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
+                                       str(rul['model'])),
+                       trend=trend_from_state(state['trend']), **values)
 
 
 class HealthAssessor:
@@ -115,6 +146,30 @@ class HealthAssessor:
                                   estimate.samples_rejected, self.u_eol, trend,
                                   estimate.samples_missing)
         return self.latest
+
+    def to_state(self) -> dict[str, Any]:
+        """What a restart needs (JSON-safe, see :mod:`gear_phm.persistence`): the RUL
+        history and fit, the NIS window, the level latches and the latest state."""
+        latest = self.latest
+        return {'predictor': self.predictor.to_state(), 'divergence': self.divergence.to_state(),
+                'levels': self.levels.to_state(), 'rejected': dict(self.rejected),
+                'latest': None if latest is None else health_state_to_state(latest)}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state` into an assessor of the same configuration.
+
+        KeyError/ValueError/TypeError on a malformed dict (the assessor is then unchanged).
+        """
+        fresh = HealthAssessor(self.config)
+        fresh.predictor.from_state(state['predictor'])
+        fresh.divergence.from_state(state['divergence'])
+        fresh.levels.from_state(state['levels'])
+        rejected = {str(k): int(v) for k, v in dict(state['rejected']).items()}
+        latest = state['latest']
+        self.latest = None if latest is None else health_state_from_state(latest)
+        self.predictor, self.divergence, self.levels = (fresh.predictor, fresh.divergence,
+                                                        fresh.levels)
+        self.rejected = rejected
 
     def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:
         """'' or why the estimator's ratio differs from this assessor's.

@@ -21,7 +21,9 @@ from collections import deque
 import math
 import statistics
 from statistics import NormalDist
+from typing import Any
 
+from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 from gear_phm.status import ERROR, OK, WARN
 
 
@@ -71,6 +73,22 @@ class DivergenceDetector:
         self._nis.clear()
         self._last_innovation = None
 
+    def to_state(self) -> dict[str, Any]:
+        """NIS window and the last innovation seen (JSON-safe)."""
+        last = self._last_innovation
+        return {'nis': encode_floats(self._nis),
+                'last_innovation': None if last is None else encode_floats(last)}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
+        nis = decode_floats(state['nis'])
+        last = state['last_innovation']
+        pair = None if last is None else decode_floats(last)
+        if pair is not None and len(pair) != 2:
+            raise ValueError('last_innovation needs 2 values')
+        self._nis = deque(nis, maxlen=self.window)
+        self._last_innovation = None if pair is None else (pair[0], pair[1])
+
     @property
     def nis_mean(self) -> float:
         """Mean of the NIS window (NaN if empty)."""
@@ -117,6 +135,17 @@ class Latch:
         self.active = False
         self._since = None
 
+    def to_state(self) -> dict[str, Any]:
+        """Active flag and the stamp [s] a pending change started (None: none)."""
+        return {'active': self.active,
+                'since': None if self._since is None else encode_float(self._since)}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`."""
+        since = state['since']
+        self.active = bool(state['active'])
+        self._since = None if since is None else decode_float(since)
+
     def update(self, t: float, enter: bool, stay: bool) -> bool:
         """Feed the tests at stamp ``t`` [s]; return whether the condition is active."""
         wanted = stay if self.active else enter
@@ -156,6 +185,18 @@ class LevelTracker:
         """Back to OK with nothing pending (a replay restarted)."""
         for latch in self.latches.values():
             latch.reset()
+
+    def to_state(self) -> dict[str, Any]:
+        """Every latch's state (JSON-safe)."""
+        return {name: latch.to_state() for name, latch in self.latches.items()}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; KeyError if a latch is missing."""
+        for name in self.latches:            # check all before changing any
+            if not isinstance(state[name], dict):
+                raise ValueError(f'latch {name} state must be an object')
+        for name, latch in self.latches.items():
+            latch.from_state(state[name])
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
                filter_check: tuple[int, str] = (OK, '')) -> tuple[int, str]:

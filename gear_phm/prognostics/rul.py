@@ -35,10 +35,13 @@ filter's u >= u_eol): every quantile is 0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 import math
+from typing import Any
 
 import numpy as np
+
+from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
 LINEAR, EXPONENTIAL, POWER, NONE = 'linear', 'exponential', 'power', 'none'
 MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER)
@@ -81,6 +84,31 @@ class RulEstimate:
     p5: float
     p95: float
     model: str
+
+
+def trend_to_state(trend: Trend) -> dict[str, Any]:
+    """Return a :class:`Trend` as a JSON-safe dict (floats via :func:`encode_float`)."""
+    state: dict[str, Any] = {}
+    for item in fields(Trend):
+        value = getattr(trend, item.name)
+        if isinstance(value, tuple):
+            state[item.name] = encode_floats(value)
+        elif isinstance(value, float):
+            state[item.name] = encode_float(value)
+        else:
+            state[item.name] = value
+    return state
+
+
+def trend_from_state(state: dict[str, Any]) -> Trend:
+    """Inverse of :func:`trend_to_state`; ValueError/KeyError/TypeError if malformed."""
+    model = state['model']
+    if model not in (*MODELS, NONE):
+        raise ValueError(f'unknown trend model {model!r}')
+    return Trend(model, *(decode_float(state[key]) for key in
+                          ('t_end', 'u_end', 'slope', 'slope_sigma', 'shape', 'span')),
+                 tuple(decode_floats(state['covariance'])), int(state['points']),
+                 decode_float(state['effective_points']), decode_float(state['weight']))
 
 
 class WearHistory:
@@ -135,6 +163,30 @@ class WearHistory:
         self._wt[index] += w * dt
         self._wu[index] += w * u
         self._n[index] += 1
+
+    def to_state(self) -> dict[str, Any]:
+        """Return the bins and their clock (JSON-safe, see :mod:`gear_phm.persistence`)."""
+        return {'max_points': self.max_points, 't_start': encode_float(self.t_start),
+                't_last': encode_float(self.t_last), 'width': encode_float(self.width),
+                'w': encode_floats(self._w), 'wt': encode_floats(self._wt),
+                'wu': encode_floats(self._wu), 'n': list(self._n), 'opened': self.opened}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state` (same max_points); ValueError/KeyError/TypeError if bad."""
+        m = self.max_points
+        columns = [decode_floats(state[key]) for key in ('w', 'wt', 'wu')]
+        n = [int(v) for v in state['n']]
+        if int(state['max_points']) != m or any(len(c) != m for c in (*columns, n)):
+            raise ValueError(f'history state must have {m} bins')
+        width = decode_float(state['width'])
+        if not width > 0.0:
+            raise ValueError(f'history bin width must be > 0, got {width!r}')
+        self.t_start, self.t_last = decode_float(state['t_start']), decode_float(state['t_last'])
+        self.width = width
+        self._w, self._wt, self._wu = columns
+        self._n = n
+        self.opened = int(state['opened'])
+        self._occupied = sum(1 for k in n if k)
 
     def _merge(self) -> None:
         half = self.max_points // 2
@@ -398,6 +450,25 @@ class RulPredictor:
         if self.history.opened < opened:        # time went backwards: the history restarted
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1
+
+    def to_state(self) -> dict[str, Any]:
+        """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
+        return {'history': self.history.to_state(), 'trend': trend_to_state(self._trend),
+                'crossing': encode_floats(self._crossing), 'fitted_at': self._fitted_at,
+                'due': self._due, 'fits': self.fits}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
+        crossing = decode_floats(state['crossing'])
+        if len(crossing) != 3:
+            raise ValueError('crossing needs 3 quantiles')
+        trend = trend_from_state(state['trend'])
+        history = WearHistory(self.history.max_points, self.history.initial_width)
+        history.from_state(state['history'])
+        self.history, self._trend = history, trend
+        self._crossing = (crossing[0], crossing[1], crossing[2])
+        self._fitted_at, self._due = int(state['fitted_at']), int(state['due'])
+        self.fits = int(state['fits'])
 
     @property
     def trend(self) -> Trend:

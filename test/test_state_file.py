@@ -1,0 +1,223 @@
+"""state_file through the real node processes.
+
+A stream in one go and in 5 parts with the estimator and diagnostics nodes stopped between
+parts (SIGTERM, one kill -9) gives the same final u and RUL; a corrupt file is a WARN and is
+kept aside; a file for another ratio is refused (exit 2) unless state_reset.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100
+from gear_phm.interfaces import HEALTH_RUL  # noqa: E402
+from gear_phm.persistence import save_state  # noqa: E402
+from test_estimation_plant import lever_plant  # noqa: E402
+from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402, I100, I201
+
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
+BIN = Path(sys.executable).parent
+PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
+         'motor_inertia:=0.01', 'sensor_timeout:=5.0', 'diagnostics_period:=0.25')
+HEALTH = ('ratio:=3.0', 'eta_opposing_min:=0.5', 'rate:=4.0', 'stale_timeout:=60.0')
+#: The stream: 240 s at 50 Hz of a gearbox whose u grows from 0.05 to 0.35 (RUL finite).
+RATE = 50.0
+DURATION = 240.0
+#: Messages per second of wall time (x20 real time; no loss expected on loopback).
+PACE = 1000.0
+#: UDPv4 only for every node process: one of them is killed with SIGKILL (conftest).
+NODE_ENV = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+ESTIMATOR, DIAGNOSTICS = 'gear_phm estimator', 'gear_phm'
+
+
+def _spawn(exe: str, *params: str) -> subprocess.Popen:
+    args = [str(BIN / exe), '--ros-args']
+    for param in params:
+        args += ['-p', param]
+    return subprocess.Popen(args, env=NODE_ENV, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _stop(proc: subprocess.Popen, sig: signal.Signals = signal.SIGTERM) -> int:
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    try:
+        return proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+        raise
+
+
+def _messages() -> list:
+    run = lever_plant(11, DURATION, lambda t: 0.05 + 0.3 * (t / DURATION) ** 2, rate=RATE)
+    return [joint_state(*row) for row in zip(run.stamp_ns, run.motor_velocity,
+                                             run.motor_effort, run.load_velocity,
+                                             run.load_effort)]
+
+
+def _start(driver: Driver, state_dir: Path | None, period: float) -> list[subprocess.Popen]:
+    """Both nodes, up and connected (joint_states and the estimator topics subscribed)."""
+    extra: tuple[str, ...] = ()
+    if state_dir is not None:
+        extra = (f'state_save_period:={period}',)
+    estimator = _spawn('estimator', *PLANT, *extra, *(
+        (f'state_file:={state_dir / "estimator.json"}',) if state_dir else ()))
+    diagnostics = _spawn('diagnostics', *HEALTH, *extra, *(
+        (f'state_file:={state_dir / "diagnostics.json"}',) if state_dir else ()))
+    procs = [estimator, diagnostics]
+    count = {name: len(driver.statuses.get(name, [])) for name in (ESTIMATOR, DIAGNOSTICS)}
+    try:
+        driver.wait(lambda: all(len(driver.statuses.get(n, [])) > count[n] for n in count)
+                    and driver.pub.get_subscription_count() > 0
+                    and driver.node.count_subscribers('gear_phm/friction') >= 2,
+                    60.0, 'estimator and diagnostics')
+    except AssertionError:
+        for proc in procs:
+            _stop(proc, signal.SIGKILL)
+        raise
+    driver.spin(1.0)                    # estimator <-> diagnostics discovery
+    return procs
+
+
+def _quiet(driver: Driver) -> tuple[dict[str, str], dict[str, str]]:
+    """Wait until both nodes processed everything; their latest statuses.
+
+    The driver took one callback per spin while publishing: its backlog is drained first.
+    """
+    driver.spin(1.0)
+
+    def quiet() -> bool:
+        return time.monotonic() - driver.arrived.get(HEALTH_RUL, 0.0) > 1.0
+    driver.wait(quiet, 30.0, 'the health outputs to stop')
+    driver.settle(ESTIMATOR)
+    driver.spin(0.6)                    # one more /diagnostics at 4 Hz after the last input
+    return driver.latest(ESTIMATOR), driver.latest(DIAGNOSTICS)
+
+
+def _final(status: dict[str, str]) -> tuple[float, float, float]:
+    return float(status['u']), float(status['u_sigma']), float(status['rul_s'])
+
+
+def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
+    messages = _messages()
+    driver = Driver('state_driver')
+    try:
+        procs = _start(driver, None, 0.0)
+        try:
+            publish_paced(driver, messages, PACE)
+            whole_estimator, whole = _quiet(driver)
+        finally:
+            codes = [_stop(p) for p in procs]
+        assert codes == [0, 0]
+        bounds = [round(k * len(messages) / 5) for k in range(6)]
+        saved_stamps = []
+        for part in range(5):
+            killed = part == 2
+            # SIGTERM parts save only at shutdown (period 1 h); the killed part periodically
+            procs = _start(driver, tmp_path, 0.5 if killed else 3600.0)
+            try:
+                publish_paced(driver, messages[bounds[part]:bounds[part + 1]], PACE)
+                split_estimator, split = _quiet(driver)
+                if killed:
+                    driver.spin(1.5)            # > 2 save periods before the kill
+            finally:
+                codes = [_stop(p, signal.SIGKILL if killed else signal.SIGTERM)
+                         for p in procs]
+            assert codes == ([-signal.SIGKILL] * 2 if killed else [0, 0])
+            doc = json.loads((tmp_path / 'estimator.json').read_text())
+            saved_stamps.append(doc['saved_stamp_ns'])
+            assert doc['identity'] == {'ratio': 3.0, 'motor_joint': 'motor',
+                                       'load_joint': 'load'}
+    finally:
+        driver.close()
+    last = [m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec
+            for m in (messages[b - 1] for b in bounds[1:])]
+    assert saved_stamps == last                 # every part's last sample is in the file
+    u_whole, sigma_whole, rul_whole = _final(whole)
+    u_split, sigma_split, rul_split = _final(split)
+    print(f'one go: u {u_whole:.6g} sigma {sigma_whole:.3g} RUL {rul_whole:.4g} s; '
+          f'5 parts: u {u_split:.6g} sigma {sigma_split:.3g} RUL {rul_split:.4g} s')
+    assert 10.0 < rul_whole < 200.0             # a detected trend, not inf
+    assert abs(u_split - u_whole) <= 0.1 * sigma_whole
+    assert rul_split == pytest.approx(rul_whole, rel=0.02)
+    assert sigma_split == pytest.approx(sigma_whole, rel=0.1)
+    # the estimator's counters continued (a restart loses the open window or two; a fresh
+    # filter in the last part would have about a fifth)
+    updates_whole = int(whole_estimator['filter_updates'])
+    keys = ('filter_updates', 'samples_used', 'samples_missing', 'windows_rejected_short_window')
+    print('one go:', [whole_estimator[k] for k in keys], '5 parts:',
+          [split_estimator[k] for k in keys])
+    assert 0.9 * updates_whole <= int(split_estimator['filter_updates']) <= updates_whole
+    assert int(split_estimator['samples_used']) == pytest.approx(
+        int(whole_estimator['samples_used']), rel=0.05)     # a few samples may be lost
+
+
+def test_corrupt_state_files_warn_are_kept_aside_and_start_fresh(tmp_path: Path) -> None:
+    for name in ('estimator.json', 'diagnostics.json'):
+        (tmp_path / name).write_text('{"schema": 1, "kind": "estim')
+    driver = Driver('corrupt_driver')
+    try:
+        procs = _start(driver, tmp_path, 0.5)
+        try:
+            driver.spin(0.6)
+            estimator, diagnostics = driver.latest(ESTIMATOR), driver.latest(DIAGNOSTICS)
+            alive = [p.poll() is None for p in procs]
+        finally:
+            codes = [_stop(p) for p in procs]
+    finally:
+        driver.close()
+    assert alive == [True, True] and codes == [0, 0]
+    for name, status in (('estimator.json', estimator), ('diagnostics.json', diagnostics)):
+        assert status['_level'] == b'\x01', status
+        assert f'state file {tmp_path / name} not JSON' in status['_message']
+        aside = sorted(tmp_path.glob(f'{name}.bad-*'))
+        assert len(aside) == 1 and aside[0].read_text() == '{"schema": 1, "kind": "estim'
+        assert str(aside[0]) in status['_message']
+        assert json.loads((tmp_path / name).read_text())['schema'] == 1     # saved fresh
+    assert estimator['filter_updates'] == '0'
+
+
+def test_state_file_of_another_ratio_refused_unless_reset(tmp_path: Path) -> None:
+    state = EstimatorPipeline(EstimatorConfig(ratio=3.0)).to_state()
+    estimator_file = tmp_path / 'estimator.json'
+    save_state(estimator_file, 'estimator',
+               {'ratio': 3.0, 'motor_joint': 'motor', 'load_joint': 'load'}, state)
+    diagnostics_file = tmp_path / 'diagnostics.json'
+    save_state(diagnostics_file, 'diagnostics', {'ratio': 3.0}, {})
+    original = estimator_file.read_text()
+    refused = [_spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}'),
+               _spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}')]
+    outputs = [p.communicate(timeout=60) for p in refused]
+    assert [p.returncode for p in refused] == [2, 2], outputs
+    for (_, stderr), path in zip(outputs, (estimator_file, diagnostics_file)):
+        assert f'error: state file {path} is for another gearbox (ratio 3.0 in the file, ' \
+            '5.0 now); set state_reset to true' in stderr
+    assert estimator_file.read_text() == original                 # refused: left as it is
+    procs = [_spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}',
+                    'state_reset:=true', 'state_save_period:=0.5'),
+             _spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}',
+                    'state_reset:=true', 'state_save_period:=0.5')]
+    deadline = time.monotonic() + 60.0
+    try:
+        while time.monotonic() < deadline and not all(
+                path.exists() and any(tmp_path.glob(f'{path.name}.old-*'))
+                for path in (estimator_file, diagnostics_file)):
+            assert all(p.poll() is None for p in procs)
+            time.sleep(0.1)
+    finally:
+        codes = [_stop(p) for p in procs]
+    assert codes == [0, 0]
+    for path in (estimator_file, diagnostics_file):
+        assert json.loads(path.read_text())['identity']['ratio'] == 5.0   # fresh, saved
+        old = sorted(tmp_path.glob(f'{path.name}.old-*'))
+        assert len(old) == 1
+        assert json.loads(old[0].read_text())['identity']['ratio'] == 3.0
