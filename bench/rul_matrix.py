@@ -1,7 +1,7 @@
 """RUL wear-law matrix: simulate -> analyze -> evaluate, no tuning (docs/prognostics.md).
 
 For linear, exponential and power-law (exponent 3) wear from u = 0.05 to u_eol = 0.6
-(eta_opposing_min 0.5, ratio 3) in LIFE seconds at 100 Hz (or --rate), per seed: alpha-lambda at 0.5,
+(eta_opposing_min 0.5, ratio 3) in LIFE seconds at 100 Hz, per seed: alpha-lambda at 0.5,
 0.75 and 0.9, the prognostic horizon, from which fraction of the life the RUL stays finite, and
 the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL. Prints one
 markdown row per run and writes OUT/table.md.
@@ -40,10 +40,11 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str],
     out.mkdir(parents=True)
     bag, analysis = out / 'bag', out / 'a'
     quiet = {'check': True, 'stdout': subprocess.DEVNULL, 'stderr': subprocess.DEVNULL}
-    subprocess.run([*GEAR_PHM, 'simulate', '--rate', repr(rate), '--out', str(bag), '--duration',
-                    str(1.1 * life), '--seed', str(seed), '--wear', law, '--wear-rate',
-                    repr(RATES[law](life)), '--friction-initial', '0.05', '--wear-exponent',
-                    '3', '--truth-every', str(max(1, round(rate / 10.0)))], **quiet)
+    subprocess.run([*GEAR_PHM, 'simulate', '--rate', repr(rate), '--out', str(bag),
+                    '--duration', str(1.1 * life), '--seed', str(seed), '--wear', law,
+                    '--wear-rate', repr(RATES[law](life)), '--friction-initial', '0.05',
+                    '--wear-exponent', '3', '--truth-every', str(max(1, round(rate / 10.0)))],
+                   **quiet)
     subprocess.run([*GEAR_PHM, 'analyze', str(bag), *HEALTH, '--out', str(analysis),
                     '--no-plot', '--no-progress', *extra], **quiet)
     subprocess.run([*GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag), *HEALTH,
@@ -67,8 +68,9 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str],
         return f"{'pass' if check['passed'] else 'FAIL'} {error:+.0%}"
 
     horizon = metrics['prognostic_horizon_s']
-    return (f'| {law} | {life:.0f} | {rate:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | {cell(0.9)} | '
-            f'{horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | {band:.0%} |')
+    return (f'| {law} | {life:.0f} | {rate:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | '
+            f'{cell(0.9)} | {horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | '
+            f'{band:.0%} |')
 
 
 def main() -> int:

@@ -32,7 +32,8 @@ def _wear(law: str, life: float, start: float):
         rate = 0.25 / life
         return (lambda t: 0.05 + rate * (t + start)), (lambda t: np.full(np.shape(t), rate))
     k = math.log(6.0) / life
-    return (lambda t: 0.05 * np.exp(k * (t + start))), (lambda t: 0.05 * k * np.exp(k * (t + start)))
+    return ((lambda t: 0.05 * np.exp(k * (t + start))),
+            (lambda t: 0.05 * k * np.exp(k * (t + start))))
 
 
 def _run(run, config: EstimatorConfig = CONFIG) -> tuple[EstimatorPipeline, np.ndarray]:
@@ -55,11 +56,14 @@ def _bounds(k: int, dof: int = 1) -> tuple[float, float]:
 @pytest.mark.parametrize('law', ['linear', 'exponential'])
 @pytest.mark.parametrize('rate', [100.0, 1000.0])
 def test_nis_and_nees_consistent_at_every_life_and_rate(law: str, rate: float) -> None:
-    """Measured (6 seeds): NIS 0.93-1.01 and final NEES 0.91-2.3 (2 dof), bounds ~[0.91, 1.10]
+    """Pooled NIS and final NEES inside their 95 % bounds for each life.
+
+    Measured (6 seeds): NIS 0.93-1.01 and final NEES 0.91-2.3 (2 dof), bounds ~[0.91, 1.10]
     and [0.73, 3.89]; before windows were fused at their mid-time (H = [1, -T/2]) the 300 s
     life at 1 kHz had NEES 9.9 (the estimate lagged by half a window). Linear 300 s at 1 kHz
     is conservative (final NEES 0.65): the wear-law floor on q expects acceleration
-    (docs/estimation.md), so there only NEES <= the upper bound and >= 0.5 is asserted."""
+    (docs/estimation.md), so there only NEES <= the upper bound and >= 0.5 is asserted.
+    """
     for life in (300.0, 3000.0, 30000.0):
         start = 0.0 if life <= 300.0 else 0.5 * life
         u, du = _wear(law, life, start)
@@ -81,10 +85,11 @@ def test_nis_and_nees_consistent_at_every_life_and_rate(law: str, rate: float) -
 
 @pytest.mark.parametrize('rate', [100.0, 1000.0])
 def test_no_mismatch_is_learned_on_a_lever_plant(rate: float) -> None:
-    """Constant u on the lever model: the learned mismatch sigma is ~0 in both directions and
-    the NIS of each direction is in its bounds. Before the fix the opposing sigma came out
-    0.045-0.052 (= the prior's error 0.05 at the first update, kept by the matching) and the
-    opposing NIS was 0.001."""
+    """Constant u on the lever model: no mismatch, NIS of each direction in its bounds.
+
+    Before the fix the opposing sigma came out 0.045-0.052 (= the prior's error 0.05 at the
+    first update, kept by the matching) and the opposing NIS was 0.001.
+    """
     for seed in (0, 1):
         pipeline, rows = _run(lever_plant(seed, 300.0, 0.1, rate=rate))
         summary = pipeline.summary()
@@ -110,10 +115,13 @@ def _spur_run(rate: float, seed: int):
 
 @pytest.mark.parametrize('rate', [100.0, 1000.0])
 def test_direction_offset_of_a_spur_gear_plant_is_measured(rate: float) -> None:
-    """Spur stage with bearing friction: its opposing windows read u = 0.180, its aiding ones
-    0.161 (a 12-sigma disagreement per 1 kHz window). The offset is measured (0.019-0.021)
-    and both directions learn a mismatch; without adaptation the filter re-initialises
-    about every third window (49-54 times in 300 s; adaptive: 0-2 at 100 Hz, 19-22 at 1 kHz)."""
+    """Spur stage with bearing friction: the direction offset is measured, mismatch learned.
+
+    Its opposing windows read u = 0.180, its aiding ones 0.161 (a 12-sigma disagreement per
+    1 kHz window). The offset is measured (0.019-0.021) and both directions learn a mismatch;
+    without adaptation the filter re-initialises about every third window (49-54 times in
+    300 s; adaptive: 0-2 at 100 Hz, 19-22 at 1 kHz).
+    """
     for seed in (0, 1):
         run, gap = _spur_run(rate, seed)
         pipeline, _ = _run(run)

@@ -24,7 +24,7 @@ HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']          # end of life at
 
 def detect(tmp: Path, seed: int, step: float, rate: int = 100, duration: float = 160.0,
            t_fault: float = T_FAULT) -> tuple[float, dict]:
-    """(detection time after the fault [s] or inf, the analysis health summary)."""
+    """Return (detection time after the fault [s] or inf, the analysis health summary)."""
     bag, analysis = tmp / f'bag_{seed}_{step}', tmp / f'a_{seed}_{step}'
     assert main(['simulate', '--rate', str(rate), '--out', str(bag), '--duration',
                  str(duration), '--seed', str(seed), '--wear', 'step', '--t-fault',
@@ -47,10 +47,13 @@ def detect(tmp: Path, seed: int, step: float, rate: int = 100, duration: float =
 @pytest.mark.parametrize('step, bound', [(0.1, 8.0), (0.01, 60.0)])
 def test_step_is_detected_within_the_documented_bound(tmp_path: Path, step: float,
                                                       bound: float) -> None:
-    """A step beyond the gate (0.1 = 30 window sigmas) is detected by re-initialisation
-    after max_consecutive_gated windows: measured 3.0-3.5 s, bound 8 s. A step below the gate
+    """Steps beyond and below the gate are detected within their bounds (3 seeds).
+
+    A step beyond the gate (0.1 = 30 window sigmas) is detected by re-initialisation after
+    max_consecutive_gated windows: measured 3.0-3.5 s, bound 8 s. A step below the gate
     (0.01 ~ 3 window sigmas at 100 Hz) is tracked as wear once the whiteness test has raised
-    q: measured 26-43 s, bound 60 s (docs/prognostics.md derives both)."""
+    q: measured 26-43 s, bound 60 s (docs/prognostics.md derives both).
+    """
     times = [detect(tmp_path, seed, step)[0] for seed in (1, 2, 3)]
     assert max(times) <= bound, times
     if step > 0.05:
@@ -58,8 +61,11 @@ def test_step_is_detected_within_the_documented_bound(tmp_path: Path, step: floa
 
 
 def test_step_beyond_end_of_life_gives_error_within_bound(tmp_path: Path) -> None:
-    """u 0.1 -> 0.7 (end of life at 0.6): ERROR 'end of life' within the detection bound
-    plus level_dwell (5 s) plus one status period (1 s): 14 s; measured 6-8 s."""
+    """A step past end of life gives ERROR within 14 s.
+
+    u 0.1 -> 0.7 (end of life at 0.6): ERROR 'end of life' within the detection bound plus
+    level_dwell (5 s) plus one status period (1 s): 14 s; measured 7-9 s.
+    """
     for seed in (1, 2):
         detected, health = detect(tmp_path, seed, 0.6)
         assert detected <= 8.0
@@ -70,8 +76,11 @@ def test_step_beyond_end_of_life_gives_error_within_bound(tmp_path: Path) -> Non
 
 def test_sub_gate_step_after_a_long_constant_run_within_worst_case_bound(
         tmp_path: Path) -> None:
-    """After 2000 s at constant u the learned q has fallen to q_min (1e-22): a sub-gate step
+    """A sub-gate step after 2000 s at constant u is detected within 150 s.
+
+    After 2000 s at constant u the learned q has fallen to q_min (1e-22): a sub-gate step
     then waits for q to climb ~35 e-folds at <= 0.38 per window. Measured 122-128 s (seeds 1,
-    2); documented worst-case bound 150 s."""
+    2); documented worst-case bound 150 s.
+    """
     detected, _ = detect(tmp_path, 1, 0.01, duration=2200.0, t_fault=2000.0)
     assert 60.0 < detected <= 150.0, detected
