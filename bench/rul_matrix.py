@@ -6,8 +6,10 @@ For linear, exponential and power-law (exponent 3) wear from u = 0.05 to u_eol =
 the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL. Prints one
 markdown row per run and writes OUT/table.md.
 
-Usage: .venv/bin/python bench/rul_matrix.py OUT [--lives 300 3000] [--seeds 1 2 3]
-       [-- extra analyze options]
+Usage: .venv/bin/python bench/rul_matrix.py OUT [--lives 300 3000 30000] [--seeds 1 2 3]
+       [--rate 1000] [--laws linear exponential power] [-- extra analyze options]
+
+Truth is written every 10th sample at 100 Hz and every 100th at 1 kHz (10 Hz either way).
 """
 from __future__ import annotations
 
@@ -30,17 +32,19 @@ RATES = {'linear': lambda life: 0.55 / life, 'exponential': lambda life: math.lo
 HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']
 
 
-def run(out: Path, law: str, life: float, seed: int, extra: list[str]) -> str:
+def run(out: Path, law: str, life: float, seed: int, extra: list[str],
+        rate: float = 100.0) -> str:
     """One scenario; returns its markdown row."""
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
     bag, analysis = out / 'bag', out / 'a'
     quiet = {'check': True, 'stdout': subprocess.DEVNULL, 'stderr': subprocess.DEVNULL}
-    subprocess.run([*GEAR_PHM, 'simulate', '--rate', '100', '--out', str(bag), '--duration',
-                    str(1.1 * life), '--seed', str(seed), '--wear', law, '--wear-rate',
-                    repr(RATES[law](life)), '--friction-initial', '0.05', '--wear-exponent',
-                    '3', '--truth-every', '10'], **quiet)
+    subprocess.run([*GEAR_PHM, 'simulate', '--rate', repr(rate), '--out', str(bag),
+                    '--duration', str(1.1 * life), '--seed', str(seed), '--wear', law,
+                    '--wear-rate', repr(RATES[law](life)), '--friction-initial', '0.05',
+                    '--wear-exponent', '3', '--truth-every', str(max(1, round(rate / 10.0)))],
+                   **quiet)
     subprocess.run([*GEAR_PHM, 'analyze', str(bag), *HEALTH, '--out', str(analysis),
                     '--no-plot', '--no-progress', *extra], **quiet)
     subprocess.run([*GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag), *HEALTH,
@@ -64,8 +68,9 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str]) -> str:
         return f"{'pass' if check['passed'] else 'FAIL'} {error:+.0%}"
 
     horizon = metrics['prognostic_horizon_s']
-    return (f'| {law} | {life:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | {cell(0.9)} | '
-            f'{horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | {band:.0%} |')
+    return (f'| {law} | {life:.0f} | {rate:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | '
+            f'{cell(0.9)} | {horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | '
+            f'{band:.0%} |')
 
 
 def main() -> int:
@@ -73,14 +78,16 @@ def main() -> int:
     parser.add_argument('out', type=Path)
     parser.add_argument('--lives', type=float, nargs='+', default=[300.0, 3000.0])
     parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
+    parser.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz]')
+    parser.add_argument('--laws', nargs='+', choices=list(RATES), default=list(RATES))
     parser.add_argument('extra', nargs='*', help='extra analyze options (after --)')
     args = parser.parse_args()
     rows = []
     for life in args.lives:
-        for law in RATES:
+        for law in args.laws:
             for seed in args.seeds:
-                rows.append(run(args.out / f'{law}_{life:.0f}_{seed}', law, life, seed,
-                                args.extra))
+                rows.append(run(args.out / f'{law}_{life:.0f}_{args.rate:.0f}_{seed}', law,
+                                life, seed, args.extra, args.rate))
                 print(rows[-1], flush=True)
     (args.out / 'table.md').write_text('\n'.join(rows) + '\n')
     return 0

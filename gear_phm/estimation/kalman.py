@@ -155,23 +155,27 @@ class FrictionFilter:
         p = f @ self.kf.P @ f.T + process_covariance(dt, self.process_noise)
         return x, p
 
-    def update(self, z: float, r: float, t: float, direction: int = 0) -> UpdateResult:
+    def update(self, z: float, r: float, t: float, direction: int = 0,
+               age: float = 0.0) -> UpdateResult:
         """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
 
         ``direction``: 0 for an opposing-load window, 1 for aiding (or self-locking); with
-        adaptation its learned mismatch variance is added to ``r``.
+        adaptation its learned mismatch variance is added to ``r``. ``age`` [s]: ``z``
+        measures u at ``t - age`` (a window's mid-time), H = [1, -age]; without it a window
+        of length T lags growing u by T/2 (docs/estimation.md).
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
                              f'r={r!r}')
         self.predict(t)
-        y = z - float(self.kf.x[0, 0])
-        p_uu = float(self.kf.P[0, 0])
+        h = np.array([[1.0, -float(age)]])
+        y = z - float((h @ self.kf.x)[0, 0])
+        p_uu = float((h @ self.kf.P @ h.T)[0, 0])
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
-        if self.adaptation.enabled and nis <= self.gate_threshold:
-            self._adapt(y, p_uu, r, s, direction)
+        if self.adaptation.enabled:
+            self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
         r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1
@@ -185,7 +189,7 @@ class FrictionFilter:
             self.last = UpdateResult(True, y, s, nis, reinitialised=True)
             return self.last
         self.consecutive_gated = 0
-        self.kf.update(np.array([[z]]), R=r)
+        self.kf.update(np.array([[z]]), R=r, H=h)
         self.updates += 1
         self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis)
         if self.adaptation.enabled:
@@ -245,31 +249,26 @@ class FrictionFilter:
         self.last = UpdateResult(bool(last[0]), decode_float(last[1]), decode_float(last[2]),
                                  decode_float(last[3]), bool(last[4]))
 
-    def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int) -> None:
+    def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int,
+               gated: bool) -> None:
         """Run one step of both adaptations (before the update).
 
-        ``y`` innovation, ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance.
+        ``y`` innovation, ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance;
+        ``gated``: the window fails the gate (it still feeds the matching, winsorised).
         """
         a = self.adaptation
         n, mean = self._n, self._mean
         both = n[0] > 0 and n[1] > 0
         common = 0.5 * (mean[0] + mean[1]) if both else mean[direction]
         offset = mean[direction] - common           # this direction's systematic part
-        n[direction] += 1
-        w = 1.0 / min(n[direction], a.mismatch_memory)
-        # means weighted 1/S, variances 1/S^2 (Fisher scoring of an additive variance), so
-        # precise windows are not drowned by noisy ones nor by the start-up transient
-        keep = 1.0 - w
-        self._mean_den[direction] = keep * self._mean_den[direction] + 1.0 / s
-        mean[direction] += (y - mean[direction]) / (s * self._mean_den[direction])
-        weight = 1.0 / (s * s)
-        self._num[direction] = keep * self._num[direction] \
-            + weight * ((y - common) ** 2 - p_uu - r)
-        self._den[direction] = keep * self._den[direction] + weight
-        # a variance is used once it is significant: estimate minus its standard error
-        # sqrt(2 / sum of weights), so a plant without mismatch is not made conservative
-        self._excess[direction] = (self._num[direction]
-                                   - math.sqrt(2.0 * self._den[direction])) / self._den[direction]
+        if p_uu <= 4.0 * (s - p_uu):
+            # Not while the prior dominates (start-up, a long gap): there y is the prior's
+            # error, and a mean taken from it stayed in the matching as a persistent
+            # "mismatch" of (initial error)^2 (sigma 0.05 on a constant lever plant,
+            # docs/estimation.md).
+            self._match(y, p_uu, r, s, direction, common)
+        if gated:
+            return
         e = (y - offset) / math.sqrt(s)
         lam = 1.0 - 1.0 / a.memory
         lam2 = lam * lam
@@ -278,3 +277,31 @@ class FrictionFilter:
         h = ((1.0 - lam2) * self._sum ** 2 - self._power) / max(self._power, 1e-3)
         h = min(max(h, -2.0), 10.0)
         self.q_test = min(max(self.q_test * math.exp(a.gain * h - a.pull), a.q_min), a.q_max)
+
+    def _match(self, y: float, p_uu: float, r: float, s: float, direction: int,
+               common: float) -> None:
+        """Covariance matching of the mismatch variance of ``direction`` (see ``_adapt``).
+
+        Gated windows count too, their deviations winsorised at the gate (|y - mean| at most
+        sqrt(gate S)): a mismatch larger than the gate is then learned in a few tens of
+        windows instead of never, and an outlier moves the variance by at most gate S / memory.
+        """
+        n, mean = self._n, self._mean
+        n[direction] += 1
+        w = 1.0 / min(n[direction], self.adaptation.mismatch_memory)
+        limit = math.sqrt(max(self.gate_threshold, 1.0) * s)
+        # means weighted 1/S, variances 1/S^2 (Fisher scoring of an additive variance), so
+        # precise windows are not drowned by noisy ones nor by the start-up transient
+        keep = 1.0 - w
+        self._mean_den[direction] = keep * self._mean_den[direction] + 1.0 / s
+        step = min(max(y - mean[direction], -limit), limit)
+        mean[direction] += step / (s * self._mean_den[direction])
+        deviation = min(abs(y - common), limit)
+        weight = 1.0 / (s * s)
+        self._num[direction] = keep * self._num[direction] \
+            + weight * (deviation ** 2 - p_uu - r)
+        self._den[direction] = keep * self._den[direction] + weight
+        # a variance is used once it is significant: estimate minus its standard error
+        # sqrt(2 / sum of weights), so a plant without mismatch is not made conservative
+        self._excess[direction] = (self._num[direction]
+                                   - math.sqrt(2.0 * self._den[direction])) / self._den[direction]

@@ -364,7 +364,8 @@ class EstimatorPipeline:
             self.counts[result] += 1
             return []
         update = self.filter.update(result.u, result.u_variance, result.t,
-                                    0 if result.code == OPPOSING else 1)
+                                    0 if result.code == OPPOSING else 1,
+                                    0.5 * window.duration)
         self._last_eta = result.eta
         if self.on_measurement is not None:
             self.on_measurement(result, update.accepted)
