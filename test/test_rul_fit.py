@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from gear_phm.prognostics.rul import (crossing_offsets, fit_trend, RulPredictor, Trend,
-                                      WearHistory)
+from gear_phm.prognostics.rul import (crossing_offsets, fit_trend, rise, rise_sigma,
+                                      RulPredictor, Trend, WearHistory)
 from gear_phm.simulation.wear import Wear
 
 LIFE, U0, U_EOL = 3000.0, 0.05, 0.6
@@ -78,13 +78,37 @@ def test_rul_inf_on_a_flat_history(seed: int) -> None:
 
 
 def test_growth_becomes_detectable_and_the_threshold_is_detect_z() -> None:
-    """Finite exactly when the fitted slope now exceeds detect_z sigma."""
+    """Finite exactly when both the slope and the rise are significant.
+
+    The fitted slope exceeds detect_z sigma_r and the rise exceeds detect_z times the filter's
+    uncertainty of that rise.
+    """
     for detect_z in (2.0, 50.0):
         predictor = RulPredictor(U_EOL, detect_z=detect_z)
         t_now = _feed(predictor, 'linear', 300.0, 0)
         trend, rul = predictor.trend, predictor.predict(t_now, U0)
-        assert math.isfinite(rul.median) == (trend.slope > detect_z * trend.slope_sigma)
+        t, u, precision = predictor.history.arrays()
+        significant = trend.slope > detect_z * trend.slope_sigma \
+            and rise(trend, t, u, precision) > detect_z * rise_sigma(t, precision)
+        assert math.isfinite(rul.median) == significant
     assert math.isfinite(RulPredictor(U_EOL, detect_z=2.0).predict(0.0, U0).median) is False
+
+
+def test_a_rise_within_the_filters_own_sigma_is_not_growth() -> None:
+    """Keep the RUL inf for a climb within the filter's own sigma.
+
+    A short history climbs by 1.5 filter sigmas, with no scatter around the climb: the fit's
+    slope is significant (many smooth points), the rise is not, so the RUL stays inf; the same
+    climb with a 10x more certain filter is growth.
+    """
+    t = np.arange(0.0, 15.0, 0.1)
+    for sigma, finite in ((2e-3, False), (2e-4, True)):
+        predictor = RulPredictor(U_EOL)
+        for ti in t.tolist():
+            predictor.add(ti, U0 + 1.5 * 2e-3 * ti / 15.0, sigma ** 2)
+        trend = predictor.trend
+        assert trend.slope > 2.0 * trend.slope_sigma
+        assert math.isfinite(predictor.predict(15.0, U0).median) is finite
 
 
 def test_memory_and_refits_bounded_on_a_long_fast_history() -> None:

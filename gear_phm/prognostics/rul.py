@@ -29,9 +29,22 @@ never reaches it, e.g. r <= 0), and the 5/50/95 % inverted-CDF quantiles of the 
 are kept. At time t the RUL quantiles are max(t_cross - t, 0), so between refits (at most
 every 1/16 of the history's growth) the RUL costs a subtraction.
 
-Detection: the RUL is finite only when the fitted slope at the newest time is significant,
-r > detect_z sigma_r; otherwise every quantile is inf (model 'none'). Already worn (the
-filter's u >= u_eol): every quantile is 0.
+Detection: the RUL is finite only when the growth of u is significant twice over:
+
+1. the fitted slope at the newest time against the fit's own uncertainty, r > detect_z sigma_r;
+2. the rise of u over the history against the filter's own uncertainty of that rise:
+   rise > detect_z sqrt(sigma_start^2 + sigma_end^2), sigma_end from the newest bin's P_uu,
+   sigma_start from the first quarter of the history (:func:`rise_sigma`); the rise is the
+   smaller of the fitted law's u_end - u(t_start) and the data's last-quarter minus
+   first-quarter mean (:func:`rise`: a law fitted to a few points can extrapolate a steep
+   start that the data do not show).
+
+Otherwise every quantile is inf (model 'none'). Test 2 is needed early in a history: a
+few seconds of a filter settling from its prior or wandering within its sigma are a
+"significant" slope to a fit of a handful of correlated points (bags/healthy gave a RUL p5 of
+4 s, hence a false WARN, at 5 s). The rise of each law over the span T: r T (linear),
+r (1 - exp(-k T)) / k (exponential), r T / p (power). Already worn (the filter's u >= u_eol):
+every quantile is 0.
 """
 from __future__ import annotations
 
@@ -395,6 +408,43 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
     return np.asarray(np.where(gap > 0.0, offset, -np.inf))
 
 
+def rise_sigma(t: np.ndarray, precision: np.ndarray) -> float:
+    """Return the filter's uncertainty [-] of a rise of u over the history.
+
+    sqrt(sigma_start^2 + sigma_end^2): sigma_end from the newest bin's mean precision,
+    sigma_start from the mean precision of the bins in the first quarter of the span (which
+    includes the filter's start-up from its prior).
+    """
+    first = precision[t <= t[0] + 0.25 * (t[-1] - t[0])]
+    start, end = float(first.mean()), float(precision[-1])
+    if not (start > 0.0 and end > 0.0):
+        return math.inf
+    return math.sqrt(1.0 / start + 1.0 / end)
+
+
+def rise(law: Trend, t: np.ndarray, u: np.ndarray, precision: np.ndarray) -> float:
+    """Return the rise [-] of u over the history.
+
+    The smaller of the law's (extrapolated to the start, :func:`fitted_rise`) and the data's
+    (precision-weighted mean u of the last quarter of the span minus that of the first).
+    """
+    quarter = 0.25 * (t[-1] - t[0])
+    first, last = t <= t[0] + quarter, t >= t[-1] - quarter
+    data = float(np.average(u[last], weights=precision[last])
+                 - np.average(u[first], weights=precision[first]))
+    return min(fitted_rise(law), data)
+
+
+def fitted_rise(law: Trend) -> float:
+    """Return the rise [-] of u over the fitted span, u_end - u(t_start) (module docstring)."""
+    span = law.span
+    if law.model == EXPONENTIAL and law.shape > 0.0:
+        return law.slope * -math.expm1(-law.shape * span) / law.shape
+    if law.model == POWER and law.shape > 0.0:
+        return law.slope * span / law.shape
+    return law.slope * span
+
+
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
                            ) -> list[float]:
     """Return ``np.quantile(values, probabilities, method='inverted_cdf')`` from one sort.
@@ -489,6 +539,9 @@ class RulPredictor:
         laws = tuple(replace(law, t_end=law.t_end + history.t_start)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points))
         self._trend = laws[0] if laws else Trend(points=t.size)
+        if laws and not rise(laws[0], t, u, precision) > self.detect_z * rise_sigma(t, precision):
+            self._crossing = (math.inf, math.inf, math.inf)     # within the filter's noise
+            return
         self._crossing = self._crossing_quantiles(laws)
 
     def _crossing_quantiles(self, laws: tuple[Trend, ...]) -> tuple[float, float, float]:
