@@ -227,6 +227,9 @@ def main() -> int:
         return 0
     if args.out is None:
         parser.error('OUT is required')
+    if not Path(args.progpy_python).is_file():
+        parser.error(f'no bench python at {args.progpy_python}: python3 -m venv /tmp/progpy_venv '
+                     '&& /tmp/progpy_venv/bin/pip install -r bench/requirements.txt')
     header = ('| law | life [s] | seed | gear_phm 0.5 | 0.75 | 0.9 | PH | progpy linear 0.5 | '
               '0.75 | 0.9 | PH | progpy exponential 0.5 | 0.75 | 0.9 | PH |\n'
               '|---|---|---|' + '---|' * 12)
