@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 from gear_phm.cli.evaluate import _find_bag, read_vector_topic
-from gear_phm.interfaces import HEALTH_RUL
+from gear_phm.interfaces import HEALTH_EFFICIENCY, HEALTH_RUL
 
 GEAR_PHM = [sys.executable, '-m', 'gear_phm.cli.main']
 RATES = {'linear': lambda life: 0.55 / life, 'exponential': lambda life: math.log(12) / life,
@@ -70,7 +70,23 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str],
     horizon = metrics['prognostic_horizon_s']
     return (f'| {law} | {life:.0f} | {rate:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | '
             f'{cell(0.9)} | {horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | '
-            f'{band:.0%} |')
+            f'{band:.0%} | {level_changes(analysis, t_eol)} |')
+
+
+def level_changes(analysis: Path, t_eol: float) -> str:
+    """Return the health-level transitions of a run, e.g. 'OK>WARN 0.12, WARN>ERROR 1.01'.
+
+    Times as fractions of the true life from the first estimate; '(ERROR early)' if ERROR came
+    before the true end of life.
+    """
+    t, vectors = read_vector_topic(_find_bag(analysis), HEALTH_EFFICIENCY)
+    t = t - t[0]
+    levels = vectors[:, 2].astype(int)
+    names = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
+    steps = [f'{names[levels[i - 1]]}>{names[levels[i]]} {t[i] / t_eol:.2f}'
+             for i in range(1, levels.size) if levels[i] != levels[i - 1]]
+    early = bool(np.any((levels == 2) & (t < t_eol)))
+    return ', '.join(steps) + (' (ERROR early)' if early else '')
 
 
 def main() -> int:

@@ -184,3 +184,27 @@ def test_rul_deterministic_and_trend_choice_fixed() -> None:
         RulPredictor(U_EOL, trend='quadratic')
     t = np.arange(5.0)
     assert fit_trend(t, t, np.ones(5)) == Trend(points=5)       # too few points
+
+
+def test_detection_has_hysteresis() -> None:
+    """Keep growth that was seen while the evidence stays above half the threshold.
+
+    Evidence between half the threshold and the threshold: no growth for a predictor that has
+    not seen any, still growth for one that has (no finite/inf toggling).
+    """
+    sigma, slope = 2e-3, 2.5 * 2e-3 / 15.0        # climbs 2.5 filter sigmas in 15 s
+    predictors = [RulPredictor(U_EOL), RulPredictor(U_EOL)]
+    for ti in np.arange(0.0, 15.0, 0.1).tolist():
+        for predictor in predictors:
+            predictor.add(ti, U0 + slope * ti, sigma ** 2)
+    assert [(p.trend, p.detected)[1] for p in predictors] == [False, False]
+    state = predictors[1].to_state()
+    state['detected'] = True                       # as if growth had been seen earlier
+    predictors[1].from_state(state)
+    for ti in np.arange(15.0, 17.0, 0.1).tolist():
+        for predictor in predictors:
+            predictor.add(ti, U0 + slope * ti, sigma ** 2)
+    ruls = [p.predict(17.0, U0 + slope * 17.0) for p in predictors]
+    assert predictors[0].fits == predictors[1].fits > 1      # both refitted on the new points
+    assert math.isinf(ruls[0].median) and math.isfinite(ruls[1].median)
+    assert predictors[1].detected and not predictors[0].detected

@@ -39,7 +39,10 @@ Detection: the RUL is finite only when the growth of u is significant twice over
    first-quarter mean (:func:`rise`: a law fitted to a few points can extrapolate a steep
    start that the data do not show).
 
-Otherwise every quantile is inf (model 'none'). Test 2 is needed early in a history: a
+Otherwise every quantile is inf (model 'none'). Once detected, growth is dropped only when the
+tests fail at ``DETECT_RELEASE`` (0.5) times detect_z: a hysteresis, so that the RUL does not
+toggle between finite and inf (and the RUL-based WARN with it) while the evidence hovers at
+the threshold (3 of 18 matrix runs did, 2026-11-24). Test 2 is needed early in a history: a
 few seconds of a filter settling from its prior or wandering within its sigma are a
 "significant" slope to a fit of a handful of correlated points (bags/healthy gave a RUL p5 of
 4 s, hence a false WARN, at 5 s). The rise of each law over the span T: r T (linear),
@@ -62,6 +65,9 @@ MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER)
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
 K_SPAN_GRID = np.geomspace(0.02, 30.0, 80)
 P_GRID = np.geomspace(0.25, 10.0, 60)
+#: Once growth is detected, it is dropped only when both tests fall below this fraction of
+#: detect_z (hysteresis: one WARN per real crossing, docs/prognostics.md).
+DETECT_RELEASE = 0.5
 #: Smallest exponent a power-law draw may take (keeps u increasing in tau).
 P_MIN = 0.05
 
@@ -492,6 +498,7 @@ class RulPredictor:
         self._crossing = (math.inf, math.inf, math.inf)
         self._fitted_at = 0
         self._due = 1
+        self.detected = False
 
     def add(self, t: float, u: float, u_variance: float) -> None:
         """Record a posterior (t [s], u [-], P_uu [-^2])."""
@@ -500,12 +507,13 @@ class RulPredictor:
         if self.history.opened < opened:        # time went backwards: the history restarted
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1
+            self.detected = False
 
     def to_state(self) -> dict[str, Any]:
         """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
         return {'history': self.history.to_state(), 'trend': trend_to_state(self._trend),
                 'crossing': encode_floats(self._crossing), 'fitted_at': self._fitted_at,
-                'due': self._due, 'fits': self.fits}
+                'due': self._due, 'fits': self.fits, 'detected': self.detected}
 
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
@@ -519,6 +527,7 @@ class RulPredictor:
         self._crossing = (crossing[0], crossing[1], crossing[2])
         self._fitted_at, self._due = int(state['fitted_at']), int(state['due'])
         self.fits = int(state['fits'])
+        self.detected = bool(state.get('detected', math.isfinite(crossing[1])))
 
     @property
     def trend(self) -> Trend:
@@ -539,10 +548,12 @@ class RulPredictor:
         laws = tuple(replace(law, t_end=law.t_end + history.t_start)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points))
         self._trend = laws[0] if laws else Trend(points=t.size)
-        if laws and not rise(laws[0], t, u, precision) > self.detect_z * rise_sigma(t, precision):
-            self._crossing = (math.inf, math.inf, math.inf)     # within the filter's noise
-            return
-        self._crossing = self._crossing_quantiles(laws)
+        # hysteresis: once growth was seen, it is dropped only below half the threshold
+        z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
+        self.detected = bool(laws) and laws[0].slope > z * laws[0].slope_sigma \
+            and rise(laws[0], t, u, precision) > z * rise_sigma(t, precision)
+        self._crossing = self._crossing_quantiles(laws) if self.detected \
+            else (math.inf, math.inf, math.inf)
 
     def _crossing_quantiles(self, laws: tuple[Trend, ...]) -> tuple[float, float, float]:
         """Return the 5/50/95 % quantiles of the absolute time [s] of reaching u_eol.
@@ -550,8 +561,6 @@ class RulPredictor:
         inf: never. Over the laws' parameter draws, each law taking its Akaike weight's share
         of the draws.
         """
-        if not laws or not laws[0].slope > self.detect_z * laws[0].slope_sigma:
-            return (math.inf, math.inf, math.inf)
         crossing = np.empty(self._uniforms.size)
         edges = np.cumsum([law.weight for law in laws])
         edges[-1] = 1.0
