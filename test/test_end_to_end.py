@@ -16,11 +16,8 @@ contract is about the silence of its own inputs.
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 import signal
-import subprocess
-import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
@@ -33,40 +30,22 @@ from rclpy.node import Node  # noqa: E402
 from gear_phm.bagio import BagReader  # noqa: E402
 from gear_phm.interfaces import DIAGNOSTICS, ESTIMATOR_TOPICS  # noqa: E402
 from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
+from node_processes import spawn, stop  # noqa: E402, I100, I201
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
-BIN = Path(sys.executable).parent
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'wearing'
 STALE_TIMEOUT = 1.0
 DIAGNOSTICS_RATE = 10.0
 
 
-def _spawn(exe: str, *params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
-    args = [str(BIN / exe), '--ros-args']
-    for param in params:
-        args += ['-p', param]
-    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
-
-
-def _stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
-    if proc.poll() is None:
-        proc.send_signal(sig)
-        try:
-            return proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-    return proc.wait()
-
-
 def test_three_processes_levels_recording_and_stale(tmp_path: Path,
                                                     sigkill_safe_env: dict[str, str]) -> None:
     record = tmp_path / 'diag'
-    diagnostics = _spawn('diagnostics', f'record_path:={record}', 'record_inputs:=true',
-                         'ratio:=3.0', 'eta_opposing_min:=0.7333', 'eta_warn:=0.8',
-                         'warn_horizon:=0.0', f'rate:={DIAGNOSTICS_RATE}',
-                         f'stale_timeout:={STALE_TIMEOUT}', 'transmission_name:=wearing')
-    estimator = _spawn('estimator', 'ratio:=3.0', 'process_noise:=1e-10')
+    diagnostics = spawn('diagnostics', f'record_path:={record}', 'record_inputs:=true',
+                        'ratio:=3.0', 'eta_opposing_min:=0.7333', 'eta_warn:=0.8',
+                        'warn_horizon:=0.0', f'rate:={DIAGNOSTICS_RATE}',
+                        f'stale_timeout:={STALE_TIMEOUT}', 'transmission_name:=wearing')
+    estimator = spawn('estimator', 'ratio:=3.0', 'process_noise:=1e-10')
     procs = [diagnostics, estimator]
     rclpy.init()
     node = Node('end_to_end_test')
@@ -84,9 +63,9 @@ def test_three_processes_levels_recording_and_stale(tmp_path: Path,
         while not arrays and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.05)
         assert arrays, 'diagnostics node never published'
-        publisher = _spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
-                           'rate_factor:=20.0', 'wait_for_subscribers:=1',
-                           env=sigkill_safe_env)                 # killed with -9 below
+        publisher = spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
+                          'rate_factor:=20.0', 'wait_for_subscribers:=1',
+                          env=sigkill_safe_env)                 # killed with -9 below
         procs.append(publisher)
         levels: list[bytes] = []
         end = time.monotonic() + 90.0
@@ -114,7 +93,7 @@ def test_three_processes_levels_recording_and_stale(tmp_path: Path,
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-        codes = [_stop(p) for p in reversed(procs)]
+        codes = [stop(p) for p in reversed(procs)]
     assert codes[-1] == 0 or codes[-1] == -signal.SIGINT, diagnostics.stderr.read()
     with BagReader(record) as bag:
         topics = bag.topics

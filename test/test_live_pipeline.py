@@ -6,12 +6,8 @@ from __future__ import annotations
 
 from collections import Counter
 import math
-import os
 from pathlib import Path
 import re
-import signal
-import subprocess
-import sys
 import time
 
 import pytest
@@ -26,32 +22,14 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402
 from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL,  # noqa: E402
                                  SAMPLE_LOSS, stamp_to_ns)
-from test_estimation_plant import lever_plant  # noqa: E402
+from node_processes import spawn, stop  # noqa: E402, I100, I201
+from test_estimation_plant import lever_plant  # noqa: E402, I201
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
-BIN = Path(sys.executable).parent
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'healthy'
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
          'motor_inertia:=0.01')
-
-
-def _spawn(exe: str, *params: str) -> subprocess.Popen:
-    args = [str(BIN / exe), '--ros-args']
-    for param in params:
-        args += ['-p', param]
-    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
-
-
-def _stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 class Driver:
@@ -148,7 +126,7 @@ def _counts(status: dict[str, str]) -> tuple[int, int, int]:
 
 
 def test_10khz_burst_every_sample_used_rejected_or_counted_missing() -> None:
-    estimator = _spawn('estimator', *PLANT, 'diagnostics_period:=0.25', 'sensor_timeout:=5.0')
+    estimator = spawn('estimator', *PLANT, 'diagnostics_period:=0.25', 'sensor_timeout:=5.0')
     driver = Driver('burst_driver')
     try:
         driver.wait(lambda: driver.pub.get_subscription_count() > 0
@@ -164,7 +142,7 @@ def test_10khz_burst_every_sample_used_rejected_or_counted_missing() -> None:
         status = driver.settle('gear_phm estimator')
     finally:
         driver.close()
-        _stop(estimator)
+        stop(estimator)
     sent = len(messages)
     used, rejected, missing = _counts(status)
     received = int(status['messages_received'])
@@ -183,7 +161,7 @@ def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> 
     # one zero stamp and one stamp 1 s in the past, with plausible values, amid the stream
     messages.insert(3500, joint_state(0, *(c[3499] for c in columns[1:])))
     messages.insert(3000, joint_state(run.stamp_ns[2899], *(c[2899] for c in columns[1:])))
-    estimator = _spawn('estimator', *PLANT, 'diagnostics_period:=0.25', 'sensor_timeout:=5.0')
+    estimator = spawn('estimator', *PLANT, 'diagnostics_period:=0.25', 'sensor_timeout:=5.0')
     driver = Driver('stray_driver')
     try:
         driver.wait(lambda: driver.pub.get_subscription_count() > 0
@@ -194,7 +172,7 @@ def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> 
         driver.spin(0.5)
     finally:
         driver.close()
-        _stop(estimator)
+        stop(estimator)
     offline = EstimatorPipeline(EstimatorConfig(ratio=3.0, motor_torque_noise=0.05,
                                                 load_torque_noise=0.05, motor_inertia=0.01))
     offline.on_batch(*columns)
@@ -212,35 +190,35 @@ def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> 
 
 
 def test_looping_replay_resets_once_per_loop() -> None:
-    estimator = _spawn('estimator', 'ratio:=3.0', 'diagnostics_period:=0.25')
+    estimator = spawn('estimator', 'ratio:=3.0', 'diagnostics_period:=0.25')
     driver = Driver('loop_driver')
     publisher = None
     try:
         driver.wait(lambda: driver.latest('gear_phm estimator'), 60.0, 'estimator')
         # 20 s of the bag (2000 samples at 100 Hz) per pass, 8x faster: 2.5 s per loop
-        publisher = _spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
-                           'start_offset:=100.0', 'rate_factor:=8.0', 'loop:=true',
-                           'replay_truth:=false', 'wait_for_subscribers:=1')
+        publisher = spawn('publisher', 'mode:=replay', f'bag_path:={BAG}',
+                          'start_offset:=100.0', 'rate_factor:=8.0', 'loop:=true',
+                          'replay_truth:=false', 'wait_for_subscribers:=1')
         driver.wait(lambda: int(driver.latest('gear_phm publisher').get('loops', 0)) >= 3,
                     90.0, 'three loops')
         loops = int(driver.latest('gear_phm publisher')['loops'])
         driver.spin(0.5)                            # well into the next pass, not past it
-        _stop(publisher)
+        stop(publisher)
         status = driver.settle('gear_phm estimator')
     finally:
         driver.close()
         if publisher is not None:
-            _stop(publisher)
-        _stop(estimator)
+            stop(publisher)
+        stop(estimator)
     assert int(status['events_stamp_reset']) == loops, (loops, status)
     assert int(status['dropped_backwards']) <= 10 * loops, status
 
 
 def test_input_stops_stale_in_time_and_no_stamp_repeats_on_any_output() -> None:
     stale_timeout, rate = 1.0, 4.0
-    diagnostics = _spawn('diagnostics', 'ratio:=3.0', f'stale_timeout:={stale_timeout}',
-                         f'rate:={rate}', 'warn_horizon:=0.0')
-    estimator = _spawn('estimator', *PLANT, 'sensor_timeout:=0.5')
+    diagnostics = spawn('diagnostics', 'ratio:=3.0', f'stale_timeout:={stale_timeout}',
+                        f'rate:={rate}', 'warn_horizon:=0.0')
+    estimator = spawn('estimator', *PLANT, 'sensor_timeout:=0.5')
     driver = Driver('stale_driver')
     try:
         driver.wait(lambda: driver.pub.get_subscription_count() > 0
@@ -266,8 +244,8 @@ def test_input_stops_stale_in_time_and_no_stamp_repeats_on_any_output() -> None:
         estimator_status = driver.latest('gear_phm estimator')
     finally:
         driver.close()
-        _stop(estimator)
-        _stop(diagnostics)
+        stop(estimator)
+        stop(diagnostics)
     # never STALE before the input stops: OK 'waiting for data' from start-up until the first
     # estimate, then the estimates' levels; once the input stops, STALE neither before
     # stale_timeout nor later than one status period after it. The silence is the

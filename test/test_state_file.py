@@ -6,12 +6,12 @@ kept aside; a file for another ratio is refused (exit 2) unless state_reset.
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 from pathlib import Path
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
@@ -22,9 +22,10 @@ from gear_phm.interfaces import HEALTH_RUL  # noqa: E402
 from gear_phm.persistence import save_state  # noqa: E402
 from test_estimation_plant import lever_plant  # noqa: E402
 from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402, I100, I201
+import node_processes  # noqa: E402, I100
+from node_processes import stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
-BIN = Path(sys.executable).parent
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
          'motor_inertia:=0.01', 'sensor_timeout:=5.0', 'diagnostics_period:=0.25')
 HEALTH = ('ratio:=3.0', 'eta_opposing_min:=0.5', 'rate:=4.0', 'stale_timeout:=60.0')
@@ -35,26 +36,8 @@ DURATION = 240.0
 PACE = 1000.0
 #: UDPv4 only for every node process: one of them is killed with SIGKILL (conftest).
 NODE_ENV = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+spawn = functools.partial(node_processes.spawn, env=NODE_ENV)
 ESTIMATOR, DIAGNOSTICS = 'gear_phm estimator', 'gear_phm'
-
-
-def _spawn(exe: str, *params: str) -> subprocess.Popen:
-    args = [str(BIN / exe), '--ros-args']
-    for param in params:
-        args += ['-p', param]
-    return subprocess.Popen(args, env=NODE_ENV, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
-
-
-def _stop(proc: subprocess.Popen, sig: signal.Signals = signal.SIGTERM) -> int:
-    if proc.poll() is None:
-        proc.send_signal(sig)
-    try:
-        return proc.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-        raise
 
 
 def _messages() -> list:
@@ -69,9 +52,9 @@ def _start(driver: Driver, state_dir: Path | None, period: float) -> list[subpro
     extra: tuple[str, ...] = ()
     if state_dir is not None:
         extra = (f'state_save_period:={period}',)
-    estimator = _spawn('estimator', *PLANT, *extra, *(
+    estimator = spawn('estimator', *PLANT, *extra, *(
         (f'state_file:={state_dir / "estimator.json"}',) if state_dir else ()))
-    diagnostics = _spawn('diagnostics', *HEALTH, *extra, *(
+    diagnostics = spawn('diagnostics', *HEALTH, *extra, *(
         (f'state_file:={state_dir / "diagnostics.json"}',) if state_dir else ()))
     procs = [estimator, diagnostics]
     count = {name: len(driver.statuses.get(name, [])) for name in (ESTIMATOR, DIAGNOSTICS)}
@@ -82,7 +65,7 @@ def _start(driver: Driver, state_dir: Path | None, period: float) -> list[subpro
                     60.0, 'estimator and diagnostics')
     except AssertionError:
         for proc in procs:
-            _stop(proc, signal.SIGKILL)
+            stop(proc, signal.SIGKILL)
         raise
     driver.spin(1.0)                    # estimator <-> diagnostics discovery
     return procs
@@ -116,7 +99,7 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
             publish_paced(driver, messages, PACE)
             whole_estimator, whole = _quiet(driver)
         finally:
-            codes = [_stop(p) for p in procs]
+            codes = [stop(p, signal.SIGTERM) for p in procs]
         assert codes == [0, 0]
         bounds = [round(k * len(messages) / 5) for k in range(6)]
         saved_stamps = []
@@ -130,7 +113,7 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
                 if killed:
                     driver.spin(1.5)            # > 2 save periods before the kill
             finally:
-                codes = [_stop(p, signal.SIGKILL if killed else signal.SIGTERM)
+                codes = [stop(p, signal.SIGKILL if killed else signal.SIGTERM)
                          for p in procs]
             assert codes == ([-signal.SIGKILL] * 2 if killed else [0, 0])
             doc = json.loads((tmp_path / 'estimator.json').read_text())
@@ -172,7 +155,7 @@ def test_corrupt_state_files_warn_are_kept_aside_and_start_fresh(tmp_path: Path)
             estimator, diagnostics = driver.latest(ESTIMATOR), driver.latest(DIAGNOSTICS)
             alive = [p.poll() is None for p in procs]
         finally:
-            codes = [_stop(p) for p in procs]
+            codes = [stop(p, signal.SIGTERM) for p in procs]
     finally:
         driver.close()
     assert alive == [True, True] and codes == [0, 0]
@@ -194,18 +177,18 @@ def test_state_file_of_another_ratio_refused_unless_reset(tmp_path: Path) -> Non
     diagnostics_file = tmp_path / 'diagnostics.json'
     save_state(diagnostics_file, 'diagnostics', {'ratio': 3.0}, {})
     original = estimator_file.read_text()
-    refused = [_spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}'),
-               _spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}')]
+    refused = [spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}'),
+               spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}')]
     outputs = [p.communicate(timeout=60) for p in refused]
     assert [p.returncode for p in refused] == [2, 2], outputs
     for (_, stderr), path in zip(outputs, (estimator_file, diagnostics_file)):
         assert f'error: state file {path} is for another gearbox (ratio 3.0 in the file, ' \
             '5.0 now); set state_reset to true' in stderr
     assert estimator_file.read_text() == original                 # refused: left as it is
-    procs = [_spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}',
-                    'state_reset:=true', 'state_save_period:=0.5'),
-             _spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}',
-                    'state_reset:=true', 'state_save_period:=0.5')]
+    procs = [spawn('estimator', 'ratio:=5.0', f'state_file:={estimator_file}',
+                   'state_reset:=true', 'state_save_period:=0.5'),
+             spawn('diagnostics', 'ratio:=5.0', f'state_file:={diagnostics_file}',
+                   'state_reset:=true', 'state_save_period:=0.5')]
     deadline = time.monotonic() + 60.0
     try:
         while time.monotonic() < deadline and not all(
@@ -214,7 +197,7 @@ def test_state_file_of_another_ratio_refused_unless_reset(tmp_path: Path) -> Non
             assert all(p.poll() is None for p in procs)
             time.sleep(0.1)
     finally:
-        codes = [_stop(p) for p in procs]
+        codes = [stop(p, signal.SIGTERM) for p in procs]
     assert codes == [0, 0]
     for path in (estimator_file, diagnostics_file):
         assert json.loads(path.read_text())['identity']['ratio'] == 5.0   # fresh, saved
