@@ -27,6 +27,7 @@ from gear_phm.bagio import BagReader, recover  # noqa: E402
 from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
                                  stamp_to_ns)
 from gear_phm.nodes.common import OUTPUT_QOS, stamp  # noqa: E402
+from node_processes import stop  # noqa: E402, I100, I201
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
 EXE = Path(sys.executable).parent / 'diagnostics'
@@ -133,12 +134,9 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         wait_for(ros, lambda: arrays[-1].status[0].level == b'\x03', 5.0, 'STALE')
         assert time.monotonic() - stopped < 0.5 + 0.5       # timeout + 10 status periods
         ros.destroy_subscription(sub)
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=20) == 0
+        assert stop(proc, signal.SIGTERM) == 0
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        stop(proc, signal.SIGKILL)                        # only if still running
     assert (record / 'metadata.yaml').exists()
     with BagReader(record) as bag:
         counts = {t: bag.message_count(t) for t in bag.topics}
@@ -172,12 +170,9 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
                      f'estimate {last_stamp} on /diagnostics')
             statuses.append(arrays[-1].status[0])
         ros.destroy_subscription(sub)
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=20) == 0
+        assert stop(proc, signal.SIGTERM) == 0
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        stop(proc, signal.SIGKILL)                        # only if still running
     levels = [s.level for s in statuses]
     changes = [i for i in range(1, 30) if levels[i] != levels[i - 1]]
     # committed after the 5 s dwell: the second 10-s estimate past each threshold
