@@ -62,6 +62,7 @@ class Driver:
             values = {kv.key: kv.value for kv in status.values}
             values['_level'] = status.level
             values['_message'] = status.message
+            values['_stamp_ns'] = str(stamp_to_ns(msg.header.stamp))   # the node's clock
             self.statuses.setdefault(status.name.split(':')[0], []).append(values)
             if status.name.startswith('gear_phm: '):
                 self.levels.append((time.monotonic(), status.level, status.message))
@@ -85,9 +86,15 @@ class Driver:
         raise AssertionError(f'timed out waiting for {what}')
 
     def settle(self, prefix: str) -> dict[str, str]:
-        """The node's status once its received count was the same in three statuses."""
+        """The node's status once its received count was the same in three statuses, all
+        published after this call (node clock, same machine): statuses still queued from the
+        input phase, which a busy node can send with an unchanging count, do not count."""
+        since = time.time_ns()
+
         def still() -> bool:
-            counts = [s.get('messages_received') for s in self.statuses.get(prefix, [])[-3:]]
+            recent = [s for s in self.statuses.get(prefix, [])
+                      if int(s.get('_stamp_ns', 0)) >= since][-3:]
+            counts = [s.get('messages_received') for s in recent]
             return len(counts) == 3 and len(set(counts)) == 1
         self.wait(still, 60.0, f'{prefix} to settle')
         return self.latest(prefix)
