@@ -105,9 +105,12 @@ def _bag(directory: Path, batch: bool) -> Path:
                            flush_period_s=None) as writer:
         for part in np.array_split(np.arange(3000), 7):
             s, xyz = stamps[part], rng.normal(size=(part.size, 3))
+            middle = int(s[s.size // 2])              # a status inside the block (analyze)
             writer.write_vector3_columns([('gear_phm/friction', s, xyz),
                                           ('gear_phm/counts', s, xyz * 2),
-                                          ('gear_phm/health/rul', s[::4], xyz[::4])])
+                                          ('gear_phm/health/rul', s[::4], xyz[::4])],
+                                         between=[(middle, DiagnosticsOut(middle, (StatusOut(
+                                             0, 'gear_phm: flap', 'mid', 'rig', ()),)))])
             writer.write_output(DiagnosticsOut(int(s[-1]), (StatusOut(
                 0, 'gear_phm: flap', 'ok', 'rig', (('u', '0.1'),)),)))
     return directory
@@ -130,10 +133,12 @@ def test_rosbag2_writer_batch_and_library_give_the_same_messages(tmp_path: Path)
                  '/diagnostics'], batch_size=500))
         seen[batch] = (messages, statistics, rosbags, ours)
         assert len(messages) == 3000 * 2 + sum(
-            len(p[::4]) for p in np.array_split(np.arange(3000), 7)) + 7
+            len(p[::4]) for p in np.array_split(np.arange(3000), 7)) + 2 * 7
         assert ours == len(messages) == len(rosbags)
         times = [m[1] for m in messages]
-        assert times == sorted(times)
+        assert times == sorted(times)           # each mid-block status among its neighbours
+        middles = [i for i, m in enumerate(messages) if m[0] == '/diagnostics'][::2]
+        assert all(messages[i - 1][1] == messages[i][1] < messages[i + 1][1] for i in middles)
     assert seen[True][0] == seen[False][0]
     assert seen[True][1] == seen[False][1]
     assert seen[True][2] == seen[False][2]

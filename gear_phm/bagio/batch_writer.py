@@ -62,7 +62,8 @@ class BatchWriter:
         self._messages = 0
         self._start = 0
         self._end = 0
-        self._index: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        #: The open chunk's (channels, log times, offsets) per write, indexed when it closes.
+        self._index: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
     # -- data section ---------------------------------------------------------------------
     def _write(self, data: bytes) -> None:
@@ -102,10 +103,8 @@ class BatchWriter:
             raise ValueError('MCAP log times are unsigned: got a negative time')
         record = _MESSAGE.pack(Opcode.MESSAGE, _MESSAGE_HEAD - 9 + len(data), channel_id,
                                sequence, log_time, publish_time) + data
-        self._index.setdefault(channel_id, []).append(
-            (np.array([log_time], dtype=np.int64), np.array([self._size], dtype=np.uint64)))
-        counts = self._stats.channel_message_counts
-        counts[channel_id] = counts.get(channel_id, 0) + 1
+        self._index.append((np.array([channel_id]), np.array([log_time], dtype=np.int64),
+                            np.array([self._size], dtype=np.uint64)))
         self._note(log_time, log_time, 1)
         self._append(record)
 
@@ -144,12 +143,7 @@ class BatchWriter:
     def _add_records(self, records: np.ndarray, channels: np.ndarray, log: np.ndarray) -> None:
         n = len(records)
         offsets = self._size + np.arange(n, dtype=np.uint64) * np.uint64(records.itemsize)
-        counts = self._stats.channel_message_counts
-        _, first = np.unique(channels, return_index=True)
-        for channel in channels[np.sort(first)].tolist():     # in order of first message
-            mine = channels == channel
-            self._index.setdefault(int(channel), []).append((log[mine], offsets[mine]))
-            counts[int(channel)] = counts.get(int(channel), 0) + int(mine.sum())
+        self._index.append((channels, log, offsets))
         self._note(int(log.min()), int(log.max()), n)
         self._append(records.tobytes())
 
@@ -184,9 +178,15 @@ class BatchWriter:
         index_start = self._written
         offsets: dict[int, int] = {}
         indexes: list[bytes] = []
-        for channel, pieces in self._index.items():
-            times = np.concatenate([t for t, _ in pieces]).astype('<u8')
-            where = np.concatenate([o for _, o in pieces]).astype('<u8')
+        channels = np.concatenate([c for c, _, _ in self._index])
+        all_times = np.concatenate([t for _, t, _ in self._index]).astype('<u8')
+        all_where = np.concatenate([o for _, _, o in self._index]).astype('<u8')
+        counts = self._stats.channel_message_counts
+        _, first = np.unique(channels, return_index=True)
+        for channel in channels[np.sort(first)].tolist():     # in order of first message
+            mine = channels == channel
+            times, where = all_times[mine], all_where[mine]
+            counts[int(channel)] = counts.get(int(channel), 0) + times.size
             order = np.argsort(times, kind='stable')
             pairs = np.column_stack((times[order], where[order])).astype('<u8').tobytes()
             offsets[channel] = index_start + sum(len(i) for i in indexes)
@@ -201,7 +201,7 @@ class BatchWriter:
             compression=compression, compressed_size=len(packed),
             uncompressed_size=len(data)))
         self._stats.chunk_count += 1
-        self._parts, self._size, self._messages, self._index = [], 0, 0, {}
+        self._parts, self._size, self._messages, self._index = [], 0, 0, []
 
     def flush(self) -> None:
         """Close the open chunk (if it holds a message) and flush the stream."""

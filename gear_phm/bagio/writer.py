@@ -176,15 +176,20 @@ class Rosbag2McapWriter:
         self._maybe_flush()
 
     def write_vector3_columns(self, columns: Sequence[tuple[str, np.ndarray, np.ndarray]],
-                              frame_id: str = '') -> None:
+                              frame_id: str = '',
+                              between: Sequence[tuple[int, DiagnosticsOut]] = ()) -> None:
         """Append Vector3Stamped messages given as columns ``(topic, stamps [ns], xyz (N, 3))``,
         in stamp order and, at equal stamps, in the order of ``columns`` (the order the nodes
         publish them): the same file content as :meth:`write_outputs` of the same records.
         With ``batch`` the whole block is packed at once (:mod:`gear_phm.bagio.batch_writer`).
+        ``between``: (limit [ns], record) pairs, limits ascending; each record is written
+        after the messages stamped at or before its limit and before the later ones.
         """
         columns = [(topic, np.asarray(stamps, dtype=np.int64), np.asarray(xyz, dtype=float))
                    for topic, stamps, xyz in columns if len(stamps)]
         if not columns:
+            for _, record in between:
+                self.write_output(record)
             return
         for topic, _, _ in columns:
             if absolute_topic(topic) not in self._topics:
@@ -194,21 +199,37 @@ class Rosbag2McapWriter:
         rank = np.concatenate([np.full(len(c[1]), i) for i, c in enumerate(columns)])
         order = np.lexsort((rank, stamps))
         xyz = np.concatenate([c[2] for c in columns])
+        cuts = np.searchsorted(stamps[order], [limit for limit, _ in between],
+                               side='right').tolist() + [len(order)]
+        records: list[DiagnosticsOut | None] = [record for _, record in between] + [None]
         if not self._batch:
-            self.write_outputs([Vector3Out(columns[rank[i]][0], int(stamps[i]), float(xyz[i, 0]),
-                                           float(xyz[i, 1]), float(xyz[i, 2]), frame_id)
-                                for i in order])
+            begin = 0
+            for cut, extra in zip(cuts, records):
+                self.write_outputs([Vector3Out(columns[rank[i]][0], int(stamps[i]),
+                                               float(xyz[i, 0]), float(xyz[i, 1]),
+                                               float(xyz[i, 2]), frame_id)
+                                    for i in order[begin:cut]])
+                begin = cut
+                if extra is not None:
+                    self.write_output(extra)
             return
-        channel = np.array([e.channel_id for e in entries])[rank]
+        channel = np.array([e.channel_id for e in entries])[rank][order]
         sequence = np.concatenate([e.count + np.arange(len(c[1]))
-                                   for e, c in zip(entries, columns)])
-        rows = vector3_stamped_rows(stamps, xyz, frame_id)
-        self._writer.add_block(channel[order], stamps[order], rows[order],
-                               sequences=sequence[order])
+                                   for e, c in zip(entries, columns)])[order]
+        rows = vector3_stamped_rows(stamps, xyz, frame_id)[order]
+        stamps = stamps[order]
         for entry, column in zip(entries, columns):
             entry.count += len(column[1])
-        self._note_times(int(stamps.min()), int(stamps.max()))
-        self._maybe_flush()
+        begin = 0
+        for cut, extra in zip(cuts, records):
+            if cut > begin:
+                self._writer.add_block(channel[begin:cut], stamps[begin:cut], rows[begin:cut],
+                                       sequences=sequence[begin:cut])
+                self._note_times(int(stamps[begin:cut].min()), int(stamps[begin:cut].max()))
+                self._maybe_flush()
+            begin = cut
+            if extra is not None:
+                self.write_output(extra)
 
     def _note_times(self, first_ns: int, last_ns: int) -> None:
         """Widen the bag's time range [ns] (metadata.yaml) to hold first..last."""

@@ -8,11 +8,11 @@
 """
 from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.kalman import FrictionFilter, UpdateResult
-from gear_phm.estimation.pipeline import EstimatorPipeline
+from gear_phm.estimation.pipeline import EstimatorPipeline, StatusSnapshot
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 
 __all__ = ['PARAMETERS', 'EnergyIntegrator', 'EstimatorConfig', 'EstimatorPipeline',
-           'FrictionEstimate', 'FrictionFilter', 'JointSample', 'Measurement', 'UpdateResult',
-           'Window', 'classify', 'to_measurement']
+           'FrictionEstimate', 'FrictionFilter', 'JointSample', 'Measurement', 'StatusSnapshot',
+           'UpdateResult', 'Window', 'classify', 'to_measurement']

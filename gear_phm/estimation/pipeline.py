@@ -8,8 +8,8 @@ are split into batches. Time comes from the sample stamps only.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 import math
 from typing import Any
 
@@ -38,6 +38,33 @@ EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
 
 def _ns(seconds: float) -> int:
     return int(round(seconds * 1e9))
+
+
+@dataclass(frozen=True)
+class StatusSnapshot:
+    """What :meth:`EstimatorPipeline.status` reports, as of a mark inside a batch.
+
+    ``position``: the mark (a position in the arrays given to
+    :meth:`EstimatorPipeline.on_batch_marked`); ``estimates``: how many of that call's
+    estimates came from samples before it; ``values``: :meth:`EstimatorPipeline.summary` as of
+    the mark, plus ``consecutive_gated``.
+    """
+
+    position: int
+    estimates: int
+    values: dict[str, Any]
+
+    def without_messages(self, reasons: Sequence[str]) -> StatusSnapshot:
+        """Return this snapshot without the rejected messages ``reasons`` (counted later)."""
+        if not reasons:
+            return self
+        values = dict(self.values)
+        counts = dict(values['counts'])
+        for reason in reasons:
+            counts[reason if reason in counts else 'bad_message'] -= 1
+        values['counts'] = counts
+        values['samples_rejected'] -= len(reasons)
+        return replace(self, values=values)
 
 
 class EstimatorPipeline:
@@ -170,22 +197,62 @@ class EstimatorPipeline:
                  motor_effort: np.ndarray, load_velocity: np.ndarray,
                  load_effort: np.ndarray) -> list[FrictionEstimate]:
         """Samples in arrival order: stamps [ns] (int64), speeds [rad/s], torques [N m]."""
+        return self.on_batch_marked(stamp_ns, motor_velocity, motor_effort, load_velocity,
+                                    load_effort)[0]
+
+    def on_batch_marked(self, stamp_ns: np.ndarray, motor_velocity: np.ndarray,
+                        motor_effort: np.ndarray, load_velocity: np.ndarray,
+                        load_effort: np.ndarray, marks: Sequence[int] = (),
+                        rejected_at: Sequence[tuple[int, str]] = ()
+                        ) -> tuple[list[FrictionEstimate], list[StatusSnapshot]]:
+        """:meth:`on_batch`, plus what :meth:`status` would report at ``marks``.
+
+        ``marks`` are ascending positions 0..n in the arrays. The :class:`StatusSnapshot` of a
+        mark holds the state after the samples before that position only, without cutting the
+        batch (``gear-phm analyze`` stamps its 1 Hz /diagnostics so: cutting a 100 Hz bag at
+        every tick cost more than the estimator). ``rejected_at`` are messages that gave no
+        sample, as (position of the next sample, reason), counted as :meth:`reject_message`
+        does. Drops by the stamp screen (duplicates, strays) count from the next accepted
+        sample on.
+        """
         stamps = np.asarray(stamp_ns, dtype=np.int64)
         arrays = [np.asarray(a, dtype=float) for a in
                   (motor_velocity, motor_effort, load_velocity, load_effort)]
         if any(a.shape != stamps.shape for a in arrays) or stamps.ndim != 1:
             raise ValueError(f'batch arrays must be 1-D of equal length, got shapes '
                              f'{[stamps.shape] + [a.shape for a in arrays]}')
+        if list(marks) != sorted(marks) or any(not 0 <= m <= stamps.size for m in marks):
+            raise ValueError(f'marks must ascend within 0..{stamps.size}, got {list(marks)}')
+        for _, reason in rejected_at:
+            self.reject_message(reason)
+        held = 0
         if self._held is not None:          # samples waiting for a run go first
             held_stamps, held_arrays = self._held
+            held = held_stamps.size
             self._held = None
             stamps = np.concatenate((held_stamps, stamps))
             arrays = [np.concatenate((h, a)) for h, a in zip(held_arrays, arrays)]
         screened = self.screen.screen(stamps)
         outputs: list[FrictionEstimate] = []
+        pending = [int(m) + held for m in marks]
+        snapshots: list[StatusSnapshot] = []
+        last_stamp: int | None = None       # the newest accepted sample of this call [ns]
         for step in screened.steps:
             if isinstance(step, Segment):
-                outputs += self._process_segment(step, stamps, arrays)
+                index = step.index
+                while pending and pending[0] <= index[0]:
+                    snapshots.append(self._snapshot(pending.pop(0) - held, len(outputs),
+                                                    last_stamp))
+                inner = []
+                while pending and pending[0] <= index[-1]:
+                    inner.append(pending.pop(0))
+                local = np.searchsorted(index, inner).tolist() if inner else []
+                segment_outputs, inner_snapshots = self._process_segment(
+                    step, stamps, arrays, [(m - held, k) for m, k in zip(inner, local)])
+                snapshots += [replace(snap, estimates=snap.estimates + len(outputs))
+                              for snap in inner_snapshots]
+                outputs += segment_outputs
+                last_stamp = int(stamps[index[-1]])
             else:
                 reason, count = step
                 self.counts[reason] += count
@@ -193,12 +260,38 @@ class EstimatorPipeline:
                 self.samples_seen += count
         if screened.held.size:
             self._held = (stamps[screened.held], [a[screened.held] for a in arrays])
-        return outputs
+        snapshots += [self._snapshot(mark - held, len(outputs), last_stamp)
+                      for mark in pending]
+        if rejected_at:                     # messages rejected after a mark are not in it
+            snapshots = [snap.without_messages([reason for position, reason in rejected_at
+                                                if position >= snap.position])
+                         for snap in snapshots]
+        return outputs, snapshots
+
+    def _snapshot(self, position: int, estimates: int, last_stamp: int | None,
+                  suffix: dict[str, int] | None = None) -> StatusSnapshot:
+        """The status inputs now, less ``suffix``: counters of samples after the mark;
+        ``last_stamp``: the newest sample before the mark [ns] (None: none in this batch)."""
+        values = self.summary()
+        period = self.screen.period_at(last_stamp)
+        values['sample_period_s'] = math.nan if period is None else period * 1e-9
+        values['consecutive_gated'] = self.filter.consecutive_gated
+        if suffix:
+            counts = values['counts']
+            for key, count in suffix.items():
+                if key in counts:
+                    counts[key] -= count
+                else:
+                    values[key] -= count
+        return StatusSnapshot(position, estimates, values)
 
     def _process_segment(self, segment: Segment, stamps: np.ndarray,
-                         arrays: list[np.ndarray]) -> list[FrictionEstimate]:
+                         arrays: list[np.ndarray], marks: Sequence[tuple[int, int]] = ()
+                         ) -> tuple[list[FrictionEstimate], list[StatusSnapshot]]:
         """Accepted samples, in sequence: the estimator (restarted first after a confirmed
-        run of earlier stamps); each estimate carries the missing count at its stamp."""
+        run of earlier stamps); each estimate carries the missing count at its stamp.
+        ``marks``: (mark, number of this segment's samples before it), see
+        :meth:`on_batch_marked`."""
         if segment.reset_before:
             self.counts['stamp_reset'] += 1
             self._reset_estimator()
@@ -208,13 +301,17 @@ class EstimatorPipeline:
         missing = before + np.cumsum(segment.missing)
         self.samples_missing = int(missing[-1])
         prior = np.full(index.size, np.iinfo(np.int64).min)
-        outputs = self._process(part, [a[index] for a in arrays], prior)
+        outputs, marked = self._process(part, [a[index] for a in arrays], prior, marks)
+        snapshots = []
+        for k, snap in marked:              # k samples of the segment before the mark
+            snap.values['samples_missing'] = int(missing[k - 1])
+            snapshots.append(snap)
         if not self.samples_missing:
-            return outputs
+            return outputs, snapshots
         at = np.searchsorted(part, [o.stamp_ns for o in outputs])
         found = [k < part.size and part[k] == o.stamp_ns for o, k in zip(outputs, at.tolist())]
         return [replace(o, samples_missing=int(missing[k]) if hit else before)
-                for o, k, hit in zip(outputs, at.tolist(), found)]
+                for o, k, hit in zip(outputs, at.tolist(), found)], snapshots
 
     def on_silence(self, silence_s: float) -> list[FrictionEstimate]:
         """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
@@ -243,11 +340,14 @@ class EstimatorPipeline:
         return self._origin_ns + math.ceil((self._grid + 1) / rate * 1e9)
 
     # --- core --------------------------------------------------------------------------------
-    def _process(self, stamps: np.ndarray, arrays: list[np.ndarray],
-                 prior: np.ndarray) -> list[FrictionEstimate]:
+    def _process(self, stamps: np.ndarray, arrays: list[np.ndarray], prior: np.ndarray,
+                 marks: Sequence[tuple[int, int]] = ()
+                 ) -> tuple[list[FrictionEstimate], list[tuple[int, StatusSnapshot]]]:
+        """The estimator over samples in sequence; ``marks`` (mark, local position k), with
+        0 < k < n, get a snapshot of the state after samples 0..k-1."""
         n = stamps.size
         if n == 0:
-            return []
+            return [], []
         c = self.config
         w_m, tau_m, w_l, tau_l = arrays
         duplicate = stamps == prior
@@ -257,7 +357,11 @@ class EstimatorPipeline:
             first = np.flatnonzero(timely)
             if first.size == 0:
                 self._count_samples(n, duplicate, backwards, None, None, None, None)
-                return []
+                return [], [(k, self._snapshot(mark, 0, None, {
+                    'samples_seen': n - k,
+                    'samples_rejected': int(np.count_nonzero((duplicate | backwards)[k:])),
+                    'duplicate_stamp': int(np.count_nonzero(duplicate[k:])),
+                    'backwards': int(np.count_nonzero(backwards[k:]))})) for mark, k in marks]
             self._origin_ns = int(stamps[first[0]])
         t = (stamps - self._origin_ns) * 1e-9
         finite = np.isfinite(w_m) & np.isfinite(tau_m) & np.isfinite(w_l) & np.isfinite(tau_l)
@@ -274,30 +378,39 @@ class EstimatorPipeline:
         usable = ok & (code > 0)
         # sensor timeouts: gaps between consecutive timely samples
         t_ok = t[timely]
+        gap_at = operating_at = np.empty(0, dtype=np.int64)
+        operating = np.empty(0)
         if t_ok.size:
             last = self._t(self._last_stamp) if self._last_stamp is not None else t_ok[0]
             steps = np.diff(np.concatenate(([last], t_ok)))
             gaps = steps > c.sensor_timeout
             # operating time: sample intervals that end in motion, not across a gap
-            self.operating_time += float(np.sum(steps[~gaps & ~zero_speed[timely]
-                                                      & finite[timely]]))
+            moving = ~gaps & ~zero_speed[timely] & finite[timely]
+            operating = steps[moving]
+            self.operating_time += float(np.sum(operating))
             n_gaps = int(np.count_nonzero(gaps))
             if self.timed_out and gaps[0]:
                 n_gaps -= 1         # already counted by on_silence
+                gaps[0] = False
             self.counts['timeout'] += n_gaps
+            if marks:
+                positions = np.flatnonzero(timely)
+                gap_at, operating_at = positions[gaps], positions[moving]
             self.timed_out = False
             self._last_stamp = int(stamps[timely][-1])
         self._max_stamp = int(max(stamps.max(), self._max_stamp or stamps.max()))
         with np.errstate(invalid='ignore', over='ignore'):
             windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, code, usable)
         self.counts['short_window'] += self.integrator.dropped_short
-        self.integrator.dropped_short = 0
+        short_at = self.integrator.take_dropped_short()
         rejected = self._count_samples(n, duplicate, backwards, nonfinite, zero_speed,
                                        deadband, impossible)
         used_cum = self.samples_used + np.cumsum(usable)
         rejected_cum = self.samples_rejected + np.cumsum(rejected)
         self.samples_used = int(used_cum[-1])
         self.samples_rejected = int(rejected_cum[-1])
+        masks = {'duplicate_stamp': duplicate, 'backwards': backwards, 'nonfinite': nonfinite,
+                 'zero_speed': zero_speed, 'deadband': deadband, 'impossible': impossible}
         # periodic outputs on the grid of publish_rate in sample time
         if c.publish_rate > 0.0:
             cell = np.where(timely, np.floor(t * c.publish_rate), -np.inf)
@@ -310,25 +423,54 @@ class EstimatorPipeline:
         else:
             publish = np.empty(0, dtype=np.int64)
         outputs: list[FrictionEstimate] = []
+        marked: list[tuple[int, StatusSnapshot]] = []
+        pending = list(marks)
+
+        def take(before: int) -> None:
+            """Snapshot the marks at or before sample ``before`` (its events not yet run)."""
+            while pending and pending[0][1] <= before:
+                mark, k = pending.pop(0)
+                suffix = {key: int(np.count_nonzero(mask[k:])) for key, mask in masks.items()}
+                suffix.update({
+                    'samples_seen': n - k,
+                    'samples_used': int(used_cum[-1] - used_cum[k - 1]),
+                    'samples_rejected': int(rejected_cum[-1] - rejected_cum[k - 1]),
+                    'timeout': int(np.count_nonzero(gap_at >= k)),
+                    'short_window': int(np.count_nonzero(short_at >= k))})
+                values = self._snapshot(mark, len(outputs), int(stamps[k - 1]), suffix)
+                values.values['operating_time_s'] -= float(np.sum(operating[operating_at >= k]))
+                values.values['timed_out'] = False
+                marked.append((k, values))
+
         w_i = 0
         for k in publish.tolist():
             while w_i < len(windows) and windows[w_i].close_index <= k:
                 c_k = windows[w_i].close_index
+                take(c_k)
                 outputs += self._apply_window(windows[w_i], int(code[c_k]),
                                               int(used_cum[c_k]), int(rejected_cum[c_k]))
                 w_i += 1
+            take(k)
             self._last_code = int(code[k])
             x, p = self.filter.predicted(t[k])
             outputs.append(self._estimate(int(stamps[k]), x, p, int(used_cum[k]),
                                           int(rejected_cum[k])))
         for window in windows[w_i:]:
             k = min(window.close_index, n - 1)
+            take(window.close_index)
             outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
                                           int(rejected_cum[k]))
+        take(n)
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
-        return self._one_per_stamp(outputs)
+        kept = self._one_per_stamp(outputs)
+        if len(kept) < len(outputs):        # count only the estimates kept before each mark
+            ids = {id(o) for o in kept}
+            before = np.concatenate(([0], np.cumsum([id(o) in ids for o in outputs])))
+            marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
+                      for k, snap in marked]
+        return kept, marked
 
     def _one_per_stamp(self, outputs: list[FrictionEstimate]) -> list[FrictionEstimate]:
         """At most one estimate per stamp, whatever the batch split: an estimate whose stamp
@@ -417,27 +559,31 @@ class EstimatorPipeline:
             'counts': dict(self.counts), 'timed_out': self.timed_out,
         }
 
-    def _close_status_period(self) -> float:
-        """Share of samples missing since the previous call (one status period)."""
-        seen, missing = self.samples_seen, self.samples_missing
+    def _close_status_period(self, seen: int, missing: int) -> float:
+        """Share of samples missing since the previous call (one status period), given the
+        counts of samples seen and missing at its end."""
         d_seen, d_missing = seen - self._status_mark[0], missing - self._status_mark[1]
         self._status_mark = (seen, missing)
         total = d_seen + d_missing
         self.loss_ratio = d_missing / total if total > 0 else 0.0
         return self.loss_ratio
 
-    def status(self, name: str, messages_received: int | None = None) -> StatusOut:
+    def status(self, name: str, messages_received: int | None = None,
+               snapshot: StatusSnapshot | None = None) -> StatusOut:
         """DiagnosticStatus record: level, message, estimate and counters by reason. Each call
         closes a status period: ``loss_ratio`` is the share of samples missing since the
-        previous call (WARN above ``loss_warn``)."""
-        loss = self._close_status_period()
-        summary = self.summary()
-        if self.timed_out:
+        previous call (WARN above ``loss_warn``). With ``snapshot`` (from
+        :meth:`on_batch_marked`), the status as of that mark."""
+        summary = self.summary() if snapshot is None else snapshot.values
+        loss = self._close_status_period(summary['samples_seen'], summary['samples_missing'])
+        gated = (self.filter.consecutive_gated if snapshot is None
+                 else summary['consecutive_gated'])
+        if summary['timed_out']:
             level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
-        elif self.filter.updates == 0:
+        elif summary['filter_updates'] == 0:
             level, message = WARN, 'no efficiency measurement yet'
-        elif self.filter.consecutive_gated:
-            level, message = WARN, f'{self.filter.consecutive_gated} measurement(s) gated'
+        elif gated:
+            level, message = WARN, f'{gated} measurement(s) gated'
         else:
             level, message = OK, 'estimating'
         if loss > self.config.loss_warn:

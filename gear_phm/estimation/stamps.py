@@ -86,6 +86,9 @@ class StampScreen:
         self._waiting: list[np.ndarray] = []      # differences before the first block
         self._stamp0 = 0                          # stamp before the differences being fed
         self.missing = 0                          # samples counted missing so far
+        #: (stamp [ns], new period [ns]) of each period change in the last :meth:`screen`
+        self.period_changes: list[tuple[int, float]] = []
+        self._period_before: float | None = None  # the period before that call
 
     def configure(self, run_length: int, max_gap_ns: int, hold_ns: int,
                   allow_reset: bool) -> None:
@@ -99,6 +102,17 @@ class StampScreen:
         if self.period_ns is None:
             return self.max_gap_ns
         return int(min(self.max_gap_ns, JUMP_PERIODS * self.period_ns))
+
+    def period_at(self, stamp_ns: int | None) -> float | None:
+        """The period [ns] learnt from the samples of the last :meth:`screen` call up to
+        ``stamp_ns`` (None: before any of them)."""
+        period = self._period_before
+        if stamp_ns is not None:
+            for at, value in self.period_changes:
+                if at > stamp_ns:
+                    break
+                period = value
+        return period
 
     # --- period and loss -----------------------------------------------------------------
     def _missing(self, diffs: np.ndarray, period: float) -> np.ndarray:
@@ -127,6 +141,8 @@ class StampScreen:
                 new = min(m for _, m in self._blocks)
                 changed = new != self.period_ns
                 self.period_ns = new
+                if changed:
+                    self.period_changes.append((int(now), new))
                 if changed and (stop_on_change or period is None):
                     consumed = end + 1
                     break
@@ -182,6 +198,7 @@ class StampScreen:
     # --- screening -----------------------------------------------------------------------
     def screen(self, stamps: np.ndarray) -> Screened:
         """Screen ``stamps`` (int64 [ns], arrival order); see :class:`Screened`."""
+        self.period_changes, self._period_before = [], self.period_ns
         stamps = np.asarray(stamps, dtype=np.int64)
         n = stamps.size
         steps: list[Segment | tuple[str, int]] = []

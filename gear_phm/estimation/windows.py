@@ -89,6 +89,7 @@ class EnergyIntegrator:
         #: would reject them as ``short_window``; noisy phase edges make thousands of them).
         self.min_duration = float(min_duration)
         self.dropped_short = 0
+        self._dropped_at: list[np.ndarray] = []     # where those windows closed
         self.motor_inertia = float(motor_inertia)
         self.load_inertia = float(load_inertia)
         # sigma of motor torque, motor speed, load torque, load speed
@@ -100,6 +101,13 @@ class EnergyIntegrator:
         self._open: _Open | None = None
         self._last: tuple[float, float, float, int] | None = None   # t, P_m, P_l, code
         self._last_usable = False
+
+    def take_dropped_short(self) -> np.ndarray:
+        """Return and reset ``dropped_short``, as the positions in their batch of the samples
+        that closed those windows (the first after each)."""
+        dropped = np.concatenate(self._dropped_at) if self._dropped_at else np.empty(0, int)
+        self._dropped_at, self.dropped_short = [], 0
+        return dropped
 
     def _finish(self, w: _Open, close_index: int) -> Window:
         jm, jl = self.motor_inertia, self.load_inertia
@@ -170,6 +178,8 @@ class EnergyIntegrator:
                 if skippable[k]:             # a run of short one-window segments
                     nxt = int(resume[k])
                     self.dropped_short += nxt - k
+                    ends = np.append(break_at, n)[k + 1:nxt + 1]    # where each one ends
+                    self._dropped_at.append(idx[ends - 1] + 1)
                     pos = int(break_at[nxt]) if nxt < break_at.size else n
                     continue
             if self._open is None:

@@ -11,9 +11,11 @@ Data path (no Python work per message): the bag reader yields raw batches of Joi
 decode_joint_state_buffer` turns each into columns, the pipeline returns
 :class:`~gear_phm.estimation.FrictionEstimate` records, the assessor a
 :class:`~gear_phm.prognostics.HealthState` per estimate, and :mod:`gear_phm.interfaces`
-maps both to the topics written by :class:`~gear_phm.bagio.Rosbag2McapWriter`. The bag is cut at
-each ``/diagnostics`` tick of bag time, so each status holds the state after exactly the
-messages logged before it, as the nodes would have published it.
+maps both to the topics written by :class:`~gear_phm.bagio.Rosbag2McapWriter`. Each
+``/diagnostics`` tick of bag time is a mark of the batch
+(:meth:`~gear_phm.estimation.EstimatorPipeline.on_batch_marked`), so each status holds the
+state after exactly the messages logged before it, as the nodes would have published it,
+without cutting the batch (cutting a 100 Hz bag at every tick cost more than the estimator).
 """
 from __future__ import annotations
 
@@ -32,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from gear_phm import interfaces
-from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, FrictionEstimate, Measurement
+from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
+                                 Measurement, StatusSnapshot)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState
 from gear_phm.status import LEVEL_NAMES
 
@@ -319,55 +322,85 @@ class _Run:
                 times = raw.log_time_ns
                 if next_tick is None:
                     next_tick = int(times[0]) + self.diag_period_ns
+                ticks = []
+                while next_tick <= int(times[-1]):
+                    ticks.append(next_tick)
+                    next_tick += self.diag_period_ns
                 decoded = interfaces.decode_joint_state_buffer(
                     raw.buffer, raw.offsets, raw.lengths, self.motor_joint, self.load_joint)
-                begin = 0
-                while next_tick <= int(times[-1]):
-                    cut = int(np.searchsorted(times, next_tick, side='left'))
-                    self._process(decoded, begin, cut, writer)
-                    begin = cut
-                    self._tick(next_tick, writer)
-                    next_tick += self.diag_period_ns
-                self._process(decoded, begin, len(raw), writer)
+                self._process(decoded, len(raw), ticks,
+                              np.searchsorted(times, ticks, side='left').tolist(), writer)
                 last_log_ns = int(times[-1])
                 bar.update(len(raw))
             if next_tick is not None:            # the final state, at the last message
-                self._tick(last_log_ns, writer)
+                final = self._tick(last_log_ns, self.samples, None, self.assessor.latest)
+                if writer is not None:
+                    writer.write_output(final)
             bar.close()
             return bag.reader_kind
 
-    def _process(self, decoded: interfaces.JointBatch, begin: int, end: int,
-                 writer: Any) -> None:
-        """Messages begin..end-1 of a decoded batch: estimator, then diagnostics code."""
-        if end <= begin:
-            return
-        batch = decoded.messages(begin, end)
-        for reason, count in batch.rejected.items():
-            self.pipeline.reject_message(reason, count)
-        estimates = self.pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
-                                           batch.motor_effort, batch.load_velocity,
-                                           batch.load_effort)
-        self.samples += end - begin
-        states = []
+    def _process(self, decoded: interfaces.JointBatch, messages: int, ticks: list[int],
+                 cuts: list[int], writer: Any) -> None:
+        """One decoded batch of ``messages`` messages: estimator, then diagnostics code.
+
+        ``ticks`` are the /diagnostics times [ns] of bag time inside the batch, ``cuts`` the
+        number of the batch's messages logged before each: its statuses report the state after
+        those messages only (marks of the pipeline, not cuts of the batch).
+        """
+        index = decoded.message_index
+        assert index is not None
+        marks = np.searchsorted(index, cuts, side='left').tolist()
+        rejected_at = [(int(np.searchsorted(index, position)), reason)
+                       for position, reason in decoded.rejected_at]
+        estimates, snapshots = self.pipeline.on_batch_marked(
+            decoded.stamp_ns, decoded.motor_velocity, decoded.motor_effort,
+            decoded.load_velocity, decoded.load_effort, marks, rejected_at)
+        latest = [self.assessor.latest]         # the newest health state after i estimates
+        states: list[HealthState] = []
+        first_state = [0]                       # states[first_state[i]:] came after i
         for estimate in estimates:
             self.estimates.append(estimate)
             state = self.assessor.on_estimate(estimate)
             if state is not None:
                 self.states.append(state)
                 states.append(state)
-        if writer is not None and estimates:
-            writer.write_vector3_columns(output_columns(estimates, states))
+            latest.append(self.assessor.latest)
+            first_state.append(len(states))
+        received = [self.samples + cut for cut in cuts]
+        self.samples += messages
+        ends = [snapshot.estimates for snapshot in snapshots]
+        stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
+                             count=len(estimates))
+        if writer is None or np.all(np.diff(stamps) > 0):
+            # one block, each status after the outputs of the estimates before its mark
+            between = [(int(stamps[end - 1]) if end else -1,
+                        self._tick(tick, count, snapshot, latest[end]))
+                       for tick, count, snapshot, end in zip(ticks, received, snapshots, ends)]
+            if writer is not None:
+                writer.write_vector3_columns(output_columns(estimates, states), between=between)
+            return
+        done = 0                                # stamps restarted inside the batch: by parts
+        for tick, count, snapshot, end in zip(ticks, received, snapshots, ends):
+            writer.write_vector3_columns(output_columns(
+                estimates[done:end], states[first_state[done]:first_state[end]]))
+            writer.write_output(self._tick(tick, count, snapshot, latest[end]))
+            done = end
+        writer.write_vector3_columns(output_columns(estimates[done:],
+                                                    states[first_state[done]:]))
 
-    def _tick(self, stamp_ns: int, writer: Any) -> None:
-        """Return the /diagnostics array the estimator and diagnostics nodes would publish."""
-        statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, self.samples)]
-        latest = self.assessor.latest
+    def _tick(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
+              latest: HealthState | None) -> interfaces.DiagnosticsOut:
+        """Return the /diagnostics array the nodes would publish at ``stamp_ns`` [ns].
+
+        ``received``: messages so far; the estimator's status is as of ``snapshot`` (None:
+        now), the diagnostics node's from its newest health state ``latest``.
+        """
+        statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, received, snapshot)]
         if latest is not None:
             statuses.append(interfaces.health_status(latest, self.transmission_name,
                                                      self.hardware_id))
             self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
-        if writer is not None:
-            writer.write_output(interfaces.DiagnosticsOut(stamp_ns, tuple(statuses)))
+        return interfaces.DiagnosticsOut(stamp_ns, tuple(statuses))
 
     def _summary(self, bags: list[Path], readers: list[str], elapsed: float
                  ) -> dict[str, Any]:
