@@ -3,7 +3,9 @@
 Checks a refactor or an optimisation against the code before it, on the same bags, on the
 same machine, at the same time (runs alternate A, B, A, B, ... so machine load hits both).
 Each tree is imported through PYTHONPATH with this environment's interpreter, so both run
-with the same dependencies. Reports the median processing rate (``samples_per_second`` of
+with the same dependencies; each runs with its tree as working directory (``python -m`` puts
+the working directory first on sys.path, so running both from one checkout would import that
+checkout twice). Reports the median processing rate (``samples_per_second`` of
 summary.json) and wall time, and the ratio B / A.
 
     git worktree add --detach /tmp/base HEAD~5
@@ -30,7 +32,8 @@ def simulate(tree: Path, out: Path, rate: float, duration: float) -> None:
     subprocess.run([sys.executable, '-m', 'gear_phm.cli.main', 'simulate', '--out', str(out),
                     '--rate', str(rate), '--duration', str(duration), '--seed', '5',
                     '--wear', 'linear', '--friction-initial', '0.05', '--wear-rate', '2e-4'],
-                   check=True, capture_output=True, env={**os.environ, 'PYTHONPATH': str(tree)})
+                   check=True, capture_output=True, cwd=tree,
+                   env={**os.environ, 'PYTHONPATH': str(tree)})
 
 
 def analyze(tree: Path, bag: Path, out: Path) -> tuple[float, float]:
@@ -38,7 +41,7 @@ def analyze(tree: Path, bag: Path, out: Path) -> tuple[float, float]:
     started = time.perf_counter()
     subprocess.run([sys.executable, '-m', 'gear_phm.cli.main', 'analyze', str(bag), '--ratio',
                     '3.0', '--out', str(out), '--no-plot', '--no-progress'], check=True,
-                   capture_output=True, env={**os.environ, 'PYTHONPATH': str(tree)})
+                   capture_output=True, cwd=tree, env={**os.environ, 'PYTHONPATH': str(tree)})
     wall = time.perf_counter() - started
     summary = json.loads((out / 'summary.json').read_text())
     return float(summary['samples_per_second']), wall

@@ -139,12 +139,22 @@ def check_simulate_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
     assert len(list((cwd / 'out' / 'fleet' / 'unit_00').glob('rec_*'))) == 4
 
 
-def check_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
-    out = cwd / 'out' / 'fleet-analysis'
+def _check_fleet_table(out: Path, recordings: int) -> list[str]:
     rows = (out / 'fleet.csv').read_text().splitlines()
     assert rows[0].startswith('unit,recordings,operating_time_s,u,u_sigma,eta_opposing')
-    assert len(rows) == 4 and all(',4,' in row for row in rows[1:])
+    assert len(rows) == 4 and all(f',{recordings},' in row for row in rows[1:]), rows
     assert (out / 'fleet.parquet').is_file() and (out / 'fleet.png').is_file()
+    return rows
+
+
+def check_sample_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    rows = _check_fleet_table(cwd / 'out' / 'fleet-analysis', 5)
+    assert all(row.split(',')[0].startswith('unit_0') for row in rows[1:])
+    assert not any('FAILED' in row for row in rows)
+
+
+def check_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    _check_fleet_table(cwd / 'out' / 'my-fleet-analysis', 4)
 
 
 CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], ...] = (
@@ -154,6 +164,7 @@ CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], .
     (r'^\.venv/bin/gear-phm evaluate out/run-analysis ', check_evaluate),
     (r'^bash bags/regenerate\.sh\b', check_regenerate),
     (r'^\.venv/bin/gear-phm simulate --fleet ', check_simulate_fleet),
+    (r'^\.venv/bin/gear-phm fleet bags/fleet ', check_sample_fleet),
     (r'^\.venv/bin/gear-phm fleet out/fleet ', check_fleet),
 )
 

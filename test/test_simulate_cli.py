@@ -278,6 +278,24 @@ def test_regenerate_sample_bags_same_content(tmp_path: Path) -> None:
         assert bag_differences(tmp_path / name, BAGS / name) == [], name
         size = sum(p.stat().st_size for p in (BAGS / name).iterdir())
         assert size <= 5 * 1024 * 1024, (name, size)
+    units = sorted(p.name for p in (BAGS / 'fleet').iterdir())
+    assert units == sorted(p.name for p in (tmp_path / 'fleet').iterdir()) and len(units) == 3
+    for unit in units:
+        recordings = sorted(p.name for p in (BAGS / 'fleet' / unit).glob('rec_*'))
+        assert len(recordings) == 5
+        for recording in recordings:
+            assert bag_differences(tmp_path / 'fleet' / unit / recording,
+                                   BAGS / 'fleet' / unit / recording) == [], (unit, recording)
+        truth = yaml.safe_load((tmp_path / 'fleet' / unit / 'truth.yaml').read_text())
+        expected = yaml.safe_load((BAGS / 'fleet' / unit / 'truth.yaml').read_text())
+        wear, expected_wear = truth['wear'], expected['wear']
+        assert wear.keys() == expected_wear.keys() and wear['kind'] == expected_wear['kind']
+        assert np.allclose([wear[k] for k in wear if k != 'kind'],
+                           [expected_wear[k] for k in wear if k != 'kind'], rtol=RTOL, atol=ATOL)
+        assert {k: v for k, v in truth.items() if k != 'wear'} == {
+            k: v for k, v in expected.items() if k != 'wear'}
+    total = sum(p.stat().st_size for p in BAGS.rglob('*') if p.is_file())
+    assert total <= 10 * 1024 * 1024, total        # all sample data in the repository
 
 
 def test_bag_comparison_tolerates_only_last_bit_rounding(tmp_path: Path) -> None:
