@@ -1,7 +1,6 @@
-"""Campaign equivalence, offline: ``gear-phm analyze`` over the parts of a recording, given in
-any order, gives the result of the whole recording (issue 13).
+"""Campaign equivalence, offline: analyze over a recording's parts equals the whole (issue 13).
 
-The parts are cut from ``bags/wearing`` by log time, as a recorder restarted between runs
+``gear-phm analyze`` is given the parts in any order. The parts are cut from ``bags/wearing`` by log time, as a recorder restarted between runs
 would have written them, and are given to the CLI shuffled: it orders them by start time and
 carries the estimator and the prognostics across them.
 """
