@@ -1,8 +1,8 @@
 """Campaign equivalence, offline: analyze over a recording's parts equals the whole (issue 13).
 
-``gear-phm analyze`` is given the parts in any order. The parts are cut from ``bags/wearing`` by log time, as a recorder restarted between runs
-would have written them, and are given to the CLI shuffled: it orders them by start time and
-carries the estimator and the prognostics across them.
+The parts are cut from ``bags/wearing`` by log time, as a recorder restarted between runs
+would have written them, and are given to ``gear-phm analyze`` shuffled: it orders them by
+start time and carries the estimator and the prognostics across them.
 """
 from __future__ import annotations
 
