@@ -85,3 +85,24 @@ def test_fleet_bad_root_is_one_line(tmp_path: Path) -> None:
     assert result.stderr.strip().splitlines() == [
         f'gear-phm fleet: error: fleet root {tmp_path / "empty"} has no unit folder '
         '(one sub-folder per unit)']
+
+
+def test_simulate_fleet_gaps_regular_or_irregular(tmp_path: Path) -> None:
+    """--gap sets every idle gap; --gap-spread scatters them log-normally around it."""
+    import yaml
+    starts = {}
+    for spread in ('0', '1.0'):
+        root = tmp_path / f'spread{spread}'
+        result = run('simulate', '--fleet', '2', '--recordings', '6', '--duration', '2',
+                     '--gap', '1000', '--gap-spread', spread, '--seed', '2', '--out',
+                     str(root))
+        assert result.returncode == 0, result.stderr
+        starts[spread] = [yaml.safe_load((unit / 'truth.yaml').read_text())['recording_start_s']
+                          for unit in sorted(root.iterdir())]
+    for unit in starts['0']:
+        assert [b - a for a, b in zip(unit, unit[1:])] == [1002.0] * 5
+    gaps = [b - a - 2.0 for unit in starts['1.0'] for a, b in zip(unit, unit[1:])]
+    assert min(gaps) > 0 and max(gaps) / min(gaps) > 3                # irregular
+    assert starts['1.0'][0] != starts['1.0'][1]                        # each unit its own
+    bad = run('simulate', '--fleet', '2', '--gap-spread', '-1', '--out', str(tmp_path / 'x'))
+    assert bad.returncode == 2 and '--gap-spread' in bad.stderr

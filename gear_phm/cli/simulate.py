@@ -54,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help='recordings per unit (1)')
     fleet.add_argument('--gap', type=float, default=7 * 86400.0,
                        help='idle time between recordings [s] (one week)')
+    fleet.add_argument('--gap-spread', type=float, default=0.0,
+                       help='each gap is --gap times a log-normal factor of this spread, '
+                            'e.g. 1.0 for irregular flights (0: every gap equal)')
     fleet.add_argument('--unit-spread', type=float, default=0.2,
                        help='unit-to-unit relative spread of --friction-initial and '
                             '--wear-rate (0.2)')
@@ -163,6 +166,7 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
     """
     import yaml
     rng = np.random.default_rng(config.seed)
+    gap_rng = np.random.default_rng([config.seed, 1])     # leaves the units' draws unchanged
     total = 0
     for unit in range(args.fleet):
         spread = args.unit_spread
@@ -172,8 +176,10 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
         unit_config = replace(config, wear=wear)
         folder = out / f'unit_{unit:02d}'
         starts = []
+        gaps = args.gap * np.exp(args.gap_spread * gap_rng.standard_normal(args.recordings))
         for k in range(args.recordings):
-            start = args.start_time + k * (args.duration + args.gap)
+            start = args.start_time + k * args.duration + float(np.sum(gaps[:k])) \
+                if args.gap_spread else args.start_time + k * (args.duration + args.gap)
             starts.append(start)
             recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k)
             total += write_simulation(
@@ -186,6 +192,7 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
                           't_fault': wear.t_fault, 'step': wear.step,
                           'exponent': wear.exponent},
                  'recording_duration_s': args.duration, 'gap_s': args.gap,
+                 'gap_spread': args.gap_spread,
                  'recording_start_s': starts, 'rate_hz': args.rate, 'seed': config.seed,
                  'note': 'wear advances with operating time only: the friction value of the '
                          'plant at operating time s is wear(s); recording k covers '
@@ -201,10 +208,10 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--out {out} exists and is not an empty directory')
     if args.fleet:
         if args.fleet < 0 or args.recordings < 1 or not args.gap >= 0 \
-                or not args.unit_spread >= 0:
-            raise CliError('--fleet, --recordings must be >= 1 and --gap, --unit-spread >= 0, '
-                           f'got {args.fleet}, {args.recordings}, {args.gap}, '
-                           f'{args.unit_spread}')
+                or not args.unit_spread >= 0 or not args.gap_spread >= 0:
+            raise CliError('--fleet, --recordings must be >= 1 and --gap, --unit-spread, '
+                           f'--gap-spread >= 0, got {args.fleet}, {args.recordings}, '
+                           f'{args.gap}, {args.unit_spread}, {args.gap_spread}')
         # the life spans all recordings: --friction-final is reached at the last one's end
         args.duration, single = args.duration * args.recordings, args.duration
         config = _config(args)
