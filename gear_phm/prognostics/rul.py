@@ -97,12 +97,76 @@ class Trend:
 
 @dataclass(frozen=True)
 class RulEstimate:
-    """RUL quantiles [s] (inf allowed) and the trend model used ('none' if no degradation)."""
+    """RUL quantiles [s] (inf allowed) and the trend model used ('none' if no degradation).
+
+    The time base is the one the history was fed: operating time in
+    :class:`~gear_phm.prognostics.HealthAssessor`; :meth:`in_elapsed_time` converts.
+    """
 
     median: float
     p5: float
     p95: float
     model: str
+
+    def in_elapsed_time(self, utilisation: float) -> RulEstimate:
+        """This RUL of operating time as elapsed time [s] at ``utilisation`` [-] (operating
+        over elapsed time): each quantile divided by it; a positive RUL at utilisation 0 is
+        inf (no wear while it stands still), a zero one stays 0."""
+        def scaled(value: float) -> float:
+            if value == 0.0 or math.isnan(value):
+                return value
+            return value / utilisation if utilisation > 0.0 else math.inf
+        return replace(self, median=scaled(self.median), p5=scaled(self.p5),
+                       p95=scaled(self.p95))
+
+
+class Utilisation:
+    """Operating time over elapsed (stamp) time [-], accumulated over a history of updates.
+
+    Each :meth:`add` of (stamp time t, operating time s) [s] adds the increments since the
+    previous one: elapsed t - t_prev and operating s - s_prev (at most the elapsed one). An
+    increment where either time went back is not counted. :attr:`fraction` is 1 until some
+    time has elapsed (a RUL then means the same in both time bases).
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the accumulated times."""
+        self.operating = 0.0
+        self.elapsed = 0.0
+        self._last: tuple[float, float] | None = None
+
+    def add(self, t: float, s: float) -> None:
+        """Add the update at stamp time ``t`` [s] with operating time ``s`` [s]."""
+        if not (math.isfinite(t) and math.isfinite(s)):
+            return
+        if self._last is not None:
+            dt, ds = t - self._last[0], s - self._last[1]
+            if dt >= 0.0 and ds >= 0.0:
+                self.elapsed += dt
+                self.operating += min(ds, dt)
+        self._last = (t, s)
+
+    @property
+    def fraction(self) -> float:
+        """Operating over elapsed time [-] (1 before any time elapsed)."""
+        return self.operating / self.elapsed if self.elapsed > 0.0 else 1.0
+
+    def to_state(self) -> dict[str, Any]:
+        """Return the accumulated times and the last update (JSON-safe)."""
+        return {'operating': encode_float(self.operating), 'elapsed': encode_float(self.elapsed),
+                'last': None if self._last is None else encode_floats(self._last)}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
+        last = None if state['last'] is None else decode_floats(state['last'])
+        if last is not None and len(last) != 2:
+            raise ValueError('utilisation: last needs 2 values')
+        operating, elapsed = decode_float(state['operating']), decode_float(state['elapsed'])
+        self.operating, self.elapsed = operating, elapsed
+        self._last = None if last is None else (last[0], last[1])
 
 
 def trend_to_state(trend: Trend) -> dict[str, Any]:
