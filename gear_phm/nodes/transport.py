@@ -167,7 +167,8 @@ class EstimateAssembler:
     Messages are grouped by stamp; a group is complete with every estimator topic: the five of
     :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS`, plus ``gear_phm/operating_time``
     once the stream has shown it (an older estimator or bag does not publish it; its
-    estimates then carry no operating time and the assessor uses their stamps). Stragglers of an
+    estimates then carry no operating time and the assessor uses their stamps; so may the
+    very first update, completed before its operating time arrived). Stragglers of an
     update already processed are dropped (``late_stamp``); when more than
     :data:`MAX_PENDING_STAMPS` stamps wait, the oldest are processed if they hold at least
     friction and covariance, else dropped (``incomplete_update``). A jump back by more than
@@ -203,13 +204,13 @@ class EstimateAssembler:
     def add(self, topic: str, stamp_ns: int, vector: Any) -> list[FrictionEstimate]:
         """One estimator message (``vector`` has .x .y .z); the updates it completes."""
         last = self.last_stamp
+        self.expected.add(topic)
         if last is not None and stamp_ns <= last and stamp_ns not in self.pending \
                 and last - stamp_ns < RESTART_JUMP_NS:
             self._drop('late_stamp')       # a straggler of an update already processed
             return []
         group = self.pending.setdefault(stamp_ns, {})
         group[topic] = vector
-        self.expected.add(topic)
         if self.expected.issubset(group):
             return self.flush(up_to=stamp_ns)
         if len(self.pending) > MAX_PENDING_STAMPS:
