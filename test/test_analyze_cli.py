@@ -167,10 +167,12 @@ def test_a_healthy_gearbox_stays_ok_from_start_to_end(tmp_path: Path) -> None:
 
 
 def test_two_recordings_a_week_apart_run_on_operating_time(tmp_path: Path) -> None:
-    """Issue 13 through the entry points: two 60 s recordings of linear wear (1e-3 1/s of
-    operation), once back to back and once a week apart. The filter and the RUL run on
+    """Issue 13 through the entry points: two recordings, back to back and a week apart.
+
+    Two 60 s recordings of linear wear (1e-3 1/s of operation). The filter and the RUL run on
     operating time, so u and the operating RUL agree; rul_s is rul_operating_s over the
-    utilisation (operating time / elapsed stamp time, about 1e-4 across the week)."""
+    utilisation (operating time / elapsed stamp time, about 1e-4 across the week).
+    """
     summaries = {}
     for name, gap in (('plain', '0'), ('week', str(7 * 86400))):
         fleet = tmp_path / name

@@ -66,12 +66,14 @@ def wait_for(node: Node, condition, deadline_s: float, what: str) -> None:
 
 
 class Feeder:
-    """Publishes the estimator topics of linear wear u = 0.05 + 1.5e-4 t, with operating time
-    ``utilisation`` t; ``utilisation`` None: only the five topics of an older estimator."""
+    """Publishes the estimator topics of linear wear u = 0.05 + 1.5e-4 t.
 
-    def __init__(self, node: Node, utilisation: float | None = 0.5) -> None:
-        topics = ESTIMATOR_TOPICS if utilisation is not None else LEGACY_ESTIMATOR_TOPICS
-        self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS) for t in topics]
+    The operating time is ``utilisation`` t.
+    """
+
+    def __init__(self, node: Node, utilisation: float = 0.5) -> None:
+        self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS)
+                     for t in ESTIMATOR_TOPICS]
         self.utilisation = utilisation
         self.step = 0
 
@@ -85,7 +87,7 @@ class Feeder:
         eta_d, eta_i = (3.0 - u) / (3.0 * (1.0 + u)), 3.0 * (1.0 - u) / (3.0 + u)
         vectors = [(u, 1.5e-4, 1e-3), (1e-6, 0.0, 1e-12), (eta_d, eta_i, eta_d),
                    (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0),
-                   (t * (self.utilisation or 0.0), 0.0, 0.0)]
+                   (t * self.utilisation, 0.0, 0.0)]
         stamp_ns = int(t * 1e9)
         for pub, (x, y, z) in zip(self.pubs, vectors):
             msg = Vector3Stamped()
@@ -163,16 +165,12 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
 
 
 def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
-    """eta_opposing_min 0.9 alone (above the old fixed eta_warn 0.6) starts; WARN at 0.925.
-
-    Fed as an older estimator (no gear_phm/operating_time): each update is still assembled at
-    once, and the status has no operating time (its RUL runs on the stamps).
-    """
+    """eta_opposing_min 0.9 alone (above the old fixed eta_warn 0.6) starts; WARN at 0.925."""
     proc = start('eta_opposing_min:=0.9', 'warn_horizon:=0.0')
     try:
         arrays: list[DiagnosticArray] = []
         sub = ros.create_subscription(DiagnosticArray, DIAGNOSTICS, arrays.append, OUTPUT_QOS)
-        feeder = Feeder(ros, utilisation=None)
+        feeder = Feeder(ros)
         wait_for(ros, lambda: feeder.matched() and arrays, 20.0, 'discovery')
         client = ros.create_client(GetParameters, '/diagnostics/get_parameters')
         assert client.wait_for_service(timeout_sec=10.0)
@@ -197,7 +195,7 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
     assert statuses[8].message == f'eta_D {(3.0 - 0.062) / (3.0 * 1.062):.4g} < 0.925'  # t 80 s
     assert 'end of life (eta_opposing_min)' in statuses[22].message
     values = {kv.key: kv.value for kv in statuses[-1].values}
-    assert values['operating_time_s'] == 'nan' and values['utilisation'] == '1.0'
+    assert values['operating_time_s'] == '145.0' and values['utilisation'] == '0.5'
 
 
 def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
@@ -249,9 +247,13 @@ def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
     assert mcap_count == len(stamps)
 
 
-def test_assembler_takes_older_streams_and_waits_for_operating_time_once_seen() -> None:
-    """Five topics (an older estimator) complete an update; once gear_phm/operating_time has
-    been seen, an update needs it too and carries its x as the operating time [s]."""
+def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
+    """Five topics (an older estimator) complete an update once a later stamp arrives.
+
+    The first update of a current estimator waits for its gear_phm/operating_time (whatever
+    the order of arrival) and carries its x as the operating time [s]; from then on every
+    update needs it.
+    """
     from types import SimpleNamespace
 
     from gear_phm.nodes.transport import EstimateAssembler
@@ -263,10 +265,14 @@ def test_assembler_takes_older_streams_and_waits_for_operating_time_once_seen() 
             out += assembler.add(topic, stamp_ns, SimpleNamespace(x=0.1 + k, y=0.0, z=1e-6))
         return out
 
-    old = feed(1, LEGACY_ESTIMATOR_TOPICS)
-    assert len(old) == 1 and math.isnan(old[0].operating_time)
-    first = feed(2, ESTIMATOR_TOPICS)      # completed at five, its operating time came late
-    assert len(first) == 1 and assembler.dropped == {'late_stamp': 1}
-    assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []                   # now waits for it
+    assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []           # may still get operating time
+    old = feed(2, LEGACY_ESTIMATOR_TOPICS[:1])              # a later stamp: 1 is complete
+    assert [e.stamp_ns for e in old] == [1] and math.isnan(old[0].operating_time)
+    assert feed(2, LEGACY_ESTIMATOR_TOPICS[1:]) == []
+    first = feed(2, (OPERATING_TIME,))                      # arrived last, not dropped
+    assert [(e.stamp_ns, e.operating_time) for e in first] == [(2, 0.1)]
+    assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []           # now every update waits for it
+    assert feed(4, LEGACY_ESTIMATOR_TOPICS) == []
     done = assembler.add(OPERATING_TIME, 3, SimpleNamespace(x=42.0, y=0.0, z=0.0))
     assert [(e.stamp_ns, e.operating_time) for e in done] == [(3, 42.0)]
+    assert assembler.dropped == {}

@@ -267,7 +267,6 @@ def test_tracks_wear_ramp_and_detects_step() -> None:
     assert pipeline.counts['reinitialised'] >= 1
 
 
-
 def test_filter_runs_on_operating_time_across_a_week_long_gap() -> None:
     """Two recordings of a wearing plant, the second stamped 7 days later (issue 13): u after
     the gap stays within 1 sigma of the same data without the gap (stamp time would predict
@@ -299,6 +298,7 @@ def test_filter_runs_on_operating_time_across_a_week_long_gap() -> None:
     assert second[-1].operating_time == pytest.approx(gap.operating_time, abs=0.2)
     assert all(b.operating_time >= a.operating_time for a, b in zip(first + second,
                                                                     (first + second)[1:]))
+
 
 # --- robustness ----------------------------------------------------------------------------
 

@@ -128,7 +128,6 @@ def test_status_key_values_exact_keys_and_inf() -> None:
     assert rul.stamp_ns == efficiency.stamp_ns == 5_000_000_000 and efficiency.z == float(OK)
 
 
-
 def _linear_wear(utilisation: float, gap: float = 0.0) -> HealthAssessor:
     """Assessor after u = 0.05 + 1.5e-4 s (s: operating time [s]) estimated every 10 s of
     operation, each step taking 10 / ``utilisation`` s of stamp time, and a stamp gap of
@@ -175,6 +174,13 @@ def test_rul_runs_on_operating_time_and_converts_by_the_utilisation() -> None:
     restored.from_state(week.to_state())
     assert restored.utilisation.fraction == gapped.utilisation
     assert restored.latest == gapped
+    # an update without operating time in a stream that has it (the first one a restarted
+    # diagnostics node assembles) keeps the operating time: the history is not disturbed
+    stamp_ns = gapped.stamp_ns + 10**9
+    bare = restored.on_estimate(FrictionEstimate(stamp_ns, 0.05 + 1.5e-4 * 1990.0, 1.5e-4,
+                                                 (1e-6, 0.0, 1e-12)))
+    assert bare is not None and bare.operating_time == 1990.0
+    assert bare.rul_operating.median == pytest.approx(gapped.rul_operating.median, rel=1e-3)
 
 
 # --- Saxena metrics ------------------------------------------------------------------------

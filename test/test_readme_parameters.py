@@ -93,8 +93,10 @@ def test_config_file_documents_every_declared_parameter(declarations: dict, node
 
 
 def test_readme_lists_exactly_the_diagnostics_keys_and_explains_the_new_ones() -> None:
-    """The /diagnostics paragraph names STATUS_KEYS in order; the time-base keys have a
-    bullet each (issue 13)."""
+    """The /diagnostics paragraph names STATUS_KEYS in order.
+
+    The time-base keys have a bullet each (issue 13).
+    """
     from gear_phm.interfaces import STATUS_KEYS
     text = (REPO / 'README.md').read_text(encoding='utf-8')
     start = text.index('Its KeyValue keys are exactly:')

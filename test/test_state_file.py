@@ -19,7 +19,7 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100
 from gear_phm.interfaces import HEALTH_RUL  # noqa: E402
-from gear_phm.persistence import save_state  # noqa: E402
+from gear_phm.persistence import save_state, SCHEMA  # noqa: E402
 from test_estimation_plant import lever_plant  # noqa: E402
 from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402, I100, I201
 import node_processes  # noqa: E402, I100
@@ -129,6 +129,8 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     u_split, sigma_split, rul_split = _final(split)
     print(f'one go: u {u_whole:.6g} sigma {sigma_whole:.3g} RUL {rul_whole:.4g} s; '
           f'5 parts: u {u_split:.6g} sigma {sigma_split:.3g} RUL {rul_split:.4g} s')
+    print({key: (whole[key], split[key]) for key in ('operating_time_s', 'rul_operating_s',
+                                                     'utilisation')})
     assert 10.0 < rul_whole < 200.0             # a detected trend, not inf
     assert abs(u_split - u_whole) <= 0.1 * sigma_whole
     assert rul_split == pytest.approx(rul_whole, rel=0.02)
@@ -165,7 +167,7 @@ def test_corrupt_state_files_warn_are_kept_aside_and_start_fresh(tmp_path: Path)
         aside = sorted(tmp_path.glob(f'{name}.bad-*'))
         assert len(aside) == 1 and aside[0].read_text() == '{"schema": 1, "kind": "estim'
         assert str(aside[0]) in status['_message']
-        assert json.loads((tmp_path / name).read_text())['schema'] == 1     # saved fresh
+        assert json.loads((tmp_path / name).read_text())['schema'] == SCHEMA  # saved fresh
     assert estimator['filter_updates'] == '0'
 
 

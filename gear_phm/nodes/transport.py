@@ -164,11 +164,11 @@ class HealthPublisher:
 class EstimateAssembler:
     """The estimator's topics in, whole :class:`FrictionEstimate` records out.
 
-    Messages are grouped by stamp; a group is complete with every estimator topic: the five of
-    :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS`, plus ``gear_phm/operating_time``
-    once the stream has shown it (an older estimator or bag does not publish it; its
-    estimates then carry no operating time and the assessor uses their stamps; so may the
-    very first update, completed before its operating time arrived). Stragglers of an
+    Messages are grouped by stamp; a group is complete with all six estimator topics. Until
+    ``gear_phm/operating_time`` has been seen (an older estimator or bag does not publish it),
+    a group with the five of :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
+    once a message of a later stamp arrives: one update late, and its estimate carries no
+    operating time (the assessor then uses the stamps). Stragglers of an
     update already processed are dropped (``late_stamp``); when more than
     :data:`MAX_PENDING_STAMPS` stamps wait, the oldest are processed if they hold at least
     friction and covariance, else dropped (``incomplete_update``). A jump back by more than
@@ -211,8 +211,15 @@ class EstimateAssembler:
             return []
         group = self.pending.setdefault(stamp_ns, {})
         group[topic] = vector
-        if self.expected.issubset(group):
+        if interfaces.OPERATING_TIME in self.expected and self.expected.issubset(group):
             return self.flush(up_to=stamp_ns)
+        if interfaces.OPERATING_TIME not in self.expected:
+            # an older estimator: an update is complete once a later stamp arrives (a current
+            # one sends the operating time of an update before the next update)
+            legacy = [s for s, held in self.pending.items()
+                      if s < stamp_ns and self.expected.issubset(held)]
+            if legacy:
+                return self.flush(up_to=max(legacy))
         if len(self.pending) > MAX_PENDING_STAMPS:
             return self.flush(up_to=min(self.pending))
         return []

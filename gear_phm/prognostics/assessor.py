@@ -149,9 +149,7 @@ class HealthAssessor:
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
-        # the wear history's time: operating time, or the stamp time of an estimate without
-        operating = estimate.operating_time if math.isfinite(estimate.operating_time) \
-            else estimate.t
+        operating = self._operating_time(estimate)
         self.predictor.add(operating, estimate.u, p_uu)
         self.utilisation.add(estimate.t, operating)
         filter_check = self.divergence.update(estimate.innovation,
@@ -174,8 +172,27 @@ class HealthAssessor:
                                   estimate.power_flow, estimate.samples_used,
                                   estimate.samples_rejected, self.u_eol, trend,
                                   estimate.samples_missing, rul_operating,
-                                  estimate.operating_time, utilisation)
+                                  operating if self._on_operating_time(estimate) else math.nan,
+                                  utilisation)
         return self.latest
+
+    def _on_operating_time(self, estimate: FrictionEstimate) -> bool:
+        """Whether the stream carries operating time: this estimate or the latest state."""
+        return math.isfinite(estimate.operating_time) or (
+            self.latest is not None and math.isfinite(self.latest.operating_time))
+
+    def _operating_time(self, estimate: FrictionEstimate) -> float:
+        """Return the wear history's time [s] of ``estimate``.
+
+        Its operating time; without one, the latest state's in a stream that has it (an
+        update assembled before its operating time arrived, e.g. the first after a restart:
+        no operation assumed since), else the stamp (an older estimator or recording).
+        """
+        if math.isfinite(estimate.operating_time):
+            return estimate.operating_time
+        if self.latest is not None and math.isfinite(self.latest.operating_time):
+            return self.latest.operating_time
+        return estimate.t
 
     def to_state(self) -> dict[str, Any]:
         """What a restart needs (JSON-safe, see :mod:`gear_phm.persistence`): the RUL

@@ -109,9 +109,11 @@ class RulEstimate:
     model: str
 
     def in_elapsed_time(self, utilisation: float) -> RulEstimate:
-        """This RUL of operating time as elapsed time [s] at ``utilisation`` [-] (operating
-        over elapsed time): each quantile divided by it; a positive RUL at utilisation 0 is
-        inf (no wear while it stands still), a zero one stays 0."""
+        """Return this RUL of operating time as elapsed time [s] at ``utilisation`` [-].
+
+        ``utilisation`` is operating over elapsed time: each quantile is divided by it; a
+        positive RUL at utilisation 0 is inf (no wear while it stands still), 0 stays 0.
+        """
         def scaled(value: float) -> float:
             if value == 0.0 or math.isnan(value):
                 return value
