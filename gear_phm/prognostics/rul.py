@@ -126,9 +126,9 @@ class Utilisation:
     """Operating time over elapsed (stamp) time [-], accumulated over a history of updates.
 
     Each :meth:`add` of (stamp time t, operating time s) [s] adds the increments since the
-    previous one: elapsed t - t_prev and operating s - s_prev (at most the elapsed one). An
-    increment where either time went back is not counted. :attr:`fraction` is 1 until some
-    time has elapsed (a RUL then means the same in both time bases).
+    previous one: elapsed t - t_prev and operating s - s_prev. An increment where either time
+    went back is not counted. :attr:`fraction` is 1 until some time has elapsed (a RUL then
+    means the same in both time bases), and at most 1.
     """
 
     def __init__(self) -> None:
@@ -148,13 +148,13 @@ class Utilisation:
             dt, ds = t - self._last[0], s - self._last[1]
             if dt >= 0.0 and ds >= 0.0:
                 self.elapsed += dt
-                self.operating += min(ds, dt)
+                self.operating += ds
         self._last = (t, s)
 
     @property
     def fraction(self) -> float:
         """Operating over elapsed time [-] (1 before any time elapsed)."""
-        return self.operating / self.elapsed if self.elapsed > 0.0 else 1.0
+        return min(self.operating / self.elapsed, 1.0) if self.elapsed > 0.0 else 1.0
 
     def to_state(self) -> dict[str, Any]:
         """Return the accumulated times and the last update (JSON-safe)."""
