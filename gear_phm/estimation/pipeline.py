@@ -476,7 +476,8 @@ class EstimatorPipeline:
         values += [(key, summary[key]) for key in (
             'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
             'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
-            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset')]
+            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
+            'operating_time_s')]
         values.append(('loss_ratio', loss))
         for reason, count in sorted(summary['counts'].items()):
             if reason in WINDOW_REASONS:

@@ -149,6 +149,14 @@ class HealthAssessor:
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
+        if math.isfinite(estimate.operating_time) and self.latest is not None \
+                and not math.isfinite(self.latest.operating_time):
+            # the stream gained operating time (its first updates came without: the topic
+            # matched late, or a newer estimator): the history so far moves onto the
+            # operating axis, as if the gearbox had moved throughout it
+            offset = estimate.operating_time - estimate.t
+            self.predictor.shift(offset)
+            self.utilisation.shift(offset)
         operating = self._operating_time(estimate)
         self.predictor.add(operating, estimate.u, p_uu)
         self.utilisation.add(estimate.t, operating)

@@ -151,6 +151,11 @@ class Utilisation:
                 self.operating += ds
         self._last = (t, s)
 
+    def shift(self, offset: float) -> None:
+        """Move the last update's operating time by ``offset`` [s] (onto another axis)."""
+        if self._last is not None:
+            self._last = (self._last[0], self._last[1] + offset)
+
     @property
     def fraction(self) -> float:
         """Operating over elapsed time [-] (1 before any time elapsed)."""
@@ -248,6 +253,11 @@ class WearHistory:
         self._wt[index] += w * dt
         self._wu[index] += w * u
         self._n[index] += 1
+
+    def shift(self, offset: float) -> None:
+        """Move the history by ``offset`` [s] in time (onto another time axis)."""
+        self.t_start += offset
+        self.t_last += offset
 
     def to_state(self) -> dict[str, Any]:
         """Return the bins and their clock (JSON-safe, see :mod:`gear_phm.persistence`)."""
@@ -574,6 +584,13 @@ class RulPredictor:
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1
             self.detected = False
+
+    def shift(self, offset: float) -> None:
+        """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
+        self.history.shift(offset)
+        self._trend = replace(self._trend, t_end=self._trend.t_end + offset)
+        self._crossing = (self._crossing[0] + offset, self._crossing[1] + offset,
+                          self._crossing[2] + offset)
 
     def to_state(self) -> dict[str, Any]:
         """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
