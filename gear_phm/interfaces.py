@@ -34,6 +34,7 @@ FRICTION_COVARIANCE = 'gear_phm/friction_covariance'
 EFFICIENCY = 'gear_phm/efficiency'
 INNOVATION = 'gear_phm/innovation'
 COUNTS = 'gear_phm/counts'
+OPERATING_TIME = 'gear_phm/operating_time'
 SAMPLE_LOSS = 'gear_phm/sample_loss'
 HEALTH_RUL = 'gear_phm/health/rul'
 HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
@@ -46,7 +47,10 @@ DIAGNOSTIC_ARRAY_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
 CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
 
 #: Estimator outputs, all geometry_msgs/Vector3Stamped with identical stamps per update.
-ESTIMATOR_TOPICS = (FRICTION, FRICTION_COVARIANCE, EFFICIENCY, INNOVATION, COUNTS)
+ESTIMATOR_TOPICS = (FRICTION, FRICTION_COVARIANCE, EFFICIENCY, INNOVATION, COUNTS,
+                    OPERATING_TIME)
+#: The estimator outputs of recordings made before OPERATING_TIME existed (issue 13).
+LEGACY_ESTIMATOR_TOPICS = ESTIMATOR_TOPICS[:5]
 
 
 def stamp_to_ns(stamp: Any) -> int:
@@ -378,7 +382,7 @@ class DiagnosticsOut:
 # --- domain records <-> layouts ----------------------------------------------------------------
 
 def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vector3Out]:
-    """Return the five estimator topics of one update, in publishing order.
+    """Return the estimator topics of one update (:data:`ESTIMATOR_TOPICS`), in publishing order.
 
     The order is the one of docs/architecture.md.
     """
@@ -393,6 +397,7 @@ def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vec
         Vector3Out(INNOVATION, stamp, e.innovation, e.innovation_variance, e.nis, frame_id),
         Vector3Out(COUNTS, stamp, float(e.samples_used), float(e.samples_rejected),
                    float(e.power_flow), frame_id),
+        Vector3Out(OPERATING_TIME, stamp, e.operating_time, 0.0, 0.0, frame_id),
     ]
 
 
@@ -427,15 +432,17 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
     """Rebuild an update from its estimator topics (``{topic: object with .x .y .z}``).
 
     Friction and covariance are required (KeyError otherwise); a missing efficiency or
-    innovation gives NaN fields, missing counts give zeros.
+    innovation gives NaN fields, missing counts give zeros, a missing operating time (an
+    older estimator or recording) NaN.
     """
     u, rate, _ = _xyz(vectors[FRICTION])
     eta_d, eta_i, measured = _xyz(vectors.get(EFFICIENCY))
     innovation, variance, nis = _xyz(vectors.get(INNOVATION))
     used, rejected, code = _xyz(vectors.get(COUNTS), 0.0)
+    operating_time, _, _ = _xyz(vectors.get(OPERATING_TIME))
     return FrictionEstimate(int(stamp_ns), u, rate, _xyz(vectors[FRICTION_COVARIANCE]), eta_d,
                             eta_i, measured, innovation, variance, nis, _count(used),
-                            _count(rejected), _count(code))
+                            _count(rejected), _count(code), operating_time=operating_time)
 
 
 def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,
@@ -455,16 +462,22 @@ def health_outputs(state: HealthState) -> tuple[Vector3Out, Vector3Out]:
 
 
 #: KeyValue keys of the diagnostics node's /diagnostics status, in this order (benches rely
-#: on them).
+#: on them). ``rul_*`` are in elapsed (stamp) time, ``rul_operating_*`` in operating time,
+#: ``utilisation`` is their ratio (operating over elapsed time, see
+#: :mod:`gear_phm.prognostics.assessor`).
 STATUS_KEYS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
-               'power_flow', 'samples_used', 'samples_rejected', 'samples_missing')
+               'power_flow', 'samples_used', 'samples_rejected', 'samples_missing',
+               'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
+               'rul_operating_p95_s', 'utilisation')
 
 
 def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
     """Return KeyValue pairs with exactly :data:`STATUS_KEYS` (decimal strings, ``inf``)."""
     values = (state.u, state.u_sigma, state.eta_opposing, state.eta_aiding, state.rul.median,
               state.rul.p5, state.rul.p95, state.power_flow, state.samples_used,
-              state.samples_rejected, state.samples_missing)
+              state.samples_rejected, state.samples_missing, state.operating_time,
+              state.rul_operating.median, state.rul_operating.p5, state.rul_operating.p95,
+              state.utilisation)
     return tuple((key, format_value(value)) for key, value in zip(STATUS_KEYS, values))
 
 

@@ -32,8 +32,9 @@ from pathlib import Path
 import tempfile
 from typing import Any
 
-#: Version of the document layout; a file with another version is set aside.
-SCHEMA = 1
+#: Version of the document layout; a file with another version is set aside. 2: the filter
+#: and the RUL history run on operating time (issue 13), not on stamp time as in 1.
+SCHEMA = 2
 #: Relative tolerance of a float identity value (e.g. the ratio).
 IDENTITY_RTOL = 1e-9
 

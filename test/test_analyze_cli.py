@@ -63,7 +63,8 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     keys = [kv.key for kv in statuses[-1].values]
     assert keys == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                     'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
-                    'samples_missing']
+                    'samples_missing', 'operating_time_s', 'rul_operating_s',
+                    'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation']
     levels = [s.level for s in statuses]
     changes = [i for i in range(1, len(levels)) if levels[i] != levels[i - 1]]
     assert [levels[i] for i in changes] == [1, 2], levels
@@ -163,3 +164,52 @@ def test_a_healthy_gearbox_stays_ok_from_start_to_end(tmp_path: Path) -> None:
     with BagReader(out) as bag:
         rul = [m.vector for _, _, m in bag.messages(['/gear_phm/health/rul'])]
     assert len(rul) > 1000 and all(math.isinf(v.x) and math.isinf(v.y) for v in rul)
+
+
+def test_two_recordings_a_week_apart_run_on_operating_time(tmp_path: Path) -> None:
+    """Issue 13 through the entry points: two recordings, back to back and a week apart.
+
+    Two 60 s recordings of linear wear (1e-3 1/s of operation). The filter and the RUL run on
+    operating time, so u and the operating RUL agree; rul_s is rul_operating_s over the
+    utilisation (operating time / elapsed stamp time, about 1e-4 across the week).
+    """
+    summaries = {}
+    for name, gap in (('plain', '0'), ('week', str(7 * 86400))):
+        fleet = tmp_path / name
+        assert main(['simulate', '--fleet', '1', '--recordings', '2', '--duration', '60',
+                     '--gap', gap, '--unit-spread', '0', '--wear', 'linear',
+                     '--friction-initial', '0.05', '--wear-rate', '1e-3', '--start-time',
+                     '1700000000', '--out', str(fleet)]) == 0
+        bags = sorted(str(p) for p in (fleet / 'unit_00').glob('rec_*'))
+        out = tmp_path / f'{name}-analysis'
+        assert main(['analyze', *bags, '--ratio', '3.0', '--out', str(out), '--no-progress',
+                     '--no-plot']) == 0
+        summaries[name] = json.loads((out / 'summary.json').read_text())
+        with BagReader(out) as bag:
+            assert bag.topics['/' + interfaces.OPERATING_TIME] == \
+                interfaces.VECTOR3_STAMPED_TYPE
+            statuses = [s for _, _, m in bag.messages(['/diagnostics']) for s in m.status
+                        if s.name == 'gear_phm: gearbox']
+        assert [kv.key for kv in statuses[-1].values] == list(interfaces.STATUS_KEYS)
+    plain, week = summaries['plain'], summaries['week']
+    values = {name: {k: float(v) for k, v in s['health']['values'].items()}
+              for name, s in summaries.items()}
+    # operating time: the moving part of the 120 s (dwells and the week do not count)
+    assert 80.0 < week['operating_time_s'] < 120.0
+    assert week['operating_time_s'] == pytest.approx(plain['operating_time_s'], abs=0.02)
+    assert values['week']['operating_time_s'] == pytest.approx(week['operating_time_s'],
+                                                               abs=0.2)
+    # no jump across the week: u as without the gap, and near the plant's 0.05 + 1e-3 * 120
+    assert abs(week['u'] - plain['u']) <= plain['sigma_u']
+    assert week['u'] == pytest.approx(plain['u'], abs=1e-9)          # measured: 1e-13
+    assert abs(week['u'] - 0.17) <= 0.01
+    # the RUL in operating time (u_eol 0.6 at 600 s of operation) as without the gap ...
+    rul_op = values['week']['rul_operating_s']
+    assert 300.0 < rul_op < 600.0
+    assert rul_op == pytest.approx(values['plain']['rul_operating_s'], rel=1e-3)
+    # ... and in elapsed time divided by the utilisation: ~100 s / (120 s + one week)
+    utilisation = values['week']['utilisation']
+    assert utilisation == pytest.approx(values['week']['operating_time_s']
+                                        / (120.0 + 7 * 86400.0), rel=0.05)
+    assert values['week']['rul_s'] == pytest.approx(rul_op / utilisation, rel=1e-9)
+    assert values['plain']['utilisation'] > 0.7

@@ -17,6 +17,7 @@ import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_typestore, Stores
 
+from gear_phm import interfaces
 from gear_phm.bagio import BagReader, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import BatchWriter, vector3_stamped_rows
 from gear_phm.bagio.writer import vector3_stamped_cdr
@@ -146,7 +147,8 @@ def test_rosbag2_writer_batch_and_library_give_the_same_messages(tmp_path: Path)
 
 def test_analyze_columns_are_the_published_records() -> None:
     estimates = [FrictionEstimate(10**9 * (k + 1), 0.1 + k, 1e-5, (1e-4, 2e-7, 3e-9), 0.9 - k,
-                                  0.8, 0.85, 0.01 * k, 0.02, 0.5, 100 + k, k, 1 + k % 2)
+                                  0.8, 0.85, 0.01 * k, 0.02, 0.5, 100 + k, k, 1 + k % 2,
+                                  operating_time=12.5 * k)
                  for k in range(4)]
     states = [HealthState(e.stamp_ns, k % 3, 'x', e.u, 0.01, e.eta_opposing, e.eta_aiding,
                           RulEstimate(100.0 - k, 50.0, math.inf, 'linear'), e.power_flow, 1, 0,
@@ -159,3 +161,6 @@ def test_analyze_columns_are_the_published_records() -> None:
         [r for s in states for r in health_outputs(s)]
     key = (lambda r: (r.topic, r.stamp_ns))
     assert sorted(got, key=key) == sorted(expected, key=key)
+    assert {r.topic for r in got} == {*interfaces.ESTIMATOR_TOPICS, interfaces.HEALTH_RUL,
+                                      interfaces.HEALTH_EFFICIENCY}
+    assert [r.x for r in got if r.topic == interfaces.OPERATING_TIME] == [0.0, 12.5, 25.0, 37.5]

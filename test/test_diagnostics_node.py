@@ -25,7 +25,7 @@ from rclpy.node import Node  # noqa: E402
 
 from gear_phm.bagio import BagReader, recover  # noqa: E402
 from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
-                                 stamp_to_ns)
+                                 LEGACY_ESTIMATOR_TOPICS, OPERATING_TIME, stamp_to_ns)
 from gear_phm.nodes.common import OUTPUT_QOS, stamp  # noqa: E402
 from node_processes import stop  # noqa: E402, I100, I201
 
@@ -33,7 +33,8 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
 EXE = Path(sys.executable).parent / 'diagnostics'
 KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
         'power_flow', 'samples_used', 'samples_rejected',
-        'samples_missing']
+        'samples_missing', 'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
+        'rul_operating_p95_s', 'utilisation']
 
 
 @pytest.fixture(scope='module')
@@ -65,11 +66,15 @@ def wait_for(node: Node, condition, deadline_s: float, what: str) -> None:
 
 
 class Feeder:
-    """Publishes the five estimator topics of linear wear u = 0.05 + 1.5e-4 t."""
+    """Publishes the estimator topics of linear wear u = 0.05 + 1.5e-4 t.
 
-    def __init__(self, node: Node) -> None:
+    The operating time is ``utilisation`` t.
+    """
+
+    def __init__(self, node: Node, utilisation: float = 0.5) -> None:
         self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS)
                      for t in ESTIMATOR_TOPICS]
+        self.utilisation = utilisation
         self.step = 0
 
     def matched(self) -> bool:
@@ -81,7 +86,8 @@ class Feeder:
         u = 0.05 + 1.5e-4 * t
         eta_d, eta_i = (3.0 - u) / (3.0 * (1.0 + u)), 3.0 * (1.0 - u) / (3.0 + u)
         vectors = [(u, 1.5e-4, 1e-3), (1e-6, 0.0, 1e-12), (eta_d, eta_i, eta_d),
-                   (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0)]
+                   (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0),
+                   (t * self.utilisation, 0.0, 0.0)]
         stamp_ns = int(t * 1e9)
         for pub, (x, y, z) in zip(self.pubs, vectors):
             msg = Vector3Stamped()
@@ -128,6 +134,14 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         values = {kv.key: kv.value for kv in status.values}
         assert float(values['u']) == pytest.approx(0.05 + 1.5e-4 * 3990.0)
         assert values['rul_s'] == '0.0' and values['samples_used'] == '400'
+        assert float(values['operating_time_s']) == 0.5 * 3990.0
+        assert float(values['utilisation']) == pytest.approx(0.5)
+        # the RUL in elapsed time is twice that in operating time (utilisation 0.5)
+        parsed = [{kv.key: float(kv.value) for kv in a.status[0].values} for a in arrays]
+        finite = [v for v in parsed if 0.0 < v.get('rul_operating_s', 0.0) < math.inf]
+        assert len(finite) >= 10
+        assert all(v['rul_s'] == pytest.approx(2.0 * v['rul_operating_s'], rel=1e-9)
+                   for v in finite)
         seen = [lv for i, lv in enumerate(levels) if i == 0 or lv != levels[i - 1]]
         assert seen == [b'\x00', b'\x01', b'\x02'], seen     # never STALE while fed
         stopped = time.monotonic()
@@ -142,6 +156,7 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         counts = {t: bag.message_count(t) for t in bag.topics}
     assert counts['/gear_phm/health/rul'] == 400
     assert counts['/gear_phm/friction'] == 400 and counts['/diagnostics'] > 10
+    assert counts['/' + OPERATING_TIME] == 400
     with open(next(record.glob('*.mcap')), 'rb') as stream:
         reader = make_reader(stream)
         schemas = {s.name: s.encoding for s in reader.get_summary().schemas.values()}
@@ -179,6 +194,8 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
     assert [(i, levels[i]) for i in changes] == [(8, b'\x01'), (22, b'\x02')], levels
     assert statuses[8].message == f'eta_D {(3.0 - 0.062) / (3.0 * 1.062):.4g} < 0.925'  # t 80 s
     assert 'end of life (eta_opposing_min)' in statuses[22].message
+    values = {kv.key: kv.value for kv in statuses[-1].values}
+    assert values['operating_time_s'] == '145.0' and values['utilisation'] == '0.5'
 
 
 def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
@@ -228,3 +245,34 @@ def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
         mcap_count = sum(1 for _ in make_reader(stream, validate_crcs=True).iter_messages(
             topics=[name]))
     assert mcap_count == len(stamps)
+
+
+def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
+    """Five topics (an older estimator) complete an update once a later stamp arrives.
+
+    The first update of a current estimator waits for its gear_phm/operating_time (whatever
+    the order of arrival) and carries its x as the operating time [s]; from then on every
+    update needs it.
+    """
+    from types import SimpleNamespace
+
+    from gear_phm.nodes.transport import EstimateAssembler
+    assembler = EstimateAssembler()
+
+    def feed(stamp_ns: int, topics: tuple[str, ...]) -> list:
+        out = []
+        for k, topic in enumerate(topics):
+            out += assembler.add(topic, stamp_ns, SimpleNamespace(x=0.1 + k, y=0.0, z=1e-6))
+        return out
+
+    assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []           # may still get operating time
+    old = feed(2, LEGACY_ESTIMATOR_TOPICS[:1])              # a later stamp: 1 is complete
+    assert [e.stamp_ns for e in old] == [1] and math.isnan(old[0].operating_time)
+    assert feed(2, LEGACY_ESTIMATOR_TOPICS[1:]) == []
+    first = feed(2, (OPERATING_TIME,))                      # arrived last, not dropped
+    assert [(e.stamp_ns, e.operating_time) for e in first] == [(2, 0.1)]
+    assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []           # now every update waits for it
+    assert feed(4, LEGACY_ESTIMATOR_TOPICS) == []
+    done = assembler.add(OPERATING_TIME, 3, SimpleNamespace(x=42.0, y=0.0, z=0.0))
+    assert [(e.stamp_ns, e.operating_time) for e in done] == [(3, 42.0)]
+    assert assembler.dropped == {}

@@ -241,16 +241,19 @@ def test_spur_gear_plant_efficiencies_within_0_01() -> None:
 
 
 def test_tracks_wear_ramp_and_detects_step() -> None:
-    ramp = lambda t: 0.1 + 0.1 * np.clip((t - 100.0) / 200.0, 0.0, 1.0)  # noqa: E731
-    run = lever_plant(5, 400.0, ramp)
+    # the plant wears while it moves (28 % of this duty cycle is dwell): u ramps over its
+    # operating time s, the filter's time axis, so it tracks without lag
+    ramp = lambda s: 0.1 + 0.1 * np.clip((s - 100.0) / 200.0, 0.0, 1.0)  # noqa: E731
+    run = lever_plant(5, 400.0, ramp, wear_clock='operating')
     out = _feed(EstimatorPipeline(CONFIG), run)
     fr = [o for o in out if o.topic == interfaces.FRICTION]
     t = (np.array([o.stamp_ns for o in fr]) - run.stamp_ns[0]) * 1e-9
+    s = np.interp(t, run.t, run.operating_time)
     u = np.array([o.x for o in fr])
-    during = (t > 140.0) & (t < 300.0)
-    lag = np.mean((ramp(t[during]) - u[during]) / (0.1 / 200.0))
-    assert abs(lag) < 3.0                                  # seconds
-    assert np.max(np.abs(u[during] - ramp(t[during]))) < 0.01
+    during = (s > 140.0) & (s < 300.0)
+    lag = np.mean((ramp(s[during]) - u[during]) / (0.1 / 200.0))
+    assert abs(lag) < 1.0                                  # seconds of operation
+    assert np.max(np.abs(u[during] - ramp(s[during]))) < 0.003
 
     step = lambda t: np.where(t < 90.0, 0.1, 0.15)  # noqa: E731
     run = lever_plant(5, 150.0, step)
@@ -262,6 +265,39 @@ def test_tracks_wear_ramp_and_detects_step() -> None:
     detected = t[(t >= 90.0) & (np.abs(u - 0.15) < 0.0075)]
     assert detected.size and detected[0] - 90.0 < 8.0
     assert pipeline.counts['reinitialised'] >= 1
+
+
+def test_filter_runs_on_operating_time_across_a_week_long_gap() -> None:
+    """Two recordings of a wearing plant, the second stamped 7 days later (issue 13): u after
+    the gap stays within 1 sigma of the same data without the gap (stamp time would predict
+    u + 5e-4 1/s * 7 days = u + 302), and the operating time is the moving time only."""
+    wear = lambda s: 0.1 + 5e-4 * s  # noqa: E731
+    run = lever_plant(6, 240.0, wear, wear_clock='operating')
+    week_ns = 7 * 86400 * 10**9
+    split = int(np.searchsorted(run.t, 121.0))
+    stamps = run.stamp_ns.copy()
+    stamps[split:] += week_ns
+    columns = (run.motor_velocity, run.motor_effort, run.load_velocity, run.load_effort)
+    gap, plain = EstimatorPipeline(CONFIG), EstimatorPipeline(CONFIG)
+    first = gap.on_batch(stamps[:split], *(c[:split] for c in columns))
+    second = gap.on_batch(stamps[split:], *(c[split:] for c in columns))
+    plain.on_batch(run.stamp_ns, *columns)
+    assert abs(second[0].u - first[-1].u) <= 3.0 * first[-1].u_sigma     # no jump
+    assert gap.counts['reinitialised'] == plain.counts['reinitialised']
+    sigma = math.sqrt(plain.filter.P[0, 0])
+    assert abs(gap.filter.x[0] - plain.filter.x[0]) <= sigma
+    assert abs(gap.filter.x[0] - run.u[-1]) <= 3.0 * sigma
+    assert abs(gap.filter.x[1] - 5e-4) <= 3.0 * math.sqrt(gap.filter.P[1, 1])
+    # the interval across the gap does not count; every other one as without the gap
+    across = run.operating_time[split] - run.operating_time[split - 1]
+    assert plain.operating_time == pytest.approx(run.operating_time[-1], abs=1e-9)
+    assert gap.operating_time == pytest.approx(run.operating_time[-1] - across, abs=1e-5)
+    assert gap.operating_time < 0.8 * 240.0                   # the dwells do not count
+    # each estimate carries the operating time at its stamp, continuous across the gap
+    assert first[-1].operating_time <= second[0].operating_time <= first[-1].operating_time + 0.2
+    assert second[-1].operating_time == pytest.approx(gap.operating_time, abs=0.2)
+    assert all(b.operating_time >= a.operating_time for a, b in zip(first + second,
+                                                                    (first + second)[1:]))
 
 
 # --- robustness ----------------------------------------------------------------------------
@@ -369,15 +405,16 @@ def test_config_validation_names_field_and_value() -> None:
 
 
 def test_process_noise_adapts_to_a_wear_rate_jump_and_stays_small_on_slow_wear() -> None:
-    """u's wear rate jumps from 0 to 5e-4 1/s at 200 s: q rises by decades and u tracks
-    within 3 sigma soon after; on constant u, q falls below 1e-13 1/s^3 (prior 1e-11)."""
-    jump = lambda t: 0.1 + 5e-4 * np.clip(t - 200.0, 0.0, None)  # noqa: E731
-    run = lever_plant(3, 400.0, jump)
+    """u's wear rate jumps from 0 to 5e-4 1/s at 200 s of operation: q rises by decades and
+    u tracks within 3 sigma soon after; on constant u, q falls below 1e-13 1/s^3 (prior
+    1e-11)."""
+    jump = lambda s: 0.1 + 5e-4 * np.clip(s - 200.0, 0.0, None)  # noqa: E731
+    run = lever_plant(3, 400.0, jump, wear_clock='operating')
     pipeline = EstimatorPipeline(CONFIG)
     _feed(pipeline, run)
     fr = pipeline.filter
     assert fr.process_noise > 1e-10
-    assert abs(fr.x[0] - jump(run.t[-1])) <= 3.0 * math.sqrt(fr.P[0, 0])
+    assert abs(fr.x[0] - run.u[-1]) <= 3.0 * math.sqrt(fr.P[0, 0])
     flat = EstimatorPipeline(CONFIG)
     _feed(flat, lever_plant(4, 400.0, 0.1))
     assert flat.filter.process_noise < 1e-13

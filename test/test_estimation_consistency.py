@@ -1,6 +1,7 @@
 """Consistency of the adaptive estimator (issue 12): NIS and NEES, the mismatch variance.
 
-Lever-model plant (test_estimation_plant.py), defaults only. Lives of 300 s, 3000 s and
+Lever-model plant (test_estimation_plant.py, wearing with its operating time, the filter's
+time axis), defaults only. Lives of 300 s, 3000 s and
 30 000 s (u 0.05 -> 0.30) are compressed into 300 s runs: the 300 s life is run whole, the
 longer ones from mid-life at their own wear rate. Bounds are two-sided 95 % chi-square bounds:
 NIS pooled over all updates after 60 s of the seeds (K updates, chi2(K)/K); NEES of the final
@@ -69,11 +70,13 @@ def test_nis_and_nees_consistent_at_every_life_and_rate(law: str, rate: float) -
         u, du = _wear(law, life, start)
         nis, nees = [], []
         for seed in SEEDS:
-            _, rows = _run(lever_plant(seed, 300.0, u, rate=rate))
+            run = lever_plant(seed, 300.0, u, rate=rate, wear_clock='operating')
+            _, rows = _run(run)
             rows = rows[rows[:, 3] > 0]
             t = rows[:, 0]
             nis.append(rows[t > 60.0, 2])
-            err = rows[-1, 4:6] - np.array([u(t[-1]), du(t[-1])])
+            s = float(np.interp(t[-1], run.t, run.operating_time))  # the filter's time [s]
+            err = rows[-1, 4:6] - np.array([u(s), du(s)])
             nees.append(float(err @ np.linalg.solve(rows[-1, 6:].reshape(2, 2), err)))
         pooled = np.concatenate(nis)
         low, high = _bounds(pooled.size)

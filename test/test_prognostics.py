@@ -16,7 +16,8 @@ from scipy.stats import chi2
 from gear_phm import interfaces
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.prognostics import end_of_life_u, HealthAssessor, HealthConfig, RulPredictor
+from gear_phm.prognostics import (end_of_life_u, HealthAssessor, HealthConfig, HealthState,
+                                  RulPredictor)
 from gear_phm.prognostics.health import chi_square_mean_bound
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
                                           evaluate, prognostic_horizon)
@@ -115,14 +116,96 @@ def test_status_key_values_exact_keys_and_inf() -> None:
     values = dict(interfaces.health_key_values(status))
     assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                             'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
-                            'samples_missing']
+                            'samples_missing', 'operating_time_s', 'rul_operating_s',
+                            'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation']
     assert values['rul_s'] == 'inf' and values['samples_used'] == '7'
+    assert values['rul_operating_s'] == 'inf' and values['operating_time_s'] == 'nan'
+    assert values['utilisation'] == '1.0'
     assert float(values['u_sigma']) == pytest.approx(0.01)
     assert float(values['eta_opposing']) == pytest.approx((3.0 - 0.1) / (3.0 * 1.1))
     diagnostic = interfaces.health_status(status, 'left_aileron', 'hw1')
     rul, efficiency = interfaces.health_outputs(status)
     assert diagnostic.name == 'gear_phm: left_aileron' and diagnostic.hardware_id == 'hw1'
     assert rul.stamp_ns == efficiency.stamp_ns == 5_000_000_000 and efficiency.z == float(OK)
+
+
+def _linear_wear(utilisation: float, gap: float = 0.0) -> HealthAssessor:
+    """Assessor after u = 0.05 + 1.5e-4 s (s: operating time [s]) estimated every 10 s of
+    operation, each step taking 10 / ``utilisation`` s of stamp time, and a stamp gap of
+    ``gap`` [s] without operation halfway; WARN below 3000 s of RUL."""
+    monitor = HealthAssessor(HealthConfig(warn_horizon=3000.0, eta_warn=0.6, level_dwell=0.0))
+    for k, s in enumerate(np.arange(0.0, 2000.0, 10.0)):
+        t = s / utilisation + (gap if k >= 100 else 0.0)
+        u = 0.05 + 1.5e-4 * s
+        assert monitor.on_estimate(FrictionEstimate(int(t * 1e9), u, 1.5e-4, (1e-6, 0.0, 1e-12),
+                                                    operating_time=s)) is not None
+    return monitor
+
+
+def test_rul_runs_on_operating_time_and_converts_by_the_utilisation() -> None:
+    """Issue 13: the fit runs on operating time, so rul_operating is the same whatever the
+    stamps; rul (elapsed time) = rul_operating / utilisation, here 0.25 (and a week-long idle
+    gap lowers it to operating / elapsed over the whole history)."""
+    full, quarter = _linear_wear(1.0).latest, _linear_wear(0.25).latest
+    assert full is not None and quarter is not None
+    # u_eol 0.6 (eta_opposing_min 0.5, R 3) at s = 3666.7 s; the newest estimate is at 1990 s
+    for state in (full, quarter):
+        assert state.rul_operating.median == pytest.approx(3666.7 - 1990.0, rel=0.01)
+        assert state.operating_time == 1990.0
+    assert quarter.rul_operating == full.rul_operating
+    assert full.utilisation == pytest.approx(1.0)
+    assert full.rul.median == pytest.approx(full.rul_operating.median, rel=1e-12)
+    assert quarter.utilisation == pytest.approx(0.25)
+    for name in ('median', 'p5', 'p95'):
+        assert getattr(quarter.rul, name) == pytest.approx(
+            getattr(quarter.rul_operating, name) / 0.25, rel=1e-9)
+    values = dict(interfaces.health_key_values(quarter))
+    assert float(values['rul_s']) == pytest.approx(4.0 * float(values['rul_operating_s']))
+    assert float(values['operating_time_s']) == 1990.0
+    # a week idle halfway: the same operating RUL, utilisation 1990 / (1990 + 604800)
+    week = _linear_wear(1.0, gap=7 * 86400.0)
+    gapped = week.latest
+    assert gapped is not None and gapped.rul_operating == full.rul_operating
+    assert gapped.utilisation == pytest.approx(1990.0 / (1990.0 + 7 * 86400.0))
+    assert gapped.rul.median == pytest.approx(full.rul.median / gapped.utilisation)
+    # the level's horizon is on the operating RUL: p5 ~1650 s < 3000 s < ~6600 s elapsed
+    assert quarter.rul.p5 > 3000.0 > quarter.rul_operating.p5
+    assert quarter.level == WARN and quarter.message.startswith('RUL p5 16')
+    restored = HealthAssessor(week.config)
+    restored.from_state(week.to_state())
+    assert restored.utilisation.fraction == gapped.utilisation
+    assert restored.latest == gapped
+    # an update without operating time in a stream that has it (the first one a restarted
+    # diagnostics node assembles) keeps the operating time: the history is not disturbed
+    stamp_ns = gapped.stamp_ns + 10**9
+    bare = restored.on_estimate(FrictionEstimate(stamp_ns, 0.05 + 1.5e-4 * 1990.0, 1.5e-4,
+                                                 (1e-6, 0.0, 1e-12)))
+    assert bare is not None and bare.operating_time == 1990.0
+    assert bare.rul_operating.median == pytest.approx(gapped.rul_operating.median, rel=1e-3)
+
+
+def test_updates_without_operating_time_at_the_start_join_the_operating_history() -> None:
+    """Updates without operating time at the start join the history once it arrives.
+
+    The first updates of a stream may come without it (its topic matched late): the history
+    moves onto the operating axis, as if in motion throughout, instead of restarting; with
+    continuous motion the RUL is exactly that of the whole stream (dropping the first three
+    points moves it by 0.9 % here, by 4 % in test_state_file).
+    """
+    def run(missing: int) -> HealthState:
+        monitor = HealthAssessor(HealthConfig())
+        for k, s in enumerate(np.arange(0.0, 400.0, 2.0)):
+            t = 1.7e9 + s                                         # continuous motion
+            u = 0.05 + 0.3 * (s / 400.0) ** 2
+            state = monitor.on_estimate(FrictionEstimate(
+                int(t * 1e9), u, 1.5e-3 * s / 400.0, (1e-6, 0.0, 1e-12),
+                operating_time=math.nan if k < missing else s))
+        assert state is not None
+        return state
+    full, late = run(0), run(3)
+    assert math.isfinite(full.rul_operating.median)
+    assert late.rul_operating.median == pytest.approx(full.rul_operating.median, rel=1e-6)
+    assert late.utilisation == pytest.approx(1.0, rel=1e-9)
 
 
 # --- Saxena metrics ------------------------------------------------------------------------

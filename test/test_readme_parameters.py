@@ -90,3 +90,17 @@ def test_config_file_documents_every_declared_parameter(declarations: dict, node
     assert sorted(set(declared) - commented) == []
     for name, default in declared.items():
         assert type(values[name]) is type(default), (name, values[name], default)
+
+
+def test_readme_lists_exactly_the_diagnostics_keys_and_explains_the_new_ones() -> None:
+    """The /diagnostics paragraph names STATUS_KEYS in order.
+
+    The time-base keys have a bullet each (issue 13).
+    """
+    from gear_phm.interfaces import STATUS_KEYS
+    text = (REPO / 'README.md').read_text(encoding='utf-8')
+    start = text.index('Its KeyValue keys are exactly:')
+    sentence = text[start:text.index('. Numbers', start)]
+    assert tuple(re.findall(r'`(\w+)`', sentence)) == STATUS_KEYS
+    for key in ('operating_time_s', 'rul_operating_s', 'rul_s', 'utilisation'):
+        assert re.search(rf'^- `{key}`', text, flags=re.M), key

@@ -47,7 +47,7 @@ def _assert_same(got: dict, expected: dict, where: int) -> None:
     assert got.keys() == expected.keys(), where
     for key, value in expected.items():
         if isinstance(value, float) and not math.isnan(value):
-            assert got[key] == pytest.approx(value, rel=1e-9, abs=1e-15), (where, key)
+            assert got[key] == pytest.approx(value, rel=1e-6, abs=1e-12), (where, key)
         else:
             assert str(got[key]) == str(value), (where, key)
 

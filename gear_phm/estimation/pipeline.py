@@ -4,7 +4,10 @@
 buffered between timer ticks (:meth:`on_samples`), ``gear-phm analyze`` large decoded batches
 (:meth:`on_batch`). Both get the same :class:`FrictionEstimate` records back (at most one per
 stamp), which their transport turns into messages. Results do not depend on how the samples
-are split into batches. Time comes from the sample stamps only.
+are split into batches. Time comes from the sample stamps only. The Kalman filter runs on
+operating time (the time with motion, accumulated from the stamps, see ``operating_time``):
+wear, and so the rate du/dt [1/s of operation], accrues only while the gearbox moves, not
+across the idle gap between two recordings. Energy windows run on stamp time.
 """
 from __future__ import annotations
 
@@ -86,8 +89,12 @@ class EstimatorPipeline:
         self.samples_missing = 0
         self.windows_used = 0
         #: Time with motion [s]: sums of sample intervals (up to sensor_timeout) that end at a
-        #: moving, finite sample; idle time and gaps between recordings do not count.
+        #: moving, finite sample; idle time and gaps between recordings do not count. It is
+        #: the filter's time axis (the module docstring).
         self.operating_time = 0.0
+        #: The current batch's operating time before its first sample and at each sample [s].
+        self._operating_before = 0.0
+        self._operating_at = np.zeros(0)
         self._max_stamp: int | None = None
         self._last_group_stamp: int | None = None     # stamp of the newest estimate [ns]
         self.screen = StampScreen(config.stamp_run, _ns(config.sensor_timeout),
@@ -378,26 +385,28 @@ class EstimatorPipeline:
         usable = ok & (code > 0)
         # sensor timeouts: gaps between consecutive timely samples
         t_ok = t[timely]
-        gap_at = operating_at = np.empty(0, dtype=np.int64)
-        operating = np.empty(0)
+        gap_at = np.empty(0, dtype=np.int64)
+        operating = np.zeros(n)           # each sample's operating-time contribution [s]
         if t_ok.size:
             last = self._t(self._last_stamp) if self._last_stamp is not None else t_ok[0]
             steps = np.diff(np.concatenate(([last], t_ok)))
             gaps = steps > c.sensor_timeout
             # operating time: sample intervals that end in motion, not across a gap
-            moving = ~gaps & ~zero_speed[timely] & finite[timely]
-            operating = steps[moving]
-            self.operating_time += float(np.sum(operating))
+            operating[timely] = np.where(~gaps & ~zero_speed[timely] & finite[timely], steps,
+                                         0.0)
             n_gaps = int(np.count_nonzero(gaps))
             if self.timed_out and gaps[0]:
                 n_gaps -= 1         # already counted by on_silence
                 gaps[0] = False
             self.counts['timeout'] += n_gaps
             if marks:
-                positions = np.flatnonzero(timely)
-                gap_at, operating_at = positions[gaps], positions[moving]
+                gap_at = np.flatnonzero(timely)[gaps]
             self.timed_out = False
             self._last_stamp = int(stamps[timely][-1])
+        # the filter's time axis: cumulative operating time at each sample [s]
+        self._operating_before = self.operating_time
+        self._operating_at = self.operating_time + np.cumsum(operating)
+        self.operating_time = float(self._operating_at[-1])
         self._max_stamp = int(max(stamps.max(), self._max_stamp or stamps.max()))
         with np.errstate(invalid='ignore', over='ignore'):
             windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, code, usable)
@@ -438,7 +447,7 @@ class EstimatorPipeline:
                     'timeout': int(np.count_nonzero(gap_at >= k)),
                     'short_window': int(np.count_nonzero(short_at >= k))})
                 values = self._snapshot(mark, len(outputs), int(stamps[k - 1]), suffix)
-                values.values['operating_time_s'] -= float(np.sum(operating[operating_at >= k]))
+                values.values['operating_time_s'] = float(self._operating_at[k - 1])
                 values.values['timed_out'] = False
                 marked.append((k, values))
 
@@ -452,9 +461,9 @@ class EstimatorPipeline:
                 w_i += 1
             take(k)
             self._last_code = int(code[k])
-            x, p = self.filter.predicted(t[k])
+            x, p = self.filter.predicted(float(self._operating_at[k]))
             outputs.append(self._estimate(int(stamps[k]), x, p, int(used_cum[k]),
-                                          int(rejected_cum[k])))
+                                          int(rejected_cum[k]), float(self._operating_at[k])))
         for window in windows[w_i:]:
             k = min(window.close_index, n - 1)
             take(window.close_index)
@@ -505,7 +514,10 @@ class EstimatorPipeline:
         if isinstance(result, str):
             self.counts[result] += 1
             return []
-        update = self.filter.update(result.u, result.u_variance, result.t,
+        # the filter runs on operating time; a window is motion throughout, so its age
+        # (half its duration) is the same in stamp and in operating time
+        operating = self._window_operating_time(window)
+        update = self.filter.update(result.u, result.u_variance, operating,
                                     0 if result.code == OPPOSING else 1,
                                     0.5 * window.duration)
         self._last_eta = result.eta
@@ -521,10 +533,20 @@ class EstimatorPipeline:
         if code is not None:
             self._last_code = code
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
-                               used, rejected)]
+                               used, rejected, operating)]
+
+    def _window_operating_time(self, window: Window) -> float:
+        """Operating time [s] at the last sample of ``window``, closed by the current batch.
+
+        That sample is the one before ``close_index``, or, at 0, the previous batch's last.
+        """
+        if window.close_index <= 0:
+            return self._operating_before
+        return float(self._operating_at[window.close_index - 1])
 
     def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
-                  rejected: int | None = None) -> FrictionEstimate:
+                  rejected: int | None = None,
+                  operating_time: float | None = None) -> FrictionEstimate:
         u, rate = float(x[0]), float(x[1])
         eta_d, eta_i = efficiencies(u, self.config.ratio)
         last = self.filter.last
@@ -535,7 +557,8 @@ class EstimatorPipeline:
             self.samples_rejected if rejected is None else rejected, self._last_code,
             process_noise=self.filter.process_noise,
             mismatch_variance=(self.filter.mismatch_variance(0),
-                               self.filter.mismatch_variance(1)))
+                               self.filter.mismatch_variance(1)),
+            operating_time=self.operating_time if operating_time is None else operating_time)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
@@ -596,7 +619,8 @@ class EstimatorPipeline:
         values += [(key, summary[key]) for key in (
             'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
             'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
-            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset')]
+            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
+            'operating_time_s')]
         values.append(('loss_ratio', loss))
         for reason, count in sorted(summary['counts'].items()):
             if reason in WINDOW_REASONS:

@@ -38,7 +38,10 @@ class FrictionEstimate:
     ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample;
     ``samples_missing`` counts the samples the stamps show lost so far; ``process_noise``
     [1/s^3] is the filter's current (adapted) q and ``mismatch_variance`` [-] the learned
-    model-mismatch variance of (opposing, aiding) windows.
+    model-mismatch variance of (opposing, aiding) windows; ``operating_time`` [s] is the
+    cumulative operating time (time with motion, across recordings and restarts) at the
+    stamp: the time axis of the filter's rate and of the RUL (NaN when unknown, e.g. read
+    from an older recording; users then fall back to the stamp time).
     """
 
     stamp_ns: int
@@ -57,6 +60,7 @@ class FrictionEstimate:
     samples_missing: int = 0
     process_noise: float = math.nan
     mismatch_variance: tuple[float, float] = (math.nan, math.nan)
+    operating_time: float = math.nan
 
     @property
     def t(self) -> float:

@@ -57,7 +57,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0, read_only=True),
     ParamSpec('record_path', '', 'rosbag2 MCAP directory to record to (empty: no recording); '
               'must not exist or be empty', read_only=True),
-    ParamSpec('record_inputs', False, 'also record the five estimator input topics',
+    ParamSpec('record_inputs', False, 'also record the six estimator input topics',
               read_only=True),
     ParamSpec('record_compression', '', 'MCAP chunk compression ("": none)',
               choices=('', 'zstd', 'lz4'), read_only=True),

@@ -3,9 +3,9 @@
 With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the bag side) this
 is the only place that knows which topic carries what. The estimator node takes JointState
 serialized (:func:`subscribe_joint_states_raw`, :class:`JointStateDecoder`), publishes each
-:class:`~gear_phm.estimation.FrictionEstimate` as five Vector3Stamped topics with one stamp
+:class:`~gear_phm.estimation.FrictionEstimate` as six Vector3Stamped topics with one stamp
 (:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the
-diagnostics node puts the five back together into the same record
+diagnostics node puts the six back together into the same record
 (:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and hands
 whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 """
@@ -99,7 +99,7 @@ class JointStateDecoder:
 
 
 class EstimatePublisher:
-    """Publishes estimates on the five estimator topics (reliable, depth 10)."""
+    """Publishes estimates on the six estimator topics (reliable, depth 10)."""
 
     def __init__(self, node: Node, frame_id: str = '') -> None:
         self.frame_id = frame_id
@@ -107,7 +107,7 @@ class EstimatePublisher:
                             for topic in interfaces.ESTIMATOR_TOPICS}
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
-        """Publish each estimate on the five topics, serialized by the package's packer
+        """Publish each estimate on the six topics, serialized by the package's packer
         (rclpy's ``publish`` takes CDR bytes: no Python message object per output)."""
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id):
@@ -162,9 +162,13 @@ class HealthPublisher:
 
 
 class EstimateAssembler:
-    """The estimator's five topics in, whole :class:`FrictionEstimate` records out.
+    """The estimator's topics in, whole :class:`FrictionEstimate` records out.
 
-    Messages are grouped by stamp; a group is complete with all five topics. Stragglers of an
+    Messages are grouped by stamp; a group is complete with all six estimator topics. Until
+    ``gear_phm/operating_time`` has been seen (an older estimator or bag does not publish it),
+    a group with the five of :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
+    once a message of a later stamp arrives: one update late, and its estimate carries no
+    operating time (the assessor then uses the stamps). Stragglers of an
     update already processed are dropped (``late_stamp``); when more than
     :data:`MAX_PENDING_STAMPS` stamps wait, the oldest are processed if they hold at least
     friction and covariance, else dropped (``incomplete_update``). A jump back by more than
@@ -176,6 +180,8 @@ class EstimateAssembler:
         self.pending: dict[int, dict[str, Any]] = {}
         self.dropped: dict[str, int] = {}
         self.last_stamp: int | None = None
+        #: Topics a group needs to be complete (grows to all estimator topics once seen).
+        self.expected = set(interfaces.LEGACY_ESTIMATOR_TOPICS)
 
     def _drop(self, reason: str) -> None:
         self.dropped[reason] = self.dropped.get(reason, 0) + 1
@@ -183,7 +189,7 @@ class EstimateAssembler:
     def subscribe(self, node: Node, qos: QoSProfile,
                   on_estimates: Callable[[list[FrictionEstimate]], None],
                   on_message: Callable[[str, Vector3Stamped], None] | None = None) -> None:
-        """Subscribe the five topics; ``on_estimates`` gets each completed update,
+        """Subscribe the six topics; ``on_estimates`` gets each completed update,
         ``on_message`` (optional) every raw message first (e.g. to record it)."""
         for topic in interfaces.ESTIMATOR_TOPICS:
             def callback(msg: Vector3Stamped, topic: str = topic) -> None:
@@ -198,14 +204,22 @@ class EstimateAssembler:
     def add(self, topic: str, stamp_ns: int, vector: Any) -> list[FrictionEstimate]:
         """One estimator message (``vector`` has .x .y .z); the updates it completes."""
         last = self.last_stamp
+        self.expected.add(topic)
         if last is not None and stamp_ns <= last and stamp_ns not in self.pending \
                 and last - stamp_ns < RESTART_JUMP_NS:
             self._drop('late_stamp')       # a straggler of an update already processed
             return []
         group = self.pending.setdefault(stamp_ns, {})
         group[topic] = vector
-        if len(group) == len(interfaces.ESTIMATOR_TOPICS):
+        if interfaces.OPERATING_TIME in self.expected and self.expected.issubset(group):
             return self.flush(up_to=stamp_ns)
+        if interfaces.OPERATING_TIME not in self.expected:
+            # an older estimator: an update is complete once a later stamp arrives (a current
+            # one sends the operating time of an update before the next update)
+            legacy = [s for s, held in self.pending.items()
+                      if s < stamp_ns and self.expected.issubset(held)]
+            if legacy:
+                return self.flush(up_to=max(legacy))
         if len(self.pending) > MAX_PENDING_STAMPS:
             return self.flush(up_to=min(self.pending))
         return []

@@ -67,6 +67,7 @@ class EstimateHistory:
     samples_used: np.ndarray
     samples_rejected: np.ndarray
     power_flow: np.ndarray
+    operating_time: np.ndarray
 
     @property
     def t(self) -> np.ndarray:
@@ -83,8 +84,9 @@ class EstimateHistory:
     def of(cls, estimates: Sequence[FrictionEstimate]) -> EstimateHistory:
         rows = [(e.stamp_ns, e.u, e.rate, *e.covariance, e.eta_opposing, e.eta_aiding,
                  e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
-                 e.samples_used, e.samples_rejected, e.power_flow) for e in estimates]
-        table = np.array(rows, dtype=float).reshape(-1, 15)
+                 e.samples_used, e.samples_rejected, e.power_flow, e.operating_time)
+                for e in estimates]
+        table = np.array(rows, dtype=float).reshape(-1, 16)
         columns = {f.name: table[:, i] for i, f in enumerate(fields(cls))}
         for name in ('stamp_ns', 'samples_used', 'samples_rejected', 'power_flow'):
             columns[name] = np.array([getattr(e, name) for e in estimates], dtype=np.int64)
@@ -95,8 +97,10 @@ class EstimateHistory:
 class HealthHistory:
     """Every :class:`HealthState` of a run, as columns.
 
-    The columns: level (0 OK .. 3 STALE), RUL median, p5 and p95 [s] (inf: no degradation
-    detectable), end-of-life u [-]; ``messages`` holds each state's reason.
+    The columns: level (0 OK .. 3 STALE), RUL median, p5 and p95 [s] of elapsed time (inf:
+    no degradation detectable), end-of-life u [-]; ``messages`` holds each state's reason;
+    the RUL in operating time [s], the operating time [s] and the utilisation [-] (see
+    :mod:`gear_phm.prognostics.assessor`).
     """
 
     stamp_ns: np.ndarray
@@ -106,6 +110,11 @@ class HealthHistory:
     rul_p95: np.ndarray
     u_eol: np.ndarray
     messages: tuple[str, ...]
+    rul_operating_median: np.ndarray
+    rul_operating_p5: np.ndarray
+    rul_operating_p95: np.ndarray
+    operating_time: np.ndarray
+    utilisation: np.ndarray
 
     @property
     def t(self) -> np.ndarray:
@@ -120,7 +129,12 @@ class HealthHistory:
                    np.array([s.level for s in states], dtype=np.int64),
                    column([s.rul.median for s in states]), column([s.rul.p5 for s in states]),
                    column([s.rul.p95 for s in states]), column([s.u_eol for s in states]),
-                   tuple(s.message for s in states))
+                   tuple(s.message for s in states),
+                   column([s.rul_operating.median for s in states]),
+                   column([s.rul_operating.p5 for s in states]),
+                   column([s.rul_operating.p95 for s in states]),
+                   column([s.operating_time for s in states]),
+                   column([s.utilisation for s in states]))
 
 
 @dataclass(frozen=True)
@@ -152,7 +166,11 @@ class Analysis:
         health = pd.DataFrame({'stamp_ns': h.stamp_ns, 'level': h.level,
                                'rul_median': h.rul_median, 'rul_p5': h.rul_p5,
                                'rul_p95': h.rul_p95, 'u_eol': h.u_eol,
-                               'health_message': list(h.messages)})
+                               'health_message': list(h.messages),
+                               'rul_operating_median': h.rul_operating_median,
+                               'rul_operating_p5': h.rul_operating_p5,
+                               'rul_operating_p95': h.rul_operating_p95,
+                               'utilisation': h.utilisation})
         return frame.merge(health, on='stamp_ns', how='left')
 
 
@@ -437,8 +455,9 @@ def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[Healt
     stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64, count=len(estimates))
     fields = np.array([(e.u, e.rate, e.u_sigma, *e.covariance, e.eta_opposing, e.eta_aiding,
                         e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
-                        e.samples_used, e.samples_rejected, e.power_flow)
-                       for e in estimates], dtype=float).reshape(-1, 15)
+                        e.samples_used, e.samples_rejected, e.power_flow,
+                        e.operating_time, 0.0, 0.0)
+                       for e in estimates], dtype=float).reshape(-1, 18)
     columns = [(topic, stamps, fields[:, 3 * i:3 * i + 3])
                for i, topic in enumerate(interfaces.ESTIMATOR_TOPICS)]
     if states:

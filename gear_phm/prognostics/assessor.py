@@ -5,6 +5,14 @@ Feed every :class:`~gear_phm.estimation.FrictionEstimate` to :meth:`HealthAssess
 it returns the :class:`HealthState` of that update: end of life, RUL with its 5 %/95 % bounds,
 divergence and the level. STALE is applied by the caller's clock with
 :meth:`HealthState.as_stale`.
+
+Time bases (issue 13): wear accrues while the gearbox moves, so the wear history and its RUL
+run on the estimates' operating time (``FrictionEstimate.operating_time``; an estimate without
+it, e.g. from an older recording, uses its stamp time). That RUL, ``rul_operating``, is in
+seconds of operation, and the level's WARN horizon applies to it. ``rul`` is the same RUL in
+elapsed (stamp) time at the utilisation seen so far: rul_operating / utilisation, utilisation
+= operating time / elapsed stamp time accumulated over the history
+(:class:`~gear_phm.prognostics.rul.Utilisation`), about 1 with continuous motion.
 """
 from __future__ import annotations
 
@@ -19,7 +27,7 @@ from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, Trend, trend_from_state,
-                                      trend_to_state)
+                                      trend_to_state, Utilisation)
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
@@ -31,7 +39,12 @@ RATIO_TOLERANCE = 1e-9
 class HealthState:
     """Health at one estimate: level (OK/WARN/ERROR/STALE) and its reason (``message``),
     the estimate's u [-] and sigma, efficiencies [-], RUL [s] with bounds, power-flow code,
-    sample counts, the end-of-life u [-] and the trend used."""
+    sample counts, the end-of-life u [-] and the trend used.
+
+    ``rul_operating`` is the RUL in seconds of operation, ``rul`` the same in elapsed (stamp)
+    time, ``rul_operating`` / ``utilisation`` [-]; ``operating_time`` [s] is the estimate's
+    (NaN if it had none); see the module docstring.
+    """
 
     stamp_ns: int
     level: int
@@ -47,6 +60,9 @@ class HealthState:
     u_eol: float
     trend: Trend
     samples_missing: int = 0
+    rul_operating: RulEstimate = RulEstimate(math.nan, math.nan, math.nan, 'none')
+    operating_time: float = math.nan
+    utilisation: float = math.nan
 
     def as_stale(self, silence: float) -> HealthState:
         """This status turned STALE after ``silence`` [s] without input."""
@@ -66,7 +82,8 @@ def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
 
 
 _RUL_FIELDS = ('median', 'p5', 'p95')
-_STATE_FLOATS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'u_eol')
+_STATE_FLOATS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'u_eol', 'operating_time',
+                 'utilisation')
 _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejected',
                'samples_missing')
 
@@ -76,21 +93,24 @@ def health_state_to_state(state: HealthState) -> dict[str, Any]:
     out: dict[str, Any] = {key: int(getattr(state, key)) for key in _STATE_INTS}
     out.update({key: encode_float(getattr(state, key)) for key in _STATE_FLOATS})
     out['message'] = state.message
-    out['rul'] = {key: encode_float(getattr(state.rul, key)) for key in _RUL_FIELDS}
-    out['rul']['model'] = state.rul.model
+    for name in ('rul', 'rul_operating'):
+        rul = getattr(state, name)
+        out[name] = {key: encode_float(getattr(rul, key)) for key in _RUL_FIELDS}
+        out[name]['model'] = rul.model
     out['trend'] = trend_to_state(state.trend)
     return out
 
 
 def health_state_from_state(state: dict[str, Any]) -> HealthState:
     """Inverse of :func:`health_state_to_state`; KeyError/ValueError/TypeError if bad."""
-    rul = state['rul']
     values: dict[str, Any] = {key: int(state[key]) for key in _STATE_INTS}
     values.update({key: decode_float(state[key]) for key in _STATE_FLOATS})
-    return HealthState(message=str(state['message']),
-                       rul=RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
-                                       str(rul['model'])),
-                       trend=trend_from_state(state['trend']), **values)
+    for name in ('rul', 'rul_operating'):
+        rul = state[name]
+        values[name] = RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
+                                   str(rul['model']))
+    return HealthState(message=str(state['message']), trend=trend_from_state(state['trend']),
+                       **values)
 
 
 class HealthAssessor:
@@ -107,6 +127,7 @@ class HealthAssessor:
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
                                    config.warn_horizon, config.level_hysteresis,
                                    config.level_dwell)
+        self.utilisation = Utilisation()
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
 
@@ -122,21 +143,35 @@ class HealthAssessor:
             self.predictor.reset()                         # replay restarted
             self.divergence.reset()
             self.levels.reset()
+            self.utilisation.reset()
         u_sigma = math.sqrt(max(p_uu, 0.0))
         if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
-        self.predictor.add(estimate.t, estimate.u, p_uu)
+        if math.isfinite(estimate.operating_time) and self.latest is not None \
+                and not math.isfinite(self.latest.operating_time):
+            # the stream gained operating time (its first updates came without: the topic
+            # matched late, or a newer estimator): the history so far moves onto the
+            # operating axis, as if the gearbox had moved throughout it
+            offset = estimate.operating_time - estimate.t
+            self.predictor.shift(offset)
+            self.utilisation.shift(offset)
+        operating = self._operating_time(estimate)
+        self.predictor.add(operating, estimate.u, p_uu)
+        self.utilisation.add(estimate.t, operating)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
                                               u_sigma)
-        rul = self.predictor.predict(estimate.t, estimate.u)
+        rul_operating = self.predictor.predict(operating, estimate.u)
+        utilisation = self.utilisation.fraction
+        rul = rul_operating.in_elapsed_time(utilisation)
         trend = self.predictor.trend
         level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
-                                            rul.p5, filter_check)
+                                            rul_operating.p5, filter_check)
         if level == 0 and rul.model != 'none':
-            message = f'ok; {rul.model} trend, RUL {rul.median:.4g} s'
+            message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
+                       f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
         mismatch = self._ratio_mismatch(estimate)
         if mismatch:
             level, message = ERROR, mismatch
@@ -144,15 +179,37 @@ class HealthAssessor:
                                   estimate.eta_opposing, estimate.eta_aiding, rul,
                                   estimate.power_flow, estimate.samples_used,
                                   estimate.samples_rejected, self.u_eol, trend,
-                                  estimate.samples_missing)
+                                  estimate.samples_missing, rul_operating,
+                                  operating if self._on_operating_time(estimate) else math.nan,
+                                  utilisation)
         return self.latest
+
+    def _on_operating_time(self, estimate: FrictionEstimate) -> bool:
+        """Whether the stream carries operating time: this estimate or the latest state."""
+        return math.isfinite(estimate.operating_time) or (
+            self.latest is not None and math.isfinite(self.latest.operating_time))
+
+    def _operating_time(self, estimate: FrictionEstimate) -> float:
+        """Return the wear history's time [s] of ``estimate``.
+
+        Its operating time; without one, the latest state's in a stream that has it (an
+        update assembled before its operating time arrived, e.g. the first after a restart:
+        no operation assumed since), else the stamp (an older estimator or recording).
+        """
+        if math.isfinite(estimate.operating_time):
+            return estimate.operating_time
+        if self.latest is not None and math.isfinite(self.latest.operating_time):
+            return self.latest.operating_time
+        return estimate.t
 
     def to_state(self) -> dict[str, Any]:
         """What a restart needs (JSON-safe, see :mod:`gear_phm.persistence`): the RUL
-        history and fit, the NIS window, the level latches and the latest state."""
+        history and fit (on operating time), the utilisation, the NIS window, the level
+        latches and the latest state."""
         latest = self.latest
         return {'predictor': self.predictor.to_state(), 'divergence': self.divergence.to_state(),
-                'levels': self.levels.to_state(), 'rejected': dict(self.rejected),
+                'levels': self.levels.to_state(), 'utilisation': self.utilisation.to_state(),
+                'rejected': dict(self.rejected),
                 'latest': None if latest is None else health_state_to_state(latest)}
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -164,11 +221,13 @@ class HealthAssessor:
         fresh.predictor.from_state(state['predictor'])
         fresh.divergence.from_state(state['divergence'])
         fresh.levels.from_state(state['levels'])
+        fresh.utilisation.from_state(state['utilisation'])
         rejected = {str(k): int(v) for k, v in dict(state['rejected']).items()}
         latest = state['latest']
         self.latest = None if latest is None else health_state_from_state(latest)
         self.predictor, self.divergence, self.levels = (fresh.predictor, fresh.divergence,
                                                         fresh.levels)
+        self.utilisation = fresh.utilisation
         self.rejected = rejected
 
     def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:

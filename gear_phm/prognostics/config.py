@@ -36,8 +36,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
               '-', -1.0, 1.0,
               nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
-    ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % RUL bound is below this', 's', 0.0,
-              1e12),
+    ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % bound of the RUL in operating time '
+              'is below this', 's', 0.0, 1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
               '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
     ParamSpec('trend', 'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)',

@@ -5,8 +5,8 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 - ERROR: u >= u_eol (end of life; includes self-locking u >= 1 when enabled), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
-- WARN: RUL 5 % bound < ``warn_horizon`` [s], eta_D < ``eta_warn``, or a model mismatch (mean
-  NIS above its chi-square bound while the estimate still tracks).
+- WARN: RUL 5 % bound (operating time) < ``warn_horizon`` [s], eta_D < ``eta_warn``, or a
+  model mismatch (mean NIS above its chi-square bound while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
   current.
@@ -202,8 +202,8 @@ class LevelTracker:
                filter_check: tuple[int, str] = (OK, '')) -> tuple[int, str]:
         """Return (level, message) at stamp ``t`` [s].
 
-        Inputs: u [-], eta_D [-], the RUL p5 [s] and the :meth:`DivergenceDetector.update`
-        result.
+        Inputs: u [-], eta_D [-], the RUL p5 [s of operating time] and the
+        :meth:`DivergenceDetector.update` result.
         """
         filter_level, filter_reason = filter_check
         if not math.isfinite(u):
@@ -228,10 +228,11 @@ class LevelTracker:
             return ERROR, '; '.join(errors)
         warnings = []
         if rul:
-            warnings.append(f'RUL p5 {rul_p5:.4g} s < {self.warn_horizon:.4g} s'
+            warnings.append(f'RUL p5 {rul_p5:.4g} s of operation < {self.warn_horizon:.4g} s'
                             if rul_p5 < self.warn_horizon
-                            else f'RUL p5 {rul_p5:.4g} s (WARN below {self.warn_horizon:.4g} s, '
-                                 f'clears above {self.rul_clear:.4g} s)')
+                            else f'RUL p5 {rul_p5:.4g} s of operation (WARN below '
+                                 f'{self.warn_horizon:.4g} s, clears above '
+                                 f'{self.rul_clear:.4g} s)')
         if eta:
             warnings.append(f'eta_D {eta_opposing:.4g} < {self.eta_warn:.4g}'
                             if eta_opposing < self.eta_warn

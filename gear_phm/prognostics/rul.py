@@ -97,12 +97,83 @@ class Trend:
 
 @dataclass(frozen=True)
 class RulEstimate:
-    """RUL quantiles [s] (inf allowed) and the trend model used ('none' if no degradation)."""
+    """RUL quantiles [s] (inf allowed) and the trend model used ('none' if no degradation).
+
+    The time base is the one the history was fed: operating time in
+    :class:`~gear_phm.prognostics.HealthAssessor`; :meth:`in_elapsed_time` converts.
+    """
 
     median: float
     p5: float
     p95: float
     model: str
+
+    def in_elapsed_time(self, utilisation: float) -> RulEstimate:
+        """Return this RUL of operating time as elapsed time [s] at ``utilisation`` [-].
+
+        ``utilisation`` is operating over elapsed time: each quantile is divided by it; a
+        positive RUL at utilisation 0 is inf (no wear while it stands still), 0 stays 0.
+        """
+        def scaled(value: float) -> float:
+            if value == 0.0 or math.isnan(value):
+                return value
+            return value / utilisation if utilisation > 0.0 else math.inf
+        return replace(self, median=scaled(self.median), p5=scaled(self.p5),
+                       p95=scaled(self.p95))
+
+
+class Utilisation:
+    """Operating time over elapsed (stamp) time [-], accumulated over a history of updates.
+
+    Each :meth:`add` of (stamp time t, operating time s) [s] adds the increments since the
+    previous one: elapsed t - t_prev and operating s - s_prev. An increment where either time
+    went back is not counted. :attr:`fraction` is 1 until some time has elapsed (a RUL then
+    means the same in both time bases), and at most 1.
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the accumulated times."""
+        self.operating = 0.0
+        self.elapsed = 0.0
+        self._last: tuple[float, float] | None = None
+
+    def add(self, t: float, s: float) -> None:
+        """Add the update at stamp time ``t`` [s] with operating time ``s`` [s]."""
+        if not (math.isfinite(t) and math.isfinite(s)):
+            return
+        if self._last is not None:
+            dt, ds = t - self._last[0], s - self._last[1]
+            if dt >= 0.0 and ds >= 0.0:
+                self.elapsed += dt
+                self.operating += ds
+        self._last = (t, s)
+
+    def shift(self, offset: float) -> None:
+        """Move the last update's operating time by ``offset`` [s] (onto another axis)."""
+        if self._last is not None:
+            self._last = (self._last[0], self._last[1] + offset)
+
+    @property
+    def fraction(self) -> float:
+        """Operating over elapsed time [-] (1 before any time elapsed)."""
+        return min(self.operating / self.elapsed, 1.0) if self.elapsed > 0.0 else 1.0
+
+    def to_state(self) -> dict[str, Any]:
+        """Return the accumulated times and the last update (JSON-safe)."""
+        return {'operating': encode_float(self.operating), 'elapsed': encode_float(self.elapsed),
+                'last': None if self._last is None else encode_floats(self._last)}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
+        last = None if state['last'] is None else decode_floats(state['last'])
+        if last is not None and len(last) != 2:
+            raise ValueError('utilisation: last needs 2 values')
+        operating, elapsed = decode_float(state['operating']), decode_float(state['elapsed'])
+        self.operating, self.elapsed = operating, elapsed
+        self._last = None if last is None else (last[0], last[1])
 
 
 def trend_to_state(trend: Trend) -> dict[str, Any]:
@@ -182,6 +253,11 @@ class WearHistory:
         self._wt[index] += w * dt
         self._wu[index] += w * u
         self._n[index] += 1
+
+    def shift(self, offset: float) -> None:
+        """Move the history by ``offset`` [s] in time (onto another time axis)."""
+        self.t_start += offset
+        self.t_last += offset
 
     def to_state(self) -> dict[str, Any]:
         """Return the bins and their clock (JSON-safe, see :mod:`gear_phm.persistence`)."""
@@ -508,6 +584,13 @@ class RulPredictor:
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1
             self.detected = False
+
+    def shift(self, offset: float) -> None:
+        """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
+        self.history.shift(offset)
+        self._trend = replace(self._trend, t_end=self._trend.t_end + offset)
+        self._crossing = (self._crossing[0] + offset, self._crossing[1] + offset,
+                          self._crossing[2] + offset)
 
     def to_state(self) -> dict[str, Any]:
         """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
