@@ -53,3 +53,15 @@ def test_bench_fleet_scale_tiny() -> None:
     out = run('fleet_scale.py', '--units', '2', '--recordings', '2', '--duration', '5',
               '--repeat', '1')
     assert '| 2 |' in out and 'core-hours' in out and '| yes |' in out
+
+
+def test_bench_idle_gaps_small() -> None:
+    """Two units a week between recordings: the operating-time RUL passes, elapsed time fails."""
+    result = subprocess.run([sys.executable, str(BENCH / 'idle_gaps.py'), '--units', '2'],
+                            capture_output=True, text=True, timeout=240)
+    assert result.returncode == 0, result.stdout + result.stderr[-2000:]
+    rows = [line for line in result.stdout.splitlines() if line.startswith('| unit_')]
+    assert len(rows) == 2
+    scored = [row.split(' | ') for row in rows if 'not reached' not in row]
+    assert scored and all(cells[2].startswith(('FAIL pass pass', 'pass pass pass'))
+                          and cells[3].startswith('FAIL FAIL FAIL') for cells in scored)
