@@ -18,7 +18,7 @@ Usage: .venv/bin/python bench/idle_gaps.py [--units 8] [--recordings 10] [--dura
 from __future__ import annotations
 
 import argparse
-from dataclasses import fields, replace
+from dataclasses import fields
 import math
 from pathlib import Path
 import subprocess
@@ -40,7 +40,7 @@ LAMBDAS = (0.25, 0.5, 0.75)
 
 
 def estimates_of(history: EstimateHistory) -> list[FrictionEstimate]:
-    """The estimates back as records, without their operating time (NaN)."""
+    """Return the estimates as records, without their operating time (NaN)."""
     names = [f.name for f in fields(history)]
     columns = {name: getattr(history, name) for name in names}
     out = []
