@@ -48,8 +48,10 @@ def _messages() -> list:
 
 
 def _readers(driver: Driver) -> list[bytes]:
-    """The joint_states subscriptions in the graph (a killed node's stay until its lease
-    expires)."""
+    """Return the joint_states subscriptions in the graph.
+
+    A killed node's stay until its lease expires.
+    """
     return [bytes(info.endpoint_gid)
             for info in driver.node.get_subscriptions_info_by_topic('/joint_states')]
 
