@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 import subprocess
 import sys
@@ -64,6 +65,15 @@ def test_fleet_table_bad_units_and_worker_independence(fleet: Path, tmp_path: Pa
         assert 0.09 < float(row['u']) < 0.2
         assert 55.0 < float(row['operating_time_s']) <= 80.0
         assert float(row['rul_p5_s']) <= float(row['rul_s']) <= float(row['rul_p95_s'])
+        rul = [float(row[k]) for k in ('rul_operating_p5_s', 'rul_operating_s',
+                                       'rul_operating_p95_s')]
+        assert rul == sorted(rul)
+        # a day idle between two 40 s recordings: the elapsed-time RUL is the operating one
+        # over the utilisation (about 70 s of operation in 86 440 s)
+        utilisation = float(row['utilisation'])
+        assert utilisation == pytest.approx(float(row['operating_time_s']) / 86_440, rel=0.1)
+        if math.isfinite(rul[1]) and rul[1] > 0:
+            assert float(row['rul_s']) == pytest.approx(rul[1] / utilisation, rel=1e-6)
     # unit_02 was analysed with its own ratio 30 (unit.yaml), the others with --ratio 3
     summary = json.loads((two / 'units' / 'unit_02' / 'summary.json').read_text())
     assert summary['config']['ratio'] == 30.0

@@ -27,9 +27,13 @@ from typing import Any
 
 import numpy as np
 
-#: Columns of the fleet table, in order.
+#: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
+#: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
+#: same in elapsed time at the unit's utilisation so far (the /diagnostics keys of that name).
+OPERATING_RUL = ('rul_operating_s', 'rul_operating_p5_s', 'rul_operating_p95_s')
+HEALTH_VALUES = (*OPERATING_RUL, 'rul_s', 'rul_p5_s', 'rul_p95_s', 'utilisation')
 COLUMNS = ('unit', 'recordings', 'operating_time_s', 'u', 'u_sigma', 'eta_opposing',
-           'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s', 'level', 'reason')
+           'eta_aiding', *HEALTH_VALUES, 'level', 'reason')
 #: Points of each unit's u trend kept for the fleet plot.
 TREND_POINTS = 200
 BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
@@ -41,7 +45,7 @@ class FleetError(ValueError):
 
 @dataclass(frozen=True)
 class UnitResult:
-    """One unit: its table row, its u trend (t [s], u, sigma) and the worker's peak RSS."""
+    """One unit: its row, its u trend (operating time [s], u, sigma), the worker's peak RSS."""
 
     row: dict[str, Any]
     trend: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
@@ -124,13 +128,12 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
            'operating_time_s': float(s.get('operating_time_s', math.nan)),
            'u': float(s['u']), 'u_sigma': float(s['sigma_u']),
            'eta_opposing': float(s['eta_opposing']), 'eta_aiding': float(s['eta_aiding']),
-           'rul_s': float(values.get('rul_s', 'nan')),
-           'rul_p5_s': float(values.get('rul_p5_s', 'nan')),
-           'rul_p95_s': float(values.get('rul_p95_s', 'nan')),
+           **{key: float(values.get(key, 'nan')) for key in HEALTH_VALUES},
            'level': health['level'], 'reason': health.get('message', '')}
     e = analysis.estimates
     keep = np.unique(np.linspace(0, e.u.size - 1, min(TREND_POINTS, e.u.size)).astype(int))
-    trend = (tuple((e.t[keep] - e.t[0]).tolist()), tuple(e.u[keep].tolist()),
+    clock = e.operating_time if np.all(np.isfinite(e.operating_time)) else e.t - e.t[0]
+    trend = (tuple(clock[keep].tolist()), tuple(e.u[keep].tolist()),
              tuple(e.u_sigma[keep].tolist()))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return UnitResult(row, trend, peak)
@@ -190,32 +193,34 @@ def write_table(rows: list[dict[str, Any]], out: Path) -> None:
 
 
 def plot_fleet(results: list[UnitResult], path: Path, title: str) -> None:
-    """Units ranked by RUL with their p5-p95 bands (left), the u trends (right)."""
+    """Plot units ranked by operating-time RUL with p5-p95 bands, and u against operating time."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     ok = [r for r in results if r.row['level'] != 'FAILED']
-    ranked = sorted(ok, key=lambda r: (r.row['rul_s'], r.row['unit']))
+    ranked = sorted(ok, key=lambda r: (r.row['rul_operating_s'], r.row['unit']))
     fig, (ax_rul, ax_u) = plt.subplots(1, 2, figsize=(13, max(4.0, 0.28 * len(ranked) + 2)))
     colours = {'OK': 'C2', 'WARN': 'C1', 'ERROR': 'C3', 'STALE': 'C7'}
-    finite_hi = [r.row['rul_p95_s'] for r in ranked if math.isfinite(r.row['rul_p95_s'])]
+    finite_hi = [r.row['rul_operating_p95_s'] for r in ranked
+                 if math.isfinite(r.row['rul_operating_p95_s'])]
     cap = max(finite_hi) * 1.1 if finite_hi else 1.0
     for y, r in enumerate(ranked):
         row = r.row
         median, p5, p95 = (min(row[k], cap) if math.isfinite(row[k]) else cap
-                           for k in ('rul_s', 'rul_p5_s', 'rul_p95_s'))
+                           for k in OPERATING_RUL)
         colour = colours.get(row['level'], 'k')
         ax_rul.plot([p5, p95], [y, y], color=colour, lw=4, alpha=0.4)
         ax_rul.plot([median], [y], 'o', color=colour)
     ax_rul.set_yticks(range(len(ranked)), [r.row['unit'] for r in ranked], fontsize=7)
-    ax_rul.set_xlabel('RUL [s] (median, p5-p95; beyond the axis = no wear detected)')
+    ax_rul.set_xlabel('RUL [s of operation] (median, p5-p95; beyond the axis = no wear '
+                      'detected)')
     ax_rul.set_title('units ranked by RUL (colour = level)')
     ax_rul.grid(alpha=0.3)
     for r in ranked:
         t, u, _ = (np.array(v) for v in r.trend)
         if t.size:
             ax_u.plot(t, u, lw=1, color=colours.get(r.row['level'], 'k'), alpha=0.7)
-    ax_u.set_xlabel('time since the first recording [s]')
+    ax_u.set_xlabel('operating time [s] (time with motion, across recordings)')
     ax_u.set_ylabel('friction parameter u [-]')
     ax_u.set_title('u trends')
     ax_u.grid(alpha=0.3)
