@@ -1,12 +1,12 @@
 """Fleet scaling: ``gear-phm fleet`` on 1 and on 2 Dask workers, same fleet, same run.
 
-Simulates a fleet (default 20 units x 30 recordings of 20 s at 100 Hz, a week of idle time
+Simulates a fleet (default 20 units x 30 recordings of 120 s at 100 Hz, a week of idle time
 between recordings) once, then runs ``gear-phm fleet --workers 1`` and ``--workers 2``
 alternately (``--repeat`` times each) and reports: wall time, speed-up, whether the tables are
 byte-identical, peak RSS per worker task, throughput per core (samples/s and recordings/s),
 and a sizing model for a larger fleet on a Dask cluster.
 
-Usage: .venv/bin/python bench/fleet_scale.py [--units 20] [--recordings 30] [--duration 20]
+Usage: .venv/bin/python bench/fleet_scale.py [--units 20] [--recordings 30] [--duration 120]
        [--repeat 2] [--no-append]
 """
 from __future__ import annotations
@@ -30,7 +30,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--units', type=int, default=20)
     parser.add_argument('--recordings', type=int, default=30)
-    parser.add_argument('--duration', type=float, default=20.0, help='per recording [s]')
+    parser.add_argument('--duration', type=float, default=120.0,
+                        help='per recording [s] (a flight or a bench run of a few minutes)')
     parser.add_argument('--rate', type=float, default=100.0)
     parser.add_argument('--repeat', type=int, default=2)
     parser.add_argument('--no-append', action='store_true')

@@ -74,3 +74,20 @@ def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
         analyze_bag(bag, ratio=3.0, motor_joint='a', load_joint='b', out=tmp_path / 'x')
     assert not (tmp_path / 'x').exists()                    # a failed run leaves no output
     assert not list(tmp_path.glob('.x.*'))
+
+
+def test_history_bounds_the_returned_histories_not_the_result() -> None:
+    """history=N keeps N..2N evenly spaced records; the summary is the full analysis."""
+    full = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False)
+    lean = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=100)
+    n = full.estimates.u.size
+    assert n > 1000
+    kept = lean.estimates.stamp_ns
+    assert 100 <= kept.size < 200 and 100 <= lean.health.stamp_ns.size < 200
+    assert np.isin(kept, full.estimates.stamp_ns).all()
+    positions = np.searchsorted(full.estimates.stamp_ns, kept)
+    assert positions[0] == 0 and np.unique(np.diff(positions)).size == 1    # evenly spaced
+    assert lean.summary['u'] == full.summary['u']
+    assert lean.summary['windows_measured'] == full.summary['windows_measured']
+    with pytest.raises(AnalysisError, match='history must be >= 1'):
+        analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=0)

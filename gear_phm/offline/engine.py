@@ -29,7 +29,7 @@ import shutil
 import sys
 import tempfile
 import time
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -39,6 +39,7 @@ from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEst
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState
 from gear_phm.status import LEVEL_NAMES
 
+T = TypeVar('T')
 #: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
 BATCH = 20000
 ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
@@ -234,7 +235,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
                 topic: str = interfaces.JOINT_STATES, out: str | Path | None = None,
                 overwrite: bool = False, plot: bool = True, progress: bool = False,
                 transmission_name: str = 'gearbox', hardware_id: str = 'gearbox',
-                diagnostics_rate: float = 1.0, **options: Any) -> Analysis:
+                diagnostics_rate: float = 1.0, history: int | None = None,
+                **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
     ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, or a
@@ -243,9 +245,14 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     config/estimator.yaml and config/diagnostics.yaml (e.g. ``eta_opposing_min=0.7333``).
     With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into
     that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
-    nothing is left there if the analysis fails. Raises :class:`AnalysisError` on bad input.
+    nothing is left there if the analysis fails. ``history`` bounds the memory of a long
+    campaign: the returned histories then keep between ``history`` and twice as many
+    estimates, health states and measurements, evenly spaced (None keeps all; the output bag
+    and summary always have everything). Raises :class:`AnalysisError` on bad input.
     """
     estimator_config, health_config = split_options(ratio, options)
+    if history is not None and history < 1:
+        raise AnalysisError(f'history must be >= 1, got {history}')
     if not motor_joint or not load_joint or motor_joint == load_joint:
         raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty names, '
                             f'got {motor_joint!r} and {load_joint!r}')
@@ -257,7 +264,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite)
     run = _Run(estimator_config, health_config, motor_joint, load_joint, topic,
-               transmission_name, hardware_id, diagnostics_rate, plot)
+               transmission_name, hardware_id, diagnostics_rate, plot, history)
     staging = None
     try:
         if target is not None:
@@ -292,13 +299,35 @@ def _check_out(out: Path, overwrite: bool) -> Path:
     return out
 
 
+class _Kept(Generic[T]):
+    """Every item appended, or (``limit``) between ``limit`` and twice as many, evenly spaced.
+
+    At ``2 * limit`` items every other one is dropped and the stride of those kept doubles.
+    """
+
+    def __init__(self, limit: int | None) -> None:
+        self.limit = limit
+        self.items: list[T] = []
+        self.count = 0
+        self.stride = 1
+
+    def append(self, item: T) -> None:
+        if self.count % self.stride == 0:
+            self.items.append(item)
+            if self.limit is not None and len(self.items) >= 2 * self.limit:
+                del self.items[1::2]
+                self.stride *= 2
+        self.count += 1
+
+
 class _Run:
     """One analysis: the pipeline, the assessor and what they produced."""
 
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
-                 hardware_id: str, diagnostics_rate: float, want_truth: bool) -> None:
-        self.measurements: list[tuple[int, Measurement, bool]] = []
+                 hardware_id: str, diagnostics_rate: float, want_truth: bool,
+                 history: int | None = None) -> None:
+        self.measurements: _Kept[tuple[int, Measurement, bool]] = _Kept(history)
         self.pipeline = EstimatorPipeline(estimator_config, on_measurement=self._on_measurement)
         self.assessor = HealthAssessor(health_config)
         self.estimator_config = estimator_config
@@ -306,8 +335,8 @@ class _Run:
         self.transmission_name, self.hardware_id = transmission_name, hardware_id
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
-        self.estimates: list[FrictionEstimate] = []
-        self.states: list[HealthState] = []
+        self.estimates: _Kept[FrictionEstimate] = _Kept(history)
+        self.states: _Kept[HealthState] = _Kept(history)
         self.first_seen: dict[str, int] = {}
         self.truth: dict[str, list[tuple[int, float, float, float]]] = {}
         self.samples = 0
@@ -335,8 +364,9 @@ class _Run:
         summary = self._summary(bags, readers, elapsed)
         truth = {name: np.array(rows, dtype=float).reshape(-1, 4)
                  for name, rows in self.truth.items()}
-        return Analysis(EstimateHistory.of(self.estimates), HealthHistory.of(self.states),
-                        summary, tuple(self.measurements), truth)
+        return Analysis(EstimateHistory.of(self.estimates.items),
+                        HealthHistory.of(self.states.items), summary,
+                        tuple(self.measurements.items), truth)
 
     def _read(self, path: Path, writer: Any, progress: bool) -> str:
         """Feed one bag; returns the reader kind used."""
@@ -460,7 +490,7 @@ class _Run:
             'messages': self.samples, 'reader': readers[0] if one else readers,
             'seconds': elapsed,
             'samples_per_second': self.samples / elapsed if elapsed > 0 else math.inf,
-            'windows_measured': len(self.measurements),
+            'windows_measured': self.measurements.count,
             'config': self.estimator_config.as_dict(), 'health': health,
         })
         return summary

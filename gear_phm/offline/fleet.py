@@ -116,8 +116,10 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
         ratio = options.pop('ratio', None)
         if ratio is None:
             raise ValueError('no ratio: give --ratio or ratio in unit.yaml')
+        # the histories only feed the trend: bounded, so that a worker's memory does not grow
+        # with the unit's number of recordings
         analysis = analyze_bag(recordings, float(ratio), out=out, plot=False, progress=False,
-                               **options)
+                               history=TREND_POINTS, **options)
     except (AnalysisError, ValueError, TypeError, OSError) as exc:
         return UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
                           empty, peak)
