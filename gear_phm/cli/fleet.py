@@ -32,6 +32,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='estimator parameter for every unit (repeatable)')
     parser.add_argument('--no-unit-outputs', action='store_true',
                         help="write only the fleet table and plot, not each unit's bag")
+    parser.add_argument('--population-prior', action='store_true',
+                        help='units at end of life teach the others their wear law: analyse '
+                             'the running units again with a prior on its shape (needs 3 '
+                             'units at end of life with one exponential or power law)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     add_health_arguments(parser)
 
@@ -45,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
         results = analyze_fleet(args.root, args.out, ratio=args.ratio,
                                 scheduler=args.scheduler, workers=args.workers,
                                 progress=not args.no_progress,
-                                unit_outputs=not args.no_unit_outputs, **options)
+                                unit_outputs=not args.no_unit_outputs,
+                                population=args.population_prior, **options)
     except FleetError as exc:
         raise CliError(str(exc)) from None
     failed = [r.row for r in results if r.row['level'] == 'FAILED']

@@ -36,7 +36,7 @@ import numpy as np
 from gear_phm import interfaces
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
-from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState
+from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.status import LEVEL_NAMES
 
 T = TypeVar('T')
@@ -236,7 +236,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
                 overwrite: bool = False, plot: bool = True, progress: bool = False,
                 transmission_name: str = 'gearbox', hardware_id: str = 'gearbox',
                 diagnostics_rate: float = 1.0, history: int | None = None,
-                **options: Any) -> Analysis:
+                prior: ShapePrior | None = None, **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
     ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, or a
@@ -248,7 +248,9 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     nothing is left there if the analysis fails. ``history`` bounds the memory of a long
     campaign: the returned histories then keep between ``history`` and twice as many
     estimates, health states and measurements, evenly spaced (None keeps all; the output bag
-    and summary always have everything). Raises :class:`AnalysisError` on bad input.
+    and summary always have everything). ``prior``: a population prior on the wear law's
+    shape (:class:`~gear_phm.prognostics.ShapePrior`, ``gear-phm fleet --population-prior``).
+    Raises :class:`AnalysisError` on bad input.
     """
     estimator_config, health_config = split_options(ratio, options)
     if history is not None and history < 1:
@@ -264,7 +266,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite)
     run = _Run(estimator_config, health_config, motor_joint, load_joint, topic,
-               transmission_name, hardware_id, diagnostics_rate, plot, history)
+               transmission_name, hardware_id, diagnostics_rate, plot, history, prior)
     staging = None
     try:
         if target is not None:
@@ -326,10 +328,10 @@ class _Run:
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
                  hardware_id: str, diagnostics_rate: float, want_truth: bool,
-                 history: int | None = None) -> None:
+                 history: int | None = None, prior: ShapePrior | None = None) -> None:
         self.measurements: _Kept[tuple[int, Measurement, bool]] = _Kept(history)
         self.pipeline = EstimatorPipeline(estimator_config, on_measurement=self._on_measurement)
-        self.assessor = HealthAssessor(health_config)
+        self.assessor = HealthAssessor(health_config, prior)
         self.estimator_config = estimator_config
         self.motor_joint, self.load_joint, self.topic = motor_joint, load_joint, topic
         self.transmission_name, self.hardware_id = transmission_name, hardware_id
@@ -481,9 +483,12 @@ class _Run:
             health: dict[str, Any] = {'level': 'none', 'first_seen_ns': self.first_seen,
                                       'dropped': dropped}
         else:
+            trend = self.assessor.predictor.trend
             health = {'level': LEVEL_NAMES[latest.level], 'message': latest.message,
                       'values': dict(interfaces.health_key_values(latest)),
-                      'first_seen_ns': self.first_seen, 'dropped': dropped}
+                      'first_seen_ns': self.first_seen, 'dropped': dropped,
+                      'trend': {'model': trend.model, 'shape': trend.shape,
+                                'u_eol': self.assessor.u_eol}}
         one = len(bags) == 1
         summary.update({
             'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': self.topic,

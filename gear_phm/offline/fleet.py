@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 import csv
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 import json
 import math
 from pathlib import Path
@@ -26,6 +26,8 @@ import sys
 from typing import Any
 
 import numpy as np
+
+from gear_phm.prognostics import ShapePrior
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
@@ -37,6 +39,39 @@ COLUMNS = ('unit', 'recordings', 'operating_time_s', 'u', 'u_sigma', 'eta_opposi
 #: Points of each unit's u trend kept for the fleet plot.
 TREND_POINTS = 200
 BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
+#: Units at end of life needed before their wear law becomes the fleet's prior.
+PRIOR_MIN_UNITS = 3
+#: Floor of the prior's spread of log(shape) [-]: a few units do not pin the shape exactly.
+PRIOR_MIN_LOG_SIGMA = 0.1
+
+
+def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
+    """Return the fleet's wear-law prior from its units' analyses (summary.json dicts), or None.
+
+    The units at end of life (u >= u_eol) whose fitted law is exponential or power vote; the
+    law of most votes, with at least :data:`PRIOR_MIN_UNITS`, gives the prior: the mean and
+    the spread (at least :data:`PRIOR_MIN_LOG_SIGMA`) of their log shapes. A linear law has no
+    shape, so a fleet that wears linearly gets no prior.
+    """
+    shapes: dict[str, list[float]] = {}
+    for summary in summaries:
+        if not _at_end_of_life(summary):
+            continue
+        trend = summary['health']['trend']
+        if trend['model'] in ('exponential', 'power') and trend['shape'] > 0.0:
+            shapes.setdefault(trend['model'], []).append(math.log(trend['shape']))
+    if not shapes:
+        return None
+    model, logs = max(shapes.items(), key=lambda item: (len(item[1]), item[0]))
+    if len(logs) < PRIOR_MIN_UNITS:
+        return None
+    spread = float(np.std(logs, ddof=1))
+    return ShapePrior(model, float(np.mean(logs)), max(spread, PRIOR_MIN_LOG_SIGMA))
+
+
+def _at_end_of_life(summary: dict[str, Any]) -> bool:
+    trend = summary.get('health', {}).get('trend')
+    return bool(trend) and summary.get('u', -math.inf) >= trend.get('u_eol', math.inf)
 
 
 class FleetError(ValueError):
@@ -50,6 +85,11 @@ class UnitResult:
     row: dict[str, Any]
     trend: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
     peak_rss_mib: float
+    #: The analysis's summary.json (without it for a FAILED unit): the fitted wear law
+    #: (``health.trend``) feeds :func:`population_prior`.
+    summary: dict[str, Any] = field(default_factory=dict)
+    #: The population prior the unit was analysed with (None: none).
+    prior: ShapePrior | None = None
 
 
 def unit_recordings(unit: Path) -> list[Path]:
@@ -103,8 +143,11 @@ def _failed(name: str, recordings: int, reason: str) -> dict[str, Any]:
 
 
 def analyze_unit(unit: Path, fleet_options: dict[str, Any],
-                 out: Path | None = None) -> UnitResult:
-    """One unit's row (never raises on the unit's data: a failure is a FAILED row)."""
+                 out: Path | None = None, prior: ShapePrior | None = None) -> UnitResult:
+    """One unit's row (never raises on the unit's data: a failure is a FAILED row).
+
+    ``prior``: the fleet's population prior on the wear law's shape, if any.
+    """
     from gear_phm.offline.engine import AnalysisError, analyze_bag
     recordings = unit_recordings(unit)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -119,7 +162,8 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
         # the histories only feed the trend: bounded, so that a worker's memory does not grow
         # with the unit's number of recordings
         analysis = analyze_bag(recordings, float(ratio), out=out, plot=False, progress=False,
-                               history=TREND_POINTS, **options)
+                               history=TREND_POINTS, prior=prior,
+                               overwrite=prior is not None, **options)
     except (AnalysisError, ValueError, TypeError, OSError) as exc:
         return UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
                           empty, peak)
@@ -138,16 +182,19 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
     trend = (tuple(clock[keep].tolist()), tuple(e.u[keep].tolist()),
              tuple(e.u_sigma[keep].tolist()))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return UnitResult(row, trend, peak)
+    return UnitResult(row, trend, peak, s, prior)
 
 
 def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
               scheduler: str | None, workers: int | None,
-              on_done: Callable[[], None] = lambda: None) -> list[UnitResult]:
+              on_done: Callable[[], None] = lambda: None,
+              population: bool = False) -> list[UnitResult]:
     """Analyse each unit as one Dask task; results in unit order.
 
     ``scheduler``: address of an existing cluster, else a local one with ``workers``
-    processes (default: one per core).
+    processes (default: one per core). With ``population``, the units at end of life then
+    give the fleet's prior (:func:`population_prior`) and the others are analysed again with
+    it, as a second round of tasks.
     """
     from dask.distributed import Client, LocalCluster, as_completed
     outs = [None if out is None else out / 'units' / unit.name for unit in units]
@@ -172,7 +219,17 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
         for future in as_completed(futures):
             results[order[future.key]] = future.result()
             on_done()
-        return [r for r in results if r is not None]
+        done = [r for r in results if r is not None]
+        prior = population_prior([r.summary for r in done]) if population else None
+        if prior is None:
+            return done
+        again = [i for i, r in enumerate(done)
+                 if r.row['level'] != 'FAILED' and not _at_end_of_life(r.summary)]
+        futures = [client.submit(analyze_unit, units[i], options, outs[i], prior, pure=False,
+                                 key=f'gear-phm-unit-prior-{units[i].name}-{i}') for i in again]
+        for i, result in zip(again, client.gather(futures)):
+            done[i] = result
+        return done
     finally:
         client.close()
         if cluster is not None:
@@ -235,11 +292,12 @@ def plot_fleet(results: list[UnitResult], path: Path, title: str) -> None:
 def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = None,
                   scheduler: str | None = None, workers: int | None = None,
                   progress: bool = False, unit_outputs: bool = True,
-                  **options: Any) -> list[UnitResult]:
+                  population: bool = False, **options: Any) -> list[UnitResult]:
     """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty).
 
     Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker
-    memory) and, with ``unit_outputs``, each unit's analysis under ``units/<unit>/``.
+    memory, the population prior) and, with ``unit_outputs``, each unit's analysis under
+    ``units/<unit>/``. ``population``: a population prior, see :func:`run_units`.
     """
     root, out = Path(root), Path(out)
     units = discover_units(root)
@@ -254,7 +312,8 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
         from tqdm import tqdm
         bar = tqdm(total=len(units), unit='unit', file=sys.stderr, desc='fleet')
     results = run_units(units, fleet_options, out if unit_outputs else None, scheduler,
-                        workers, on_done=(bar.update if bar is not None else lambda: None))
+                        workers, on_done=(bar.update if bar is not None else lambda: None),
+                        population=population)
     if bar is not None:
         bar.close()
     rows = [r.row for r in results]
@@ -264,5 +323,7 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
         'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
         'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1) for r in results},
         'max_peak_rss_mib': round(max(r.peak_rss_mib for r in results), 1),
+        'population_prior': next((asdict(r.prior) for r in results if r.prior), None),
+        'units_with_prior': [r.row['unit'] for r in results if r.prior is not None],
     }, indent=2) + '\n')
     return results

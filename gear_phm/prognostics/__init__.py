@@ -9,12 +9,13 @@ from gear_phm.prognostics.config import (cross_field_problem, derived_eta_warn, 
                                          PARAMETERS)
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import (fit_trend, RulEstimate, RulPredictor, Trend, Utilisation,
-                                      WearHistory)
+from gear_phm.prognostics.rul import (fit_trend, RulEstimate, RulPredictor, ShapePrior, Trend,
+                                      Utilisation, WearHistory)
 
 __all__ = [
     'PARAMETERS', 'DivergenceDetector', 'HealthAssessor', 'HealthConfig', 'HealthState',
-    'LevelTracker', 'RulEstimate', 'RulPredictor', 'Trend', 'Utilisation', 'WearHistory',
+    'LevelTracker', 'RulEstimate', 'RulPredictor', 'ShapePrior', 'Trend', 'Utilisation',
+    'WearHistory',
     'cross_field_problem', 'derived_eta_warn', 'end_of_life_thresholds', 'end_of_life_u',
     'fit_trend', 'waiting_state',
 ]

@@ -26,8 +26,8 @@ from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, Trend, trend_from_state,
-                                      trend_to_state, Utilisation)
+from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, ShapePrior, Trend,
+                                      trend_from_state, trend_to_state, Utilisation)
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
@@ -116,12 +116,13 @@ def health_state_from_state(state: dict[str, Any]) -> HealthState:
 class HealthAssessor:
     """End of life, RUL, divergence and level for a stream of estimates (see module doc)."""
 
-    def __init__(self, config: HealthConfig) -> None:
+    def __init__(self, config: HealthConfig, prior: ShapePrior | None = None) -> None:
+        """``prior``: a population prior on the wear law's shape (:class:`ShapePrior`)."""
         self.config = config
         self.u_eol, self.eol_reason = end_of_life_u(
             config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
         self.predictor = RulPredictor(self.u_eol, config.detect_z, int(config.mc_samples),
-                                      int(config.seed), config.trend)
+                                      int(config.seed), config.trend, prior=prior)
         self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
                                              config.max_u_sigma, config.nis_lost)
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,

@@ -368,9 +368,43 @@ class _Fit:
     jacobian: np.ndarray         # (n, 2 or 3)
 
 
+@dataclass(frozen=True)
+class ShapePrior:
+    """A population prior on a wear law's shape (issue 13): log-normal on k or p.
+
+    Units that reached their end of life teach the fleet its wear law
+    (:func:`gear_phm.offline.fleet.population_prior`): ``model`` (exponential or power) is
+    then the only law fitted, and its shape has the prior log(shape) ~ N(``log_mean``,
+    ``log_sigma``^2), combined with the history's likelihood (a MAP shape, and the prior's
+    information added to the parameter covariance). The exponential's k is in 1/s of the time
+    axis; the power law's p is dimensionless, so it carries over between units of different
+    wear speeds.
+    """
+
+    model: str
+    log_mean: float
+    log_sigma: float
+
+    def __post_init__(self) -> None:
+        if self.model not in (EXPONENTIAL, POWER):
+            raise ValueError(f'a shape prior needs exponential or power, got {self.model!r}')
+        if not (math.isfinite(self.log_mean) and self.log_sigma > 0.0):
+            raise ValueError(f'prior log mean must be finite and log sigma > 0, got '
+                             f'{self.log_mean!r}, {self.log_sigma!r}')
+
+    def penalty(self, shape: np.ndarray) -> np.ndarray:
+        """Return ((log shape - log_mean) / log_sigma)^2 [-]."""
+        with np.errstate(divide='ignore', invalid='ignore'):
+            z = (np.log(shape) - self.log_mean) / self.log_sigma
+        return np.where(np.isfinite(z), z * z, np.inf)
+
+
 def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndarray,
-               w: np.ndarray) -> _Fit | None:
-    """Best fit of one law on the history (None when degenerate)."""
+               w: np.ndarray, prior: tuple[ShapePrior, float] | None = None) -> _Fit | None:
+    """Best fit of one law on the history (None when degenerate).
+
+    ``prior``: (shape prior, residual scale): the shape then minimises rss + scale * penalty.
+    """
     if model == LINEAR:
         rss, b0, b1 = _profile(s[None, :], u, w)
         if not math.isfinite(rss[0]):
@@ -380,6 +414,8 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
     grid = K_SPAN_GRID / span if model == EXPONENTIAL else P_GRID
     g, _ = _basis(model, grid, s, x, span)
     rss, _, _ = _profile(g, u, w)
+    if prior is not None:
+        rss = rss + prior[1] * prior[0].penalty(grid)
     best = int(np.argmin(rss))
     if not math.isfinite(rss[best]):
         return None
@@ -392,15 +428,23 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
             shape = float(grid[best] * math.exp(0.5 * step * (y0 - y2) / denominator))
     g, dg = _basis(model, np.array([shape, float(grid[best])]), s, x, span)
     rss2, b0, b1 = _profile(g, u, w)
+    if prior is not None:
+        rss2 = rss2 + prior[1] * prior[0].penalty(np.array([shape, float(grid[best])]))
     i = 0 if rss2[0] <= rss2[1] else 1
     shape = shape if i == 0 else float(grid[best])
     jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
     return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian)
 
 
-def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float) -> np.ndarray | None:
-    """Return scale (J^T W J)^-1, with column equilibration; None when singular."""
+def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
+                shape_information: float = 0.0) -> np.ndarray | None:
+    """Return scale (J^T W J + scale P)^-1, with column equilibration; None when singular.
+
+    P is zero but for ``shape_information`` [1/shape^2] on the shape (a prior's).
+    """
     m = jacobian.T @ (jacobian * w[:, None])
+    if shape_information > 0.0:
+        m[2, 2] += scale * shape_information
     d = np.sqrt(np.diag(m))
     if not np.all(d > 0.0):
         return None
@@ -411,11 +455,12 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float) -> np.ndarray
 
 
 def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
-             min_points: int = 8) -> tuple[Trend, ...]:
+             min_points: int = 8, prior: ShapePrior | None = None) -> tuple[Trend, ...]:
     """Fit the wear laws to a history: times since its start [s], u [-], 1/P_uu.
 
     The law ``trend`` names, or all of them for 'auto', best AICc first, each with its Akaike
-    weight (module docstring); () if too few points.
+    weight (module docstring); () if too few points. With a shape ``prior`` only its law is
+    fitted, with its shape drawn towards the prior (:class:`ShapePrior`).
     """
     n = t.size
     if n < min_points or not t[-1] > t[0]:
@@ -423,7 +468,7 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
     t_end = float(t[-1])
     s, span = t - t_end, t_end
     x = np.clip(t / span, 0.0, None)
-    models = MODELS if trend == 'auto' else (trend,)
+    models = (prior.model,) if prior is not None else MODELS if trend == 'auto' else (trend,)
     fits = {m: f for m in models if (f := _fit_model(m, s, x, span, u, precision)) is not None}
     if not fits:
         return ()
@@ -431,6 +476,14 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
     residuals = np.sqrt(precision) * (u - _fitted_values(flexible, s, x, span))
     n_eff = _effective_points(residuals)
     sigma2 = max(flexible.rss / max(n - flexible.params.size, 1), 1.0)
+    information = 0.0
+    if prior is not None:       # the MAP shape, at the likelihood fit's residual scale
+        fitted = _fit_model(prior.model, s, x, span, u, precision,
+                            (prior, sigma2 * n / n_eff))
+        if fitted is None:
+            return ()
+        fits = {prior.model: fitted}
+        information = 1.0 / (float(fitted.params[2]) * prior.log_sigma) ** 2
     laws = []
     for name, fit in fits.items():
         k = fit.params.size
@@ -438,7 +491,7 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
             continue
         aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
         scale = max(fit.rss / max(n - k, 1), 1.0) * n / n_eff
-        cov = _covariance(fit.jacobian, precision, scale)
+        cov = _covariance(fit.jacobian, precision, scale, information)
         if cov is not None:
             laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
                                      math.sqrt(max(float(cov[1, 1]), 0.0)),
@@ -547,7 +600,8 @@ class RulPredictor:
 
     def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
                  seed: int = 0, trend: str = 'auto', max_points: int = 256,
-                 min_points: int = 8, refit_fraction: int = 16) -> None:
+                 min_points: int = 8, refit_fraction: int = 16,
+                 prior: ShapePrior | None = None) -> None:
         if not math.isfinite(u_eol):
             raise ValueError(f'u_eol must be finite, got {u_eol!r}')
         if samples < 2:
@@ -557,6 +611,7 @@ class RulPredictor:
         self.u_eol = float(u_eol)
         self.detect_z = float(detect_z)
         self.trend_choice = trend
+        self.prior = prior
         self.min_points = int(min_points)
         self.refit_fraction = int(refit_fraction)
         self.history = WearHistory(max_points)
@@ -629,7 +684,8 @@ class RulPredictor:
             return
         self.fits += 1
         laws = tuple(replace(law, t_end=law.t_end + history.t_start)
-                     for law in fit_laws(t, u, precision, self.trend_choice, self.min_points))
+                     for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
+                                         self.prior))
         self._trend = laws[0] if laws else Trend(points=t.size)
         # hysteresis: once growth was seen, it is dropped only below half the threshold
         z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
