@@ -65,3 +65,13 @@ def test_bench_idle_gaps_small() -> None:
     scored = [row.split(' | ') for row in rows if 'not reached' not in row]
     assert scored and all(cells[2].startswith(('FAIL pass pass', 'pass pass pass'))
                           and cells[3].startswith('FAIL FAIL FAIL') for cells in scored)
+
+
+def test_bench_recorder_cost_tiny() -> None:
+    tree = str(BENCH.parent)
+    result = subprocess.run([sys.executable, str(BENCH / 'recorder_cost.py'), tree, tree,
+                             '--seconds', '5', '--repeat', '1', '--inputs'],
+                            capture_output=True, text=True, timeout=240)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert '5 s of node time, 405 records (inputs recorded)' in result.stdout
+    assert '| A |' in result.stdout and 'B / A = ' in result.stdout
