@@ -22,7 +22,7 @@ import subprocess
 import sys
 import tempfile
 
-CHILD = r'''
+CHILD = r"""
 import json, sys, time, tempfile
 from pathlib import Path
 from gear_phm.bagio import Rosbag2McapWriter
@@ -63,7 +63,7 @@ with tempfile.TemporaryDirectory() as tmp:
             writer.write_raw('/diagnostics', second * 10**9, diagnostics)
     print(json.dumps({'cpu': time.process_time() - start,
                       'records': seconds * (10 * len(topics) + 1)}))
-'''
+"""
 
 
 def run(tree: Path, seconds: int, inputs: bool) -> dict:
