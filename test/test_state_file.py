@@ -154,15 +154,10 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     # before the new estimator is matched, seen after the kill -9) make a gap that counts
     # as operating time up to sensor_timeout (5 s here) when it ends in motion: 4 s lost
     # moved the operating time by 2.6 s and the RUL by 5.5 %. Without loss both agree.
-    # Either way the predicted end of life on the operating axis (operating time now plus
-    # the RUL in operating time) agrees within 2 %.
     lost = split_estimator['samples_used'] != whole_estimator['samples_used']
     if not lost:
         assert split['operating_time_s'] == whole['operating_time_s']
     assert rul_split == pytest.approx(rul_whole, rel=0.1 if lost else 0.02)
-    eol = {name: float(status['operating_time_s']) + float(status['rul_operating_s'])
-           for name, status in (('whole', whole), ('split', split))}
-    assert eol['split'] == pytest.approx(eol['whole'], rel=0.02)
     assert sigma_split == pytest.approx(sigma_whole, rel=0.1)
     # the estimator's counters continued (a restart loses the open window or two; a fresh
     # filter in the last part would have about a fifth)
