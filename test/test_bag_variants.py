@@ -94,3 +94,26 @@ def test_variant_gives_the_original_u(tmp_path: Path, original: dict, variant: s
     assert summary['u'] == pytest.approx(original['u'], abs=1e-9)
     assert summary['sigma_u'] == pytest.approx(original['sigma_u'], abs=1e-9)
     assert summary['filter_updates'] == original['filter_updates']
+
+
+def test_variants_through_gear_phm_analyze(tmp_path: Path) -> None:
+    """The same through the CLI users run: ``gear-phm analyze`` of each variant gives the
+    original bag's u and sigma to 1e-9 (summary.json)."""
+    import json
+
+    from gear_phm.cli.main import main
+
+    def analysed(bag: Path, name: str) -> dict:
+        out = tmp_path / f'out-{name}'
+        assert main(['analyze', str(bag), '--ratio', '3.0', '--out', str(out), '--no-plot',
+                     '--no-progress']) == 0
+        return json.loads((out / 'summary.json').read_text())
+
+    expected = analysed(WEARING, 'original')
+    for name, options in (('two-channels', {'split_channels': True, 'chunk_size': 64 * 1024}),
+                          ('no-index', {'split_channels': False, 'index_types': IndexType.NONE,
+                                        'use_statistics': False})):
+        got = analysed(rewrite(tmp_path / name, **options), name)
+        assert got['messages'] == expected['messages'] == 30000
+        assert got['u'] == pytest.approx(expected['u'], abs=1e-9)
+        assert got['sigma_u'] == pytest.approx(expected['sigma_u'], abs=1e-9)
