@@ -17,7 +17,8 @@ import time
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100
+from sensor_msgs.msg import JointState  # noqa: E402, I100
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100, I201
 from gear_phm.interfaces import HEALTH_RUL, OPERATING_TIME  # noqa: E402
 from gear_phm.persistence import save_state, SCHEMA  # noqa: E402
 from test_estimation_plant import lever_plant  # noqa: E402
@@ -85,7 +86,35 @@ def _start(driver: Driver, state_dir: Path | None, period: float) -> list[subpro
             stop(proc, signal.SIGKILL)
         raise
     driver.spin(1.0)                    # estimator <-> diagnostics discovery
+    try:
+        _handshake(driver)
+    except AssertionError:
+        for proc in procs:
+            stop(proc, signal.SIGKILL)
+        raise
     return procs
+
+
+def _handshake(driver: Driver) -> None:
+    """Publish a probe until the estimator has received one.
+
+    A matched writer does not mean that the new reader has matched it: best-effort samples
+    sent before then are lost (burner run 5 lost 4 s of one part so, after the kill -9). The
+    probe names no gear_phm joint: the estimator counts it as ``missing_joint`` and its
+    estimate, counters of samples and operating time do not change. The one-go run gets the
+    probe too.
+    """
+    since = time.time_ns()
+    probe = JointState(name=['probe'], velocity=[0.0], effort=[0.0])
+
+    def received() -> bool:
+        recent = [s for s in driver.statuses.get(ESTIMATOR, [])
+                  if int(s.get('_stamp_ns', 0)) >= since]
+        if recent and int(recent[-1].get('messages_received', 0)) > 0:
+            return True
+        driver.pub.publish(probe)
+        return False
+    driver.wait(received, 30.0, 'the estimator to receive a probe on joint_states')
 
 
 def _quiet(driver: Driver) -> tuple[dict[str, str], dict[str, str]]:
@@ -150,11 +179,13 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
                                                      'utilisation')})
     assert 10.0 < rul_whole < 200.0             # a detected trend, not inf
     assert abs(u_split - u_whole) <= 0.1 * sigma_whole
-    # The RUL runs on operating time. Samples lost at a restart (best-effort joint_states
-    # before the new estimator is matched, seen after the kill -9) make a gap that counts
-    # as operating time up to sensor_timeout (5 s here) when it ends in motion: 4 s lost
-    # moved the operating time by 2.6 s and the RUL by 5.5 %. Without loss both agree.
+    # The RUL runs on operating time. Every part starts after a probe reached the new
+    # estimator (_handshake), so no sample is lost at a restart. A sample lost elsewhere
+    # (best effort, a node behind under load) makes a gap that counts as operating time
+    # when it ends in motion: a 4 s loss once moved the operating time by 2.6 s and the RUL
+    # by 3 %. The bound is 2 % when both runs got the same samples.
     lost = split_estimator['samples_used'] != whole_estimator['samples_used']
+    print('samples lost:', lost)
     if not lost:
         assert split['operating_time_s'] == whole['operating_time_s']
     assert rul_split == pytest.approx(rul_whole, rel=0.1 if lost else 0.02)
