@@ -208,3 +208,26 @@ def test_detection_has_hysteresis() -> None:
     assert predictors[0].fits == predictors[1].fits > 1      # both refitted on the new points
     assert math.isinf(ruls[0].median) and math.isfinite(ruls[1].median)
     assert predictors[1].detected and not predictors[0].detected
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_a_settling_start_is_not_extrapolated_as_an_asymptote(seed: int) -> None:
+    """The first 30 s of a filter's history: a fast rise while it settles, then slow wear.
+
+    Shaped after the 300 s exponential matrix run, seed 1 (2026-11-25). Before P_FLOOR the
+    power law fitted p = 0.25 (the grid's edge) with weight 1 and extrapolated an
+    asymptote: RULs of 1e4-1e6 s, a WARN -> OK -> WARN. Wear laws now only accelerate.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.1, 30.0, 0.1)
+    u = (0.05 + 0.008 * (1.0 - np.exp(-t / 6.0)) + 1.5e-4 * t
+         + 3e-4 * rng.standard_normal(t.size))
+    predictor = RulPredictor(U_EOL)
+    for ti, ui in zip(t.tolist(), u.tolist()):
+        predictor.add(ti, ui, 2e-6)
+    trend = predictor.trend
+    assert trend.model == 'linear' or trend.shape >= 1.0, trend
+    rul = predictor.predict(float(t[-1]), float(u[-1]))
+    slope_rul = (U_EOL - float(u[-1])) / 1.5e-4            # the late slope's RUL, 3.6e3 s
+    assert math.isfinite(rul.median)
+    assert rul.median < 1.5 * slope_rul, rul

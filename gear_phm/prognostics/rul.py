@@ -63,8 +63,14 @@ LINEAR, EXPONENTIAL, POWER, NONE = 'linear', 'exponential', 'power', 'none'
 MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER)
 
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
+#: Both laws accelerate (k > 0, p >= P_FLOOR): see P_FLOOR.
 K_SPAN_GRID = np.geomspace(0.02, 30.0, 80)
-P_GRID = np.geomspace(0.25, 10.0, 60)
+#: Smallest power-law exponent fitted or drawn. Wear-out does not decelerate: a running-in
+#: or a filter settling from its prior early in a history fits p < 1 and extrapolates an
+#: asymptote, i.e. RULs of 1e6 s at 6-13 % of a 300 s exponential life (2026-11-25), and a
+#: WARN -> OK -> WARN. A truly decelerating history is extrapolated as linear: conservative.
+P_FLOOR = 1.0
+P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
 #: Once growth is detected, it is dropped only when both tests fall below this fraction of
 #: detect_z (hysteresis: one WARN per real crossing, docs/prognostics.md).
 DETECT_RELEASE = 0.5
@@ -716,6 +722,8 @@ class RulPredictor:
             draws = root @ self._normals[:k, chosen]
             rate = law.slope + draws[1]
             shape = law.shape + draws[2] if k == 3 else np.zeros_like(rate)
+            if law.model == POWER:
+                shape = np.maximum(shape, P_FLOOR)
             crossing[chosen] = law.t_end + crossing_offsets(
                 law.model, self.u_eol - (law.u_end + draws[0]), rate, shape, law.span)
         p5, median, p95 = inverted_cdf_quantiles(crossing, (0.05, 0.5, 0.95))
