@@ -397,7 +397,8 @@ def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vec
         Vector3Out(INNOVATION, stamp, e.innovation, e.innovation_variance, e.nis, frame_id),
         Vector3Out(COUNTS, stamp, float(e.samples_used), float(e.samples_rejected),
                    float(e.power_flow), frame_id),
-        Vector3Out(OPERATING_TIME, stamp, e.operating_time, 0.0, 0.0, frame_id),
+        Vector3Out(OPERATING_TIME, stamp, e.operating_time, e.measurement,
+                   e.measurement_variance, frame_id),
     ]
 
 
@@ -439,10 +440,13 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
     eta_d, eta_i, measured = _xyz(vectors.get(EFFICIENCY))
     innovation, variance, nis = _xyz(vectors.get(INNOVATION))
     used, rejected, code = _xyz(vectors.get(COUNTS), 0.0)
-    operating_time, _, _ = _xyz(vectors.get(OPERATING_TIME))
+    operating_time, z, z_variance = _xyz(vectors.get(OPERATING_TIME))
+    if not (math.isfinite(z) and z_variance > 0.0):     # none (NaN), or an older estimator's 0
+        z = z_variance = math.nan
     return FrictionEstimate(int(stamp_ns), u, rate, _xyz(vectors[FRICTION_COVARIANCE]), eta_d,
                             eta_i, measured, innovation, variance, nis, _count(used),
-                            _count(rejected), _count(code), operating_time=operating_time)
+                            _count(rejected), _count(code), operating_time=operating_time,
+                            measurement=z, measurement_variance=z_variance)
 
 
 def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,

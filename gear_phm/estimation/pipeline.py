@@ -123,6 +123,9 @@ class EstimatorPipeline:
         self._last_eta = math.nan
         self._last_stamp: int | None = None
         self.timed_out = False
+        #: A measurement whose estimate was dropped (same stamp as the one before), for the
+        #: next estimate: (u [-], variance [-^2], operating time it holds at [s]).
+        self._carry: tuple[float, float, float] | None = None
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Apply new parameters; the filter and the open window restart, counters stay."""
@@ -148,6 +151,7 @@ class EstimatorPipeline:
             'max_stamp': self._max_stamp, 'last_group_stamp': self._last_group_stamp,
             'origin_ns': self._origin_ns, 'grid': self._grid, 'last_code': self._last_code,
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
+            'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -167,8 +171,12 @@ class EstimatorPipeline:
                   stamp(state['max_stamp']), stamp(state['last_group_stamp']),
                   stamp(state['origin_ns']), stamp(state['grid']), int(state['last_code']),
                   decode_float(state['last_eta']), stamp(state['last_stamp']))
+        carry = state.get('carry')          # added within schema 2 (2026-11-25)
+        carried = None if carry is None else (decode_float(carry[0]), decode_float(carry[1]),
+                                              decode_float(carry[2]))
         self.filter = fresh.filter
         self.counts = counts
+        self._carry = carried
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
          self.windows_used, self.operating_time, self._max_stamp, self._last_group_stamp,
          self._origin_ns, self._grid, self._last_code, self._last_eta,
@@ -473,24 +481,47 @@ class EstimatorPipeline:
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
-        kept = self._one_per_stamp(outputs)
+        kept, keep = self._one_per_stamp(outputs)
         if len(kept) < len(outputs):        # count only the estimates kept before each mark
-            ids = {id(o) for o in kept}
-            before = np.concatenate(([0], np.cumsum([id(o) in ids for o in outputs])))
+            before = np.concatenate(([0], np.cumsum(keep)))
             marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
                       for k, snap in marked]
         return kept, marked
 
-    def _one_per_stamp(self, outputs: list[FrictionEstimate]) -> list[FrictionEstimate]:
+    def _one_per_stamp(self, outputs: list[FrictionEstimate]
+                       ) -> tuple[list[FrictionEstimate], list[bool]]:
         """At most one estimate per stamp, whatever the batch split: an estimate whose stamp
-        equals the previous one's is dropped (the filter state it carries is in the next)."""
-        kept = []
+        equals the previous one's is dropped (the filter state it carries is in the next,
+        and so is its measurement, carried with the rate: :meth:`_carried`). Returns the
+        kept estimates and whether each output was kept."""
+        kept, keep = [], []
         for output in outputs:
             if output.stamp_ns == self._last_group_stamp:
+                if math.isfinite(output.measurement):
+                    self._carry = (*self._merged(output), output.operating_time)
+                keep.append(False)
                 continue
             self._last_group_stamp = output.stamp_ns
+            if self._carry is not None:
+                z, variance = self._merged(output)
+                output = replace(output, measurement=z, measurement_variance=variance)
+                self._carry = None
             kept.append(output)
-        return kept
+            keep.append(True)
+        return kept, keep
+
+    def _merged(self, output: FrictionEstimate) -> tuple[float, float]:
+        """The carried measurement (if any), moved to ``output``'s operating time with its
+        rate, combined with ``output``'s own by inverse variance: (u [-], variance)."""
+        z, variance = output.measurement, output.measurement_variance
+        if self._carry is None:
+            return z, variance
+        cz, cv, at = self._carry
+        cz += output.rate * (output.operating_time - at)
+        if not math.isfinite(z):
+            return cz, cv
+        total = 1.0 / cv + 1.0 / variance
+        return (cz / cv + z / variance) / total, 1.0 / total
 
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
@@ -532,8 +563,11 @@ class EstimatorPipeline:
         self.windows_used += 1
         if code is not None:
             self._last_code = code
+        variance = result.u_variance + self.filter.mismatch_variance(
+            0 if result.code == OPPOSING else 1)
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
-                               used, rejected, operating)]
+                               used, rejected, operating,
+                               (result.u, variance, operating - 0.5 * window.duration))]
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.
@@ -545,11 +579,17 @@ class EstimatorPipeline:
         return float(self._operating_at[window.close_index - 1])
 
     def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
-                  rejected: int | None = None,
-                  operating_time: float | None = None) -> FrictionEstimate:
+                  rejected: int | None = None, operating_time: float | None = None,
+                  measurement: tuple[float, float, float] | None = None) -> FrictionEstimate:
+        """The record at ``stamp_ns``; ``measurement``: (u [-], variance, operating time [s]
+        at which it measures u) of the window fused for it, carried here with the rate."""
         u, rate = float(x[0]), float(x[1])
         eta_d, eta_i = efficiencies(u, self.config.ratio)
         last = self.filter.last
+        at = self.operating_time if operating_time is None else operating_time
+        z = variance = math.nan
+        if measurement is not None:
+            z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
         return FrictionEstimate(
             stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
             self._last_eta, last.innovation, last.innovation_variance, last.nis,
@@ -558,7 +598,7 @@ class EstimatorPipeline:
             process_noise=self.filter.process_noise,
             mismatch_variance=(self.filter.mismatch_variance(0),
                                self.filter.mismatch_variance(1)),
-            operating_time=self.operating_time if operating_time is None else operating_time)
+            operating_time=at, measurement=z, measurement_variance=variance)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:

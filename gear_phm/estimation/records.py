@@ -41,7 +41,12 @@ class FrictionEstimate:
     model-mismatch variance of (opposing, aiding) windows; ``operating_time`` [s] is the
     cumulative operating time (time with motion, across recordings and restarts) at the
     stamp: the time axis of the filter's rate and of the RUL (NaN when unknown, e.g. read
-    from an older recording; users then fall back to the stamp time).
+    from an older recording; users then fall back to the stamp time). ``measurement`` [-]
+    and ``measurement_variance`` [-^2]: the pseudo-measurement of u (eq 13 or its aiding
+    counterpart) that the filter fused for this estimate, carried from its window's mid-time
+    to this estimate's operating time with the filter's rate, and its variance (window noise
+    plus learned mismatch); NaN on estimates without a new window. The RUL's wear history
+    fits these, not the posteriors (docs/prognostics.md).
     """
 
     stamp_ns: int
@@ -61,6 +66,8 @@ class FrictionEstimate:
     process_noise: float = math.nan
     mismatch_variance: tuple[float, float] = (math.nan, math.nan)
     operating_time: float = math.nan
+    measurement: float = math.nan
+    measurement_variance: float = math.nan
 
     @property
     def t(self) -> float:

@@ -513,7 +513,7 @@ def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[Healt
     fields = np.array([(e.u, e.rate, e.u_sigma, *e.covariance, e.eta_opposing, e.eta_aiding,
                         e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
                         e.samples_used, e.samples_rejected, e.power_flow,
-                        e.operating_time, 0.0, 0.0)
+                        e.operating_time, e.measurement, e.measurement_variance)
                        for e in estimates], dtype=float).reshape(-1, 18)
     columns = [(topic, stamps, fields[:, 3 * i:3 * i + 3])
                for i, topic in enumerate(interfaces.ESTIMATOR_TOPICS)]

@@ -159,7 +159,13 @@ class HealthAssessor:
             self.predictor.shift(offset)
             self.utilisation.shift(offset)
         operating = self._operating_time(estimate)
-        self.predictor.add(operating, estimate.u, p_uu)
+        if math.isfinite(estimate.measurement) and estimate.measurement_variance > 0.0:
+            # the window's measurement: independent of the others, no filter lag
+            self.predictor.add(operating, estimate.measurement, estimate.measurement_variance,
+                               independent=True)
+        elif not self.predictor.history.independent:
+            # a stream without measurements (an older estimator or recording): posteriors
+            self.predictor.add(operating, estimate.u, p_uu)
         self.utilisation.add(estimate.t, operating)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,

@@ -1,11 +1,14 @@
-"""Remaining useful life from the whole history of the friction filter's posteriors.
+"""Remaining useful life from the whole history of the filter's window measurements.
 
-History (:class:`WearHistory`): every posterior (t, u, P_uu) goes into one of at most
+History (:class:`WearHistory`): every measurement of u the filter fused (t, z, R), or, from a
+stream without measurements, every posterior (t, u, P_uu), goes into one of at most
 ``max_points`` bins of equal width in time. When a new point falls past the last bin, the bins
 are merged pairwise and the width doubles, so memory is bounded for any length of input and the
 bins always cover the whole history, evenly. A bin is summarised by its precision-weighted
-mean time and u, and its mean precision 1/P_uu (not the sum: neighbouring Kalman posteriors
-are strongly correlated, so averaging them does not make u more certain).
+mean time and u, and the summed precision of its measurements (independent windows), or the
+mean precision of its posteriors (not the sum: neighbouring Kalman posteriors are strongly
+correlated, so averaging them does not make u more certain). Measurements are preferred: a
+posterior lags accelerating wear and then catches up, a kink that the fit extrapolates.
 
 Wear laws (:func:`fit_trend`), all written with the level u_end and the slope r = du/dt at the
 newest bin time t_end (s = t - t_end <= 0, tau = t - t_start >= 0, T = t_end - t_start):
@@ -32,14 +35,15 @@ every 1/16 of the history's growth) the RUL costs a subtraction.
 Detection: the RUL is finite only when the growth of u is significant twice over:
 
 1. the fitted slope at the newest time against the fit's own uncertainty, r > detect_z sigma_r;
-2. the rise of u over the history against the filter's own uncertainty of that rise:
-   rise > detect_z sqrt(sigma_start^2 + sigma_end^2), sigma_end from the newest bin's P_uu,
-   sigma_start from the first quarter of the history (:func:`rise_sigma`); the rise is the
+2. the rise of u over the history against its own uncertainty (:func:`rise_sigma`;
+   posteriors: rise > detect_z sqrt(sigma_start^2 + sigma_end^2), sigma_end from the newest
+   bin's P_uu, sigma_start from the first quarter of the history); the rise is the
    smaller of the fitted law's u_end - u(t_start) and the data's last-quarter minus
    first-quarter mean (:func:`rise`: a law fitted to a few points can extrapolate a steep
    start that the data do not show).
 
-Otherwise every quantile is inf (model 'none'). Once detected, growth is dropped only when the
+Both need a history of at least ``DETECT_MIN_POINTS`` effective points. Otherwise every
+quantile is inf (model 'none'). Once detected, growth is dropped only when the
 tests fail at ``DETECT_RELEASE`` (0.5) times detect_z: a hysteresis, so that the RUL does not
 toggle between finite and inf (and the RUL-based WARN with it) while the evidence hovers at
 the threshold (3 of 18 matrix runs did, 2026-11-24). Test 2 is needed early in a history: a
@@ -74,6 +78,11 @@ P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
 #: Once growth is detected, it is dropped only when both tests fall below this fraction of
 #: detect_z (hysteresis: one WARN per real crossing, docs/prognostics.md).
 DETECT_RELEASE = 0.5
+#: Effective points (n_eff) a history needs before growth can first be detected. With
+#: fewer, a 2-sigma slope is a noise excursion often enough to be found, lost and found
+#: again within seconds (a 3000 s linear matrix run, seed 1, 2026-11-25: detected at 14
+#: points, released at 19, detected again at 29), and the RUL-based WARN with it.
+DETECT_MIN_POINTS = 24.0
 #: Smallest exponent a power-law draw may take (keeps u increasing in tau).
 P_MIN = 0.05
 
@@ -99,6 +108,8 @@ class Trend:
     effective_points: float = 0.0
     #: Akaike weight of this law among those fitted (1 when only one)
     weight: float = 1.0
+    #: variance scale of the points: reduced chi-square (>= 1) times n / n_eff [-]
+    scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -204,7 +215,8 @@ def trend_from_state(state: dict[str, Any]) -> Trend:
     return Trend(model, *(decode_float(state[key]) for key in
                           ('t_end', 'u_end', 'slope', 'slope_sigma', 'shape', 'span')),
                  tuple(decode_floats(state['covariance'])), int(state['points']),
-                 decode_float(state['effective_points']), decode_float(state['weight']))
+                 decode_float(state['effective_points']), decode_float(state['weight']),
+                 decode_float(state.get('scale', 1.0)))
 
 
 class WearHistory:
@@ -217,6 +229,9 @@ class WearHistory:
             raise ValueError(f'initial_width must be > 0 s, got {initial_width!r}')
         self.max_points = int(max_points)
         self.initial_width = float(initial_width)
+        #: Points are independent measurements (a bin's precision is their sum), not
+        #: correlated posteriors (their mean); set while the history is empty.
+        self.independent = False
         self.reset()
 
     def reset(self) -> None:
@@ -270,7 +285,8 @@ class WearHistory:
         return {'max_points': self.max_points, 't_start': encode_float(self.t_start),
                 't_last': encode_float(self.t_last), 'width': encode_float(self.width),
                 'w': encode_floats(self._w), 'wt': encode_floats(self._wt),
-                'wu': encode_floats(self._wu), 'n': list(self._n), 'opened': self.opened}
+                'wu': encode_floats(self._wu), 'n': list(self._n), 'opened': self.opened,
+                'independent': self.independent}
 
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state` (same max_points); ValueError/KeyError/TypeError if bad."""
@@ -288,6 +304,7 @@ class WearHistory:
         self._n = n
         self.opened = int(state['opened'])
         self._occupied = sum(1 for k in n if k)
+        self.independent = bool(state.get('independent', False))
 
     def _merge(self) -> None:
         half = self.max_points // 2
@@ -299,11 +316,16 @@ class WearHistory:
         self._occupied = sum(1 for n in self._n if n)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Occupied bins: mean time since t_start [s], mean u [-], mean precision [1/-^2]."""
+        """Occupied bins: mean time since t_start [s], mean u [-], precision [1/-^2].
+
+        The precision of a bin's u: the sum of independent measurements', the mean of
+        posteriors'.
+        """
         n = np.asarray(self._n, dtype=float)
         keep = n > 0
         w = np.asarray(self._w)[keep]
-        return (np.asarray(self._wt)[keep] / w, np.asarray(self._wu)[keep] / w, w / n[keep])
+        precision = w if self.independent else w / n[keep]
+        return (np.asarray(self._wt)[keep] / w, np.asarray(self._wu)[keep] / w, precision)
 
 
 def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
@@ -502,7 +524,8 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
             laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
                                      math.sqrt(max(float(cov[1, 1]), 0.0)),
                                      float(fit.params[2]) if k == 3 else 0.0, span,
-                                     tuple(float(v) for v in cov.ravel()), n, n_eff)))
+                                     tuple(float(v) for v in cov.ravel()), n, n_eff,
+                                     scale=scale)))
     if not laws:
         return ()
     laws.sort(key=lambda law: law[0])
@@ -549,14 +572,25 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
     return np.asarray(np.where(gap > 0.0, offset, -np.inf))
 
 
-def rise_sigma(t: np.ndarray, precision: np.ndarray) -> float:
-    """Return the filter's uncertainty [-] of a rise of u over the history.
+def rise_sigma(t: np.ndarray, precision: np.ndarray, independent: bool = False,
+               scale: float = 1.0) -> float:
+    """Return the uncertainty [-] of a rise of u over the history.
 
-    sqrt(sigma_start^2 + sigma_end^2): sigma_end from the newest bin's mean precision,
-    sigma_start from the mean precision of the bins in the first quarter of the span (which
-    includes the filter's start-up from its prior).
+    Posteriors: sqrt(sigma_start^2 + sigma_end^2), sigma_end from the newest bin's mean
+    precision, sigma_start from the mean precision of the bins in the first quarter of the
+    span (which includes the filter's start-up from its prior). ``independent``
+    measurements: the uncertainty of the last quarter's mean minus the first quarter's (the
+    data rise of :func:`rise`), each from its summed precision, times sqrt(``scale``) (the
+    fit's reduced chi-square times n / n_eff).
     """
-    first = precision[t <= t[0] + 0.25 * (t[-1] - t[0])]
+    quarter = 0.25 * (t[-1] - t[0])
+    if independent:
+        start = float(precision[t <= t[0] + quarter].sum())
+        end = float(precision[t >= t[-1] - quarter].sum())
+        if not (start > 0.0 and end > 0.0):
+            return math.inf
+        return math.sqrt(max(scale, 1.0) * (1.0 / start + 1.0 / end))
+    first = precision[t <= t[0] + quarter]
     start, end = float(first.mean()), float(precision[-1])
     if not (start > 0.0 and end > 0.0):
         return math.inf
@@ -637,8 +671,15 @@ class RulPredictor:
         self._due = 1
         self.detected = False
 
-    def add(self, t: float, u: float, u_variance: float) -> None:
-        """Record a posterior (t [s], u [-], P_uu [-^2])."""
+    def add(self, t: float, u: float, u_variance: float, independent: bool = False) -> None:
+        """Record a posterior (t [s], u [-], P_uu [-^2]) or an ``independent`` measurement.
+
+        A measurement of u comes with its variance. A history holds one kind: the other kind
+        restarts it.
+        """
+        if independent != self.history.independent:
+            self.reset()
+            self.history.independent = independent
         opened = self.history.opened
         self.history.add(t, u, u_variance)
         if self.history.opened < opened:        # time went backwards: the history restarted
@@ -695,8 +736,10 @@ class RulPredictor:
         self._trend = laws[0] if laws else Trend(points=t.size)
         # hysteresis: once growth was seen, it is dropped only below half the threshold
         z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
-        self.detected = bool(laws) and laws[0].slope > z * laws[0].slope_sigma \
-            and rise(laws[0], t, u, precision) > z * rise_sigma(t, precision)
+        enough = self.detected or (bool(laws) and laws[0].effective_points >= DETECT_MIN_POINTS)
+        self.detected = bool(laws) and enough and laws[0].slope > z * laws[0].slope_sigma \
+            and rise(laws[0], t, u, precision) > z * rise_sigma(
+                t, precision, history.independent, laws[0].scale)
         self._crossing = self._crossing_quantiles(laws) if self.detected \
             else (math.inf, math.inf, math.inf)
 
