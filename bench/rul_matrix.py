@@ -33,18 +33,21 @@ HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']
 
 
 def run(out: Path, law: str, life: float, seed: int, extra: list[str],
-        rate: float = 100.0) -> str:
-    """One scenario; returns its markdown row."""
-    if out.exists():
-        shutil.rmtree(out)
-    out.mkdir(parents=True)
+        rate: float = 100.0, reuse: bool = False) -> str:
+    """One scenario; returns its markdown row. ``reuse``: keep a bag simulated before."""
     bag, analysis = out / 'bag', out / 'a'
+    if reuse and bag.exists():
+        shutil.rmtree(analysis, ignore_errors=True)
+    else:
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True)
     quiet = {'check': True, 'stdout': subprocess.DEVNULL, 'stderr': subprocess.DEVNULL}
-    subprocess.run([*GEAR_PHM, 'simulate', '--rate', repr(rate), '--out', str(bag),
-                    '--duration', str(1.1 * life), '--seed', str(seed), '--wear', law,
-                    '--wear-rate', repr(RATES[law](life)), '--friction-initial', '0.05',
-                    '--wear-exponent', '3', '--truth-every', str(max(1, round(rate / 10.0)))],
-                   **quiet)
+    if not bag.exists():
+        subprocess.run([*GEAR_PHM, 'simulate', '--rate', repr(rate), '--out', str(bag),
+                        '--duration', str(1.1 * life), '--seed', str(seed), '--wear', law,
+                        '--wear-rate', repr(RATES[law](life)), '--friction-initial', '0.05',
+                        '--wear-exponent', '3', '--truth-every',
+                        str(max(1, round(rate / 10.0)))], **quiet)
     subprocess.run([*GEAR_PHM, 'analyze', str(bag), *HEALTH, '--out', str(analysis),
                     '--no-plot', '--no-progress', *extra], **quiet)
     subprocess.run([*GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag), *HEALTH,
@@ -96,6 +99,8 @@ def main() -> int:
     parser.add_argument('--seeds', type=int, nargs='+', default=[1, 2, 3])
     parser.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz]')
     parser.add_argument('--laws', nargs='+', choices=list(RATES), default=list(RATES))
+    parser.add_argument('--reuse', action='store_true',
+                        help='analyse the bags of an earlier run in OUT again')
     parser.add_argument('extra', nargs='*', help='extra analyze options (after --)')
     args = parser.parse_args()
     rows = []
@@ -103,7 +108,7 @@ def main() -> int:
         for law in args.laws:
             for seed in args.seeds:
                 rows.append(run(args.out / f'{law}_{life:.0f}_{args.rate:.0f}_{seed}', law,
-                                life, seed, args.extra, args.rate))
+                                life, seed, args.extra, args.rate, args.reuse))
                 print(rows[-1], flush=True)
     (args.out / 'table.md').write_text('\n'.join(rows) + '\n')
     return 0

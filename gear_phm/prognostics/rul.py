@@ -42,7 +42,7 @@ Detection: the RUL is finite only when the growth of u is significant twice over
    first-quarter mean (:func:`rise`: a law fitted to a few points can extrapolate a steep
    start that the data do not show).
 
-Both need a history of at least ``DETECT_MIN_POINTS`` effective points. Otherwise every
+A history of measurements needs ``DETECT_MIN_POINTS`` effective points first. Otherwise every
 quantile is inf (model 'none'). Once detected, growth is dropped only when the
 tests fail at ``DETECT_RELEASE`` (0.5) times detect_z: a hysteresis, so that the RUL does not
 toggle between finite and inf (and the RUL-based WARN with it) while the evidence hovers at
@@ -78,11 +78,20 @@ P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
 #: Once growth is detected, it is dropped only when both tests fall below this fraction of
 #: detect_z (hysteresis: one WARN per real crossing, docs/prognostics.md).
 DETECT_RELEASE = 0.5
-#: Effective points (n_eff) a history needs before growth can first be detected. With
+#: Effective points (n_eff) a history of measurements needs before growth can first be
+#: detected (posteriors: none; their n_eff is small by their correlation). With
 #: fewer, a 2-sigma slope is a noise excursion often enough to be found, lost and found
 #: again within seconds (a 3000 s linear matrix run, seed 1, 2026-11-25: detected at 14
 #: points, released at 19, detected again at 29), and the RUL-based WARN with it.
 DETECT_MIN_POINTS = 24.0
+#: A curved law joins the RUL's mixture only when it fits better than the line by this many
+#: sigma (likelihood ratio): before, its extrapolation is unconstrained. On a 30 000 s linear
+#: life (2026-11-25) exponential and power fits of the first 150 s (Akaike weights 0.24
+#: each) put the RUL's p5 at 186 s against a true 29 850 s: a WARN at once, OK 500 s later.
+CURVATURE_Z = 2.0
+#: The RUL draws a curved law's shape only where its profile rss is within this many sigma
+#: of the best fit (:func:`_shape_range`).
+SHAPE_PROFILE_Z = 3.0
 #: Smallest exponent a power-law draw may take (keeps u increasing in tau).
 P_MIN = 0.05
 
@@ -110,6 +119,10 @@ class Trend:
     weight: float = 1.0
     #: variance scale of the points: reduced chi-square (>= 1) times n / n_eff [-]
     scale: float = 1.0
+    #: the shapes the data allow (profile of the fit within SHAPE_PROFILE_Z sigma): the
+    #: RUL's shape draws are clipped to them
+    shape_low: float = 0.0
+    shape_high: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -216,7 +229,9 @@ def trend_from_state(state: dict[str, Any]) -> Trend:
                           ('t_end', 'u_end', 'slope', 'slope_sigma', 'shape', 'span')),
                  tuple(decode_floats(state['covariance'])), int(state['points']),
                  decode_float(state['effective_points']), decode_float(state['weight']),
-                 decode_float(state.get('scale', 1.0)))
+                 decode_float(state.get('scale', 1.0)),
+                 decode_float(state.get('shape_low', 0.0)),
+                 decode_float(state.get('shape_high', 'inf')))
 
 
 class WearHistory:
@@ -394,6 +409,8 @@ class _Fit:
     params: np.ndarray           # u_end, r (, shape)
     rss: float
     jacobian: np.ndarray         # (n, 2 or 3)
+    #: curved laws: the shape grid and its profile rss (prior penalty included)
+    profile: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -461,7 +478,8 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
     i = 0 if rss2[0] <= rss2[1] else 1
     shape = shape if i == 0 else float(grid[best])
     jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
-    return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian)
+    return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian,
+                (grid, rss))
 
 
 def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
@@ -483,12 +501,15 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
 
 
 def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
-             min_points: int = 8, prior: ShapePrior | None = None) -> tuple[Trend, ...]:
+             min_points: int = 8, prior: ShapePrior | None = None,
+             admitted: frozenset[str] = frozenset()) -> tuple[Trend, ...]:
     """Fit the wear laws to a history: times since its start [s], u [-], 1/P_uu.
 
     The law ``trend`` names, or all of them for 'auto', best AICc first, each with its Akaike
     weight (module docstring); () if too few points. With a shape ``prior`` only its law is
-    fitted, with its shape drawn towards the prior (:class:`ShapePrior`).
+    fitted, with its shape drawn towards the prior (:class:`ShapePrior`). With 'auto', a
+    curved law is kept only when it fits significantly better than the line (CURVATURE_Z;
+    half that for the laws ``admitted`` by the previous fit: a hysteresis).
     """
     n = t.size
     if n < min_points or not t[-1] > t[0]:
@@ -520,18 +541,47 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
         aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
         scale = max(fit.rss / max(n - k, 1), 1.0) * n / n_eff
         cov = _covariance(fit.jacobian, precision, scale, information)
+        low, high = _shape_range(fit, scale)
         if cov is not None:
             laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
                                      math.sqrt(max(float(cov[1, 1]), 0.0)),
                                      float(fit.params[2]) if k == 3 else 0.0, span,
                                      tuple(float(v) for v in cov.ravel()), n, n_eff,
-                                     scale=scale)))
+                                     scale=scale, shape_low=low, shape_high=high)))
     if not laws:
         return ()
+    if LINEAR in fits and len(laws) > 1:
+        # a curved law extends the line (k -> 0, p = 1): it is extrapolated only once its
+        # curvature is significant (its fit better than the line's by CURVATURE_Z^2 sigma^2)
+        line = fits[LINEAR].rss
+
+        def z(name: str) -> float:
+            return CURVATURE_Z * (DETECT_RELEASE if name in admitted else 1.0)
+        laws = [law for law in laws if law[1].model == LINEAR
+                or (line - fits[law[1].model].rss) > z(law[1].model) ** 2 * sigma2]
     laws.sort(key=lambda law: law[0])
     weights = np.exp(-0.5 * (np.array([law[0] for law in laws]) - laws[0][0]))
     weights /= weights.sum()
     return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
+
+
+def _shape_range(fit: _Fit, scale: float) -> tuple[float, float]:
+    """Return the shapes whose profile rss is within SHAPE_PROFILE_Z^2 ``scale`` of the best.
+
+    One grid step wider on each side (the grid is coarse); (0, inf) for a linear law. The
+    Gaussian covariance of a shape that the data barely pin down reaches shapes the data
+    exclude (an e-folding time of seconds under a history of minutes of steady rise).
+    """
+    if fit.profile is None:
+        return 0.0, math.inf
+    grid, rss = fit.profile
+    inside = np.flatnonzero(rss <= fit.rss + SHAPE_PROFILE_Z ** 2 * scale)
+    if inside.size == 0:
+        return 0.0, math.inf
+    lo, hi = int(inside[0]), int(inside[-1])
+    low = float(grid[lo - 1]) if lo > 0 else 0.0
+    high = float(grid[hi + 1]) if hi + 1 < grid.size else math.inf
+    return min(low, float(fit.params[2])), max(high, float(fit.params[2]))
 
 
 def fit_trend(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
@@ -670,6 +720,8 @@ class RulPredictor:
         self._fitted_at = 0
         self._due = 1
         self.detected = False
+        #: curved laws in the last fit's mixture (their admission has a hysteresis)
+        self._curved: frozenset[str] = frozenset()
 
     def add(self, t: float, u: float, u_variance: float, independent: bool = False) -> None:
         """Record a posterior (t [s], u [-], P_uu [-^2]) or an ``independent`` measurement.
@@ -686,6 +738,7 @@ class RulPredictor:
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1
             self.detected = False
+            self._curved = frozenset()
 
     def shift(self, offset: float) -> None:
         """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
@@ -698,7 +751,8 @@ class RulPredictor:
         """Return the history, fit and refit clock (JSON-safe); the draws come from the seed."""
         return {'history': self.history.to_state(), 'trend': trend_to_state(self._trend),
                 'crossing': encode_floats(self._crossing), 'fitted_at': self._fitted_at,
-                'due': self._due, 'fits': self.fits, 'detected': self.detected}
+                'due': self._due, 'fits': self.fits, 'detected': self.detected,
+                'curved': sorted(self._curved)}
 
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
@@ -713,6 +767,7 @@ class RulPredictor:
         self._fitted_at, self._due = int(state['fitted_at']), int(state['due'])
         self.fits = int(state['fits'])
         self.detected = bool(state.get('detected', math.isfinite(crossing[1])))
+        self._curved = frozenset(str(m) for m in state.get('curved', ()) if m in MODELS)
 
     @property
     def trend(self) -> Trend:
@@ -732,11 +787,13 @@ class RulPredictor:
         self.fits += 1
         laws = tuple(replace(law, t_end=law.t_end + history.t_start)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
-                                         self.prior))
+                                         self.prior, self._curved))
+        self._curved = frozenset(law.model for law in laws if law.model != LINEAR)
         self._trend = laws[0] if laws else Trend(points=t.size)
         # hysteresis: once growth was seen, it is dropped only below half the threshold
         z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
-        enough = self.detected or (bool(laws) and laws[0].effective_points >= DETECT_MIN_POINTS)
+        enough = self.detected or not history.independent or (
+            bool(laws) and laws[0].effective_points >= DETECT_MIN_POINTS)
         self.detected = bool(laws) and enough and laws[0].slope > z * laws[0].slope_sigma \
             and rise(laws[0], t, u, precision) > z * rise_sigma(
                 t, precision, history.independent, laws[0].scale)
@@ -765,6 +822,8 @@ class RulPredictor:
             draws = root @ self._normals[:k, chosen]
             rate = law.slope + draws[1]
             shape = law.shape + draws[2] if k == 3 else np.zeros_like(rate)
+            if k == 3:
+                shape = np.clip(shape, law.shape_low, law.shape_high)
             if law.model == POWER:
                 shape = np.maximum(shape, P_FLOOR)
             crossing[chosen] = law.t_end + crossing_offsets(
