@@ -204,3 +204,25 @@ def test_nan_accepted_only_where_it_means_something() -> None:
         specs['eta_warn'].check(1.5)                           # the range still holds
     with pytest.raises(ValueError, match='eta_opposing_min must be in'):
         specs['eta_opposing_min'].check(math.nan)              # no meaning: refused
+
+
+def test_end_of_life_needs_u_past_u_eol_beyond_its_noise() -> None:
+    """Slow wear at u_eol: a point estimate a fraction of sigma above u_eol is no ERROR.
+
+    A 30 000 s life (du/dt 1.8e-5 /s, sigma_u 1e-3) gave ERROR 6 s before the true end of
+    life on the point estimate; the lower 95 % bound u - 1.645 sigma must reach u_eol.
+    """
+    rng = np.random.default_rng(7)
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, hysteresis=0.05, dwell=5.0)
+    sigma, rate = 1e-3, 1.8e-5
+    first_error = None
+    for t in np.arange(0.0, 600.0, 1.0):
+        true_u = 0.25 + rate * (t - 300.0)              # end of life at t = 300 s
+        u = true_u + sigma * rng.standard_normal()
+        level, message = tracker.update(float(t), float(u), 0.7, math.inf, (OK, ''), sigma)
+        if level == ERROR and first_error is None:
+            first_error = t
+            assert 'end of life' in message
+    assert first_error is not None
+    # past the true end of life by about 1.645 sigma / rate (91 s) plus the 5 s dwell
+    assert 300.0 < first_error < 300.0 + 3.0 * sigma / rate

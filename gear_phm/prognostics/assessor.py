@@ -175,7 +175,7 @@ class HealthAssessor:
         rul = rul_operating.in_elapsed_time(utilisation)
         trend = self.predictor.trend
         level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
-                                            rul_operating.p5, filter_check)
+                                            rul_operating.p5, filter_check, u_sigma)
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
