@@ -190,10 +190,11 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
         stop(proc, signal.SIGKILL)                        # only if still running
     levels = [s.level for s in statuses]
     changes = [i for i in range(1, 30) if levels[i] != levels[i - 1]]
-    # committed after the 5 s dwell: the second 10-s estimate past each threshold
-    assert [(i, levels[i]) for i in changes] == [(8, b'\x01'), (22, b'\x02')], levels
+    # committed after the 5 s dwell: the second 10-s estimate past each threshold; end of
+    # life once u - 1.645 sigma_u (sigma_u 1e-3) is past u_eol: 11 s after u, one more step
+    assert [(i, levels[i]) for i in changes] == [(8, b'\x01'), (23, b'\x02')], levels
     assert statuses[8].message == f'eta_D {(3.0 - 0.062) / (3.0 * 1.062):.4g} < 0.925'  # t 80 s
-    assert 'end of life (eta_opposing_min)' in statuses[22].message
+    assert 'end of life (eta_opposing_min)' in statuses[23].message
     values = {kv.key: kv.value for kv in statuses[-1].values}
     assert values['operating_time_s'] == '145.0' and values['utilisation'] == '0.5'
 
@@ -248,7 +249,7 @@ def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
 
 
 def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
-    """Five topics (an older estimator) complete an update once a later stamp arrives.
+    """Five topics (an older estimator) complete an update once a later update has them too.
 
     The first update of a current estimator waits for its gear_phm/operating_time (whatever
     the order of arrival) and carries its x as the operating time [s]; from then on every
@@ -266,9 +267,9 @@ def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
         return out
 
     assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []           # may still get operating time
-    old = feed(2, LEGACY_ESTIMATOR_TOPICS[:1])              # a later stamp: 1 is complete
+    assert feed(2, LEGACY_ESTIMATOR_TOPICS[:1]) == []       # a later topic: still may
+    old = feed(2, LEGACY_ESTIMATOR_TOPICS[1:])              # a later update: 1 is complete
     assert [e.stamp_ns for e in old] == [1] and math.isnan(old[0].operating_time)
-    assert feed(2, LEGACY_ESTIMATOR_TOPICS[1:]) == []
     first = feed(2, (OPERATING_TIME,))                      # arrived last, not dropped
     assert [(e.stamp_ns, e.operating_time) for e in first] == [(2, 0.1)]
     assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []           # now every update waits for it
@@ -276,3 +277,10 @@ def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
     done = assembler.add(OPERATING_TIME, 3, SimpleNamespace(x=42.0, y=0.0, z=0.0))
     assert [(e.stamp_ns, e.operating_time) for e in done] == [(3, 42.0)]
     assert assembler.dropped == {}
+    # a current estimator whose first operating time the node takes after some topics of
+    # the next update (separate subscriptions): the first update still gets it
+    assembler = EstimateAssembler()
+    assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []
+    assert feed(2, LEGACY_ESTIMATOR_TOPICS[:3]) == []
+    late = assembler.add(OPERATING_TIME, 1, SimpleNamespace(x=5.0, y=0.0, z=0.0))
+    assert [(e.stamp_ns, e.operating_time) for e in late] == [(1, 5.0)]

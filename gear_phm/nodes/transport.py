@@ -167,7 +167,7 @@ class EstimateAssembler:
     Messages are grouped by stamp; a group is complete with all six estimator topics. Until
     ``gear_phm/operating_time`` has been seen (an older estimator or bag does not publish it),
     a group with the five of :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
-    once a message of a later stamp arrives: one update late, and its estimate carries no
+    once a later group has those five too: one update late, and its estimate carries no
     operating time (the assessor then uses the stamps). Stragglers of an
     update already processed are dropped (``late_stamp``); when more than
     :data:`MAX_PENDING_STAMPS` stamps wait, the oldest are processed if they hold at least
@@ -213,9 +213,10 @@ class EstimateAssembler:
         group[topic] = vector
         if interfaces.OPERATING_TIME in self.expected and self.expected.issubset(group):
             return self.flush(up_to=stamp_ns)
-        if interfaces.OPERATING_TIME not in self.expected:
-            # an older estimator: an update is complete once a later stamp arrives (a current
-            # one sends the operating time of an update before the next update)
+        if interfaces.OPERATING_TIME not in self.expected and self.expected.issubset(group):
+            # an older estimator: an update is complete once a later one is (a current one
+            # sends the operating time of an update before the next update; the node's
+            # callbacks may take it after some of the next update's topics)
             legacy = [s for s, held in self.pending.items()
                       if s < stamp_ns and self.expected.issubset(held)]
             if legacy:
