@@ -81,12 +81,7 @@ def _start(driver: Driver, state_dir: Path | None, period: float) -> list[subpro
                     and driver.node.count_subscribers('gear_phm/friction') >= 2
                     and driver.node.count_subscribers(OPERATING_TIME) >= 2,
                     60.0, 'estimator and diagnostics')
-    except AssertionError:
-        for proc in procs:
-            stop(proc, signal.SIGKILL)
-        raise
-    driver.spin(1.0)                    # estimator <-> diagnostics discovery
-    try:
+        driver.spin(1.0)                # estimator <-> diagnostics discovery
         _handshake(driver)
     except AssertionError:
         for proc in procs:

@@ -492,7 +492,7 @@ class EstimatorPipeline:
                        ) -> tuple[list[FrictionEstimate], list[bool]]:
         """At most one estimate per stamp, whatever the batch split: an estimate whose stamp
         equals the previous one's is dropped (the filter state it carries is in the next,
-        and so is its measurement, carried with the rate: :meth:`_carried`). Returns the
+        and so is its measurement, carried with the rate: :meth:`_merged`). Returns the
         kept estimates and whether each output was kept."""
         kept, keep = [], []
         for output in outputs:

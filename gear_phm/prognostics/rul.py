@@ -622,6 +622,12 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
     return np.asarray(np.where(gap > 0.0, offset, -np.inf))
 
 
+def _quarters(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return masks of the first and the last quarter of the span of times ``t`` [s]."""
+    quarter = 0.25 * (t[-1] - t[0])
+    return t <= t[0] + quarter, t >= t[-1] - quarter
+
+
 def rise_sigma(t: np.ndarray, precision: np.ndarray, independent: bool = False,
                scale: float = 1.0) -> float:
     """Return the uncertainty [-] of a rise of u over the history.
@@ -633,15 +639,13 @@ def rise_sigma(t: np.ndarray, precision: np.ndarray, independent: bool = False,
     data rise of :func:`rise`), each from its summed precision, times sqrt(``scale``) (the
     fit's reduced chi-square times n / n_eff).
     """
-    quarter = 0.25 * (t[-1] - t[0])
+    first, last = _quarters(t)
     if independent:
-        start = float(precision[t <= t[0] + quarter].sum())
-        end = float(precision[t >= t[-1] - quarter].sum())
+        start, end = float(precision[first].sum()), float(precision[last].sum())
         if not (start > 0.0 and end > 0.0):
             return math.inf
         return math.sqrt(max(scale, 1.0) * (1.0 / start + 1.0 / end))
-    first = precision[t <= t[0] + quarter]
-    start, end = float(first.mean()), float(precision[-1])
+    start, end = float(precision[first].mean()), float(precision[-1])
     if not (start > 0.0 and end > 0.0):
         return math.inf
     return math.sqrt(1.0 / start + 1.0 / end)
@@ -653,8 +657,7 @@ def rise(law: Trend, t: np.ndarray, u: np.ndarray, precision: np.ndarray) -> flo
     The smaller of the law's (extrapolated to the start, :func:`fitted_rise`) and the data's
     (precision-weighted mean u of the last quarter of the span minus that of the first).
     """
-    quarter = 0.25 * (t[-1] - t[0])
-    first, last = t <= t[0] + quarter, t >= t[-1] - quarter
+    first, last = _quarters(t)
     data = float(np.average(u[last], weights=precision[last])
                  - np.average(u[first], weights=precision[first]))
     return min(fitted_rise(law), data)
