@@ -116,3 +116,29 @@ def test_simulate_fleet_gaps_regular_or_irregular(tmp_path: Path) -> None:
     assert starts['1.0'][0] != starts['1.0'][1]                        # each unit its own
     bad = run('simulate', '--fleet', '2', '--gap-spread', '-1', '--out', str(tmp_path / 'x'))
     assert bad.returncode == 2 and '--gap-spread' in bad.stderr
+
+
+def test_fleet_runs_on_an_existing_scheduler(fleet: Path, tmp_path: Path) -> None:
+    """``--scheduler ADDRESS`` runs the same job on a cluster the user already has.
+
+    The cluster here is a real Dask scheduler with one worker process, started by the test;
+    the table is byte for byte the one of a local run, and the progress bar counts units.
+    """
+    from dask.distributed import LocalCluster
+    local, remote = tmp_path / 'local', tmp_path / 'remote'
+    options = ('--ratio', '3.0', '--eta-opposing-min', '0.7333', '--eta-warn', '0.8',
+               '--no-unit-outputs')
+    result = run('fleet', str(fleet), '--out', str(local), '--workers', '1', '--no-progress',
+                 *options)
+    assert result.returncode == 0, result.stderr
+    assert 'fleet:' not in result.stderr
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None, local_directory=str(tmp_path / 'dask')) as cluster:
+        result = run('fleet', str(fleet), '--out', str(remote), '--scheduler',
+                     cluster.scheduler_address, *options)
+        ran = sorted(cluster.scheduler.task_prefixes)
+    assert ran and all(name.startswith('gear-phm-unit') for name in ran), ran
+    assert result.returncode == 0, result.stderr
+    assert (remote / 'fleet.parquet').read_bytes() == (local / 'fleet.parquet').read_bytes()
+    assert (remote / 'fleet.csv').read_bytes() == (local / 'fleet.csv').read_bytes()
+    assert 'fleet: 100%' in result.stderr and '5/5' in result.stderr     # five unit folders
