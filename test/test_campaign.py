@@ -18,6 +18,8 @@ from gear_phm.cli.main import main
 REPO = Path(__file__).resolve().parents[1]
 WEARING = REPO / 'bags' / 'wearing'
 OPTIONS = ['--ratio', '3.0', '--eta-opposing-min', '0.7333', '--no-progress', '--no-plot']
+FLEET = REPO / 'bags' / 'fleet'
+FLEET_OPTIONS = ['--ratio', '3.0', '--no-progress', '--no-plot']
 
 
 def split_bag(bag: Path, out: Path, parts: int) -> list[Path]:
@@ -75,3 +77,22 @@ def test_five_parts_in_any_order_give_the_whole_recordings_result(tmp_path: Path
     assert len(finite) > 1000                           # the trend is found during the life
     assert np.allclose([rul['campaign'][t] for t in stamps], [rul['whole'][t] for t in stamps],
                        rtol=1e-6, atol=1e-9, equal_nan=True)
+
+
+def test_a_folder_of_recordings_is_the_campaign_of_its_recordings(tmp_path: Path) -> None:
+    """``gear-phm analyze FOLDER`` takes the recordings in it, as the explicit list does."""
+    unit = FLEET / 'unit_00'
+    listed = sorted(str(p) for p in unit.glob('rec_*'))
+    assert len(listed) == 5
+    assert main(['analyze', *reversed(listed), '--out', str(tmp_path / 'listed'),
+                 *FLEET_OPTIONS]) == 0
+    assert main(['analyze', str(unit), '--out', str(tmp_path / 'folder'), *FLEET_OPTIONS]) == 0
+    listed_summary, folder = summary(tmp_path / 'listed'), summary(tmp_path / 'folder')
+    assert folder['bag'] == listed_summary['bag'] == listed               # by start time
+    for key in ('u', 'sigma_u', 'operating_time_s', 'messages', 'filter_updates'):
+        assert folder[key] == listed_summary[key], key
+    assert folder['health']['values'] == listed_summary['health']['values']
+    empty = tmp_path / 'empty'
+    empty.mkdir()
+    assert main(['analyze', str(empty), '--out', str(tmp_path / 'none'), *FLEET_OPTIONS]) == 2
+    assert not (tmp_path / 'none').exists()

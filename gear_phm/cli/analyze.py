@@ -21,8 +21,9 @@ HELP = 'estimate friction offline from a recorded bag (same code as the estimato
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('bag', nargs='+',
-                        help='rosbag2 directory, .mcap, .db3 or ROS1 .bag; several are '
-                             'analysed as one run, in order of their start times')
+                        help='rosbag2 directory, .mcap, .db3 or ROS1 .bag, or a folder of '
+                             'them; several are analysed as one run, in order of their start '
+                             'times')
     parser.add_argument('--ratio', type=float, required=True,
                         help='ideal torque gain load/motor R = z2/z1 [-]')
     parser.add_argument('--motor-joint', default='motor', help='motor joint name')

@@ -193,13 +193,51 @@ def split_options(ratio: float, options: dict[str, Any]) -> tuple[EstimatorConfi
     return estimator, health
 
 
+#: File suffixes of recordings (rosbag2 storage files and ROS1 bags).
+BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
+
+
+def recordings_in(folder: Path) -> list[Path]:
+    """Return the recordings in a folder, sorted by name.
+
+    Recordings are rosbag2 directories (with metadata.yaml) and bag files; analyze_bag orders
+    them by start time.
+    """
+    found = []
+    for entry in sorted(folder.iterdir()):
+        if entry.is_dir() and (entry / 'metadata.yaml').is_file():
+            found.append(entry)
+        elif entry.is_file() and entry.suffix in BAG_SUFFIXES:
+            found.append(entry)
+    return found
+
+
+def _expand(path: Path) -> list[Path]:
+    """Return a bag as it is, a folder of recordings as the recordings in it.
+
+    A folder of recordings is not itself a bag: it has no metadata.yaml and no storage
+    files of its own.
+    """
+    if not path.is_dir() or (path / 'metadata.yaml').is_file() or any(
+            entry.suffix in BAG_SUFFIXES for entry in path.iterdir() if entry.is_file()):
+        return [path]
+    found = recordings_in(path)
+    if not found:
+        raise AnalysisError(f'{path} holds no recording (rosbag2 directories or bag files)')
+    return found
+
+
 def order_bags(paths: Sequence[str | Path]) -> list[Path]:
-    """Return the bags in order of their first message (a campaign of recordings)."""
+    """Return the bags in order of their first message (a campaign of recordings).
+
+    A folder of recordings stands for the recordings in it.
+    """
     from gear_phm.bagio import BagError, BagReader
     starts = []
-    for path in paths:
-        if not Path(path).exists():
-            raise AnalysisError(f'bag {path} does not exist')
+    for given in paths:
+        if not Path(given).exists():
+            raise AnalysisError(f'bag {given} does not exist')
+    for path in [bag for given in paths for bag in _expand(Path(given))]:
         start = _metadata_start_ns(Path(path))
         if start is None:
             try:
@@ -239,8 +277,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
                 prior: ShapePrior | None = None, **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
-    ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, or a
-    list of them (analysed as one run, in order of their start times). ``ratio`` is the
+    ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, a
+    folder of them, or a list of these (analysed as one run, in order of their start times). ``ratio`` is the
     gearbox's R = z2/z1 [-]. ``options`` are estimator or health parameters by name, as in
     config/estimator.yaml and config/diagnostics.yaml (e.g. ``eta_opposing_min=0.7333``).
     With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into

@@ -38,7 +38,6 @@ COLUMNS = ('unit', 'recordings', 'operating_time_s', 'u', 'u_sigma', 'eta_opposi
            'eta_aiding', *HEALTH_VALUES, 'level', 'reason')
 #: Points of each unit's u trend kept for the fleet plot.
 TREND_POINTS = 200
-BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
 #: Units at end of life needed before their wear law becomes the fleet's prior.
 PRIOR_MIN_UNITS = 3
 #: Floor of the prior's spread of log(shape) [-]: a few units do not pin the shape exactly.
@@ -92,21 +91,6 @@ class UnitResult:
     prior: ShapePrior | None = None
 
 
-def unit_recordings(unit: Path) -> list[Path]:
-    """Return the recordings of a unit folder, sorted by name.
-
-    Recordings are rosbag2 directories (with metadata.yaml) and bag files; analyze_bag orders
-    them by start time.
-    """
-    found = []
-    for entry in sorted(unit.iterdir()):
-        if entry.is_dir() and (entry / 'metadata.yaml').is_file():
-            found.append(entry)
-        elif entry.is_file() and entry.suffix in BAG_SUFFIXES:
-            found.append(entry)
-    return found
-
-
 def discover_units(root: Path) -> list[Path]:
     """Return the unit folders: the sub-directories of ``root`` that are not themselves a bag."""
     if not root.is_dir():
@@ -148,8 +132,8 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
 
     ``prior``: the fleet's population prior on the wear law's shape, if any.
     """
-    from gear_phm.offline.engine import AnalysisError, analyze_bag
-    recordings = unit_recordings(unit)
+    from gear_phm.offline.engine import AnalysisError, analyze_bag, recordings_in
+    recordings = recordings_in(unit)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     empty: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())
     if not recordings:
