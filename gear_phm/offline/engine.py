@@ -278,9 +278,10 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
     ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, a
-    folder of them, or a list of these (analysed as one run, in order of their start times). ``ratio`` is the
-    gearbox's R = z2/z1 [-]. ``options`` are estimator or health parameters by name, as in
-    config/estimator.yaml and config/diagnostics.yaml (e.g. ``eta_opposing_min=0.7333``).
+    folder of them, or a list of these (analysed as one run, in order of their start
+    times). ``ratio`` is the gearbox's R = z2/z1 [-]. ``options`` are estimator or health
+    parameters by name, as in config/estimator.yaml and config/diagnostics.yaml (e.g.
+    ``eta_opposing_min=0.7333``).
     With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into
     that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
     nothing is left there if the analysis fails. ``history`` bounds the memory of a long
