@@ -213,3 +213,39 @@ def test_two_recordings_a_week_apart_run_on_operating_time(tmp_path: Path) -> No
                                         / (120.0 + 7 * 86400.0), rel=0.05)
     assert values['week']['rul_s'] == pytest.approx(rul_op / utilisation, rel=1e-9)
     assert values['plain']['utilisation'] > 0.7
+
+
+def _rul_bands(out: Path) -> list[tuple[float, float, float]]:
+    """(median, p5, p95) of the RUL in operating time of each /diagnostics gearbox status."""
+    with BagReader(out) as bag:
+        rows = [{kv.key: float(kv.value) for kv in s.values}
+                for _, _, m in bag.messages(['/diagnostics']) for s in m.status
+                if s.name == 'gear_phm: gearbox']
+    return [(r['rul_operating_s'], r['rul_operating_p5_s'], r['rul_operating_p95_s'])
+            for r in rows]
+
+
+def test_eta_accuracy_widens_the_rul_band_not_its_median(tmp_path: Path) -> None:
+    """--eta-accuracy (a calibration uncertainty that does not average out) widens the band.
+
+    bags/wearing, u_eol 0.25 (eta_D 0.7333, R 3): du/deta_D = -1.18, so 0.02 is u +/- 0.0235
+    at end of life, over du/dt ~8e-4 /s near it: a 90 % band +/- 1.645 x 28 s.
+    """
+    bands = {}
+    for accuracy in ('0.0', '0.02'):
+        out = tmp_path / accuracy
+        assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
+                     str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
+                     '--eta-accuracy', accuracy]) == 0
+        bands[accuracy] = _rul_bands(out)
+    late = [i for i, (median, _, _) in enumerate(bands['0.0']) if 10.0 < median < 60.0]
+    assert len(late) > 20
+    for i in late:
+        (m0, lo0, hi0), (m1, lo1, hi1) = bands['0.0'][i], bands['0.02'][i]
+        # the upper half (the lower one is cut at a RUL of 0 s)
+        assert hi0 - m0 < 5.0 and 20.0 < hi1 - m1 < 75.0, (bands['0.0'][i], bands['0.02'][i])
+        assert lo1 <= lo0
+        assert m1 == pytest.approx(m0, abs=3.0)
+    assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
+                 str(tmp_path / 'bad'), '--eta-accuracy', '-0.1']) == 2
+    assert not (tmp_path / 'bad').exists()

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from gear_phm.prognostics.rul import (crossing_offsets, fit_trend, rise, rise_sigma,
-                                      RulPredictor, Trend, WearHistory)
+from gear_phm.prognostics.rul import (crossing_offsets, crossing_slopes, fit_trend, rise,
+                                      rise_sigma, RulPredictor, Trend, WearHistory)
 from gear_phm.simulation.wear import Wear
 
 LIFE, U0, U_EOL = 3000.0, 0.05, 0.6
@@ -231,3 +231,56 @@ def test_a_settling_start_is_not_extrapolated_as_an_asymptote(seed: int) -> None
     slope_rul = (U_EOL - float(u[-1])) / 1.5e-4            # the late slope's RUL, 3.6e3 s
     assert math.isfinite(rul.median)
     assert rul.median < 1.5 * slope_rul, rul
+
+
+@pytest.mark.parametrize('model, shape', [('linear', 0.0), ('exponential', 2e-3),
+                                          ('power', 3.0)])
+def test_crossing_slopes_are_the_laws_derivative(model: str, shape: float) -> None:
+    span, rate, gap = 500.0, 1e-4, 0.05
+    s = crossing_offsets(model, np.array([gap]), np.array([rate]), np.array([shape]), span)
+    slope = crossing_slopes(model, s, np.array([rate]), np.array([shape]), span)[0]
+    h = 1e-3 * float(s[0])
+    ahead = crossing_offsets(model, np.array([gap]), np.array([rate]), np.array([shape]),
+                             span)
+    # du/dt at the crossing, by the inverse: d(offset)/d(gap) = 1 / (du/dt)
+    nearby = crossing_offsets(model, np.array([gap + slope * h]), np.array([rate]),
+                              np.array([shape]), span)
+    assert float(nearby[0] - ahead[0]) == pytest.approx(h, rel=1e-3)
+    edge = crossing_slopes(model, np.array([math.inf, -math.inf]), np.array([rate, rate]),
+                           np.array([shape, shape]), span)
+    assert edge.tolist() == [math.inf, math.inf]          # no shift of a crossing not there
+
+
+def _band(predictor: RulPredictor, step: float, seed: int) -> tuple[float, float, float]:
+    """RUL (median, width p95 - p5, truth) after half of a linear life sampled every step."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 0.5 * LIFE, step)
+    u = _law('linear')(t) + 1e-4 * rng.standard_normal(t.size)
+    for ti, ui in zip(t.tolist(), u.tolist()):
+        predictor.add(ti, ui, 1e-8, independent=True)
+    rul = predictor.predict(float(t[-1]), float(u[-1]))
+    return rul.median, rul.p95 - rul.p5, LIFE - float(t[-1])
+
+
+def test_the_band_holds_the_history_resolution_and_the_systematic_uncertainty() -> None:
+    """Two terms no fit residual shows widen the band (module docstring of rul.py).
+
+    - Resolution: wear between two points is unseen, so the crossing is uniform within one
+      spacing: p95 - p5 >= 0.9 spacing even on an almost noiseless line.
+    - Systematic: u known to +/- u_systematic at end of life (a calibration that does not
+      average out) moves the crossing by u_systematic / (du/dt), normal: about
+      2 x 1.645 x that wider.
+    """
+    slope = (U_EOL - U0) / LIFE                     # du/dt of the linear life [1/s]
+    for step in (1.0, 4.0):
+        median, width, truth = _band(RulPredictor(U_EOL), step, 0)
+        assert 0.9 * step <= width <= 1.2 * step, (step, width)
+        assert median == pytest.approx(truth, abs=0.5 * step + 0.2)
+    narrow = _band(RulPredictor(U_EOL), 1.0, 0)[1]
+    for u_systematic in (1e-3, 4e-3):
+        median, width, truth = _band(RulPredictor(U_EOL, u_systematic=u_systematic), 1.0, 0)
+        sigma = u_systematic / slope
+        assert width == pytest.approx(math.hypot(2 * 1.645 * sigma, narrow), rel=0.1)
+        assert abs(median - truth) < 0.2 * sigma
+    with pytest.raises(ValueError, match='u_systematic'):
+        RulPredictor(U_EOL, u_systematic=-1.0)

@@ -24,7 +24,7 @@ from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
-from gear_phm.prognostics.end_of_life import end_of_life_u
+from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, ShapePrior, Trend,
                                       trend_from_state, trend_to_state, Utilisation)
@@ -121,8 +121,9 @@ class HealthAssessor:
         self.config = config
         self.u_eol, self.eol_reason = end_of_life_u(
             config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
-        self.predictor = RulPredictor(self.u_eol, config.detect_z, int(config.mc_samples),
-                                      int(config.seed), config.trend, prior=prior)
+        self.predictor = RulPredictor(
+            self.u_eol, config.detect_z, int(config.mc_samples), int(config.seed), config.trend,
+            prior=prior, u_systematic=u_accuracy(self.u_eol, config.ratio, config.eta_accuracy))
         self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
                                              config.max_u_sigma, config.nis_lost)
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
@@ -175,7 +176,8 @@ class HealthAssessor:
         rul = rul_operating.in_elapsed_time(utilisation)
         trend = self.predictor.trend
         level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
-                                            rul_operating.p5, filter_check, u_sigma)
+                                            rul_operating.p5, filter_check, u_sigma,
+                                            rul_operating.median)
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')

@@ -36,12 +36,17 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
               '-', -1.0, 1.0,
               nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
-    ParamSpec('warn_horizon', 3600.0, 'WARN when the 5 % bound of the RUL in operating time '
-              'is below this', 's', 0.0, 1e12),
+    ParamSpec('warn_horizon', 3600.0, 'WARN when the RUL median in operating time is below '
+              'this; it clears once the RUL 5 % bound is above it (1 + level_hysteresis)',
+              's', 0.0, 1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
               '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
     ParamSpec('trend', 'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)',
               choices=TRENDS),
+    ParamSpec('eta_accuracy', 0.001, 'systematic uncertainty of the measured efficiency '
+              '(torque-sensor calibration, model accuracy): it does not average out over '
+              'windows and widens the RUL band by its u at end of life over du/dt', '-', 0.0,
+              0.5),
     ParamSpec('mc_samples', 2000, 'Monte Carlo samples of the posterior for RUL bounds', '-',
               100, 1_000_000),
     ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
@@ -78,6 +83,7 @@ class HealthConfig:
     warn_horizon: float = float(_D['warn_horizon'])
     detect_z: float = float(_D['detect_z'])
     trend: str = str(_D['trend'])
+    eta_accuracy: float = float(_D['eta_accuracy'])
     mc_samples: int = int(_D['mc_samples'])
     seed: int = int(_D['seed'])
     nis_window: int = int(_D['nis_window'])

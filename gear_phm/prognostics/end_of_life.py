@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 from gear_phm.models import u_from_eta_opposing
+from gear_phm.models.lever import d_u_d_eta_opposing, eta_opposing
 
 #: u at which eta_I = R (1 - u) / (R + u) reaches 0: onset of self-locking.
 U_SELF_LOCKING = 1.0
@@ -36,3 +37,14 @@ def end_of_life_u(ratio: float, eta_opposing_min: float, self_locking_eol: bool 
     thresholds = end_of_life_thresholds(ratio, eta_opposing_min, self_locking_eol, u_max)
     name = min(thresholds, key=thresholds.__getitem__)
     return thresholds[name], name
+
+
+def u_accuracy(u_eol: float, ratio: float, eta_accuracy: float) -> float:
+    """Return the systematic uncertainty of a measured u at ``u_eol`` [-].
+
+    An efficiency known to +/- ``eta_accuracy`` [-] (sensor calibration, model accuracy)
+    gives u to |du/deta_D| eta_accuracy at eta_D(u_eol) (eq 13's sensitivity).
+    """
+    eta = float(eta_opposing(u_eol, ratio))
+    slope = float(d_u_d_eta_opposing(eta, ratio)) if math.isfinite(eta) else math.nan
+    return abs(slope) * eta_accuracy if math.isfinite(slope) else 0.0

@@ -6,8 +6,9 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
   self-locking u >= 1 when enabled; it clears below u_eol (1 - hysteresis)), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
-- WARN: RUL 5 % bound (operating time) < ``warn_horizon`` [s], eta_D < ``eta_warn``, or a
-  model mismatch (mean NIS above its chi-square bound while the estimate still tracks).
+- WARN: RUL median (operating time) < ``warn_horizon`` [s], cleared only once the RUL's 5 %
+  bound is back above it; eta_D < ``eta_warn``; or a model mismatch (mean NIS above its
+  chi-square bound while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
   current.
@@ -176,6 +177,9 @@ class LevelTracker:
     and left when the value is back by ``hysteresis`` times the threshold's distance from a
     new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
     eta_warn + h (1 - eta_warn), u below u_eol (1 - h), RUL p5 above warn_horizon (1 + h).
+    The RUL condition is entered on the RUL's median and left on its 5 % bound: a hysteresis
+    across the band as well, so that an early, wide band whose lower tail grazes the horizon
+    (a fast law the data cannot exclude yet) does not warn and then clear.
     Either change must hold for ``dwell`` [s] of stamp time first. The filter conditions
     (mismatch, lost) have the dwell only.
     """
@@ -208,14 +212,16 @@ class LevelTracker:
             latch.from_state(state[name])
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
-               filter_check: tuple[int, str] = (OK, ''), u_sigma: float = 0.0
-               ) -> tuple[int, str]:
+               filter_check: tuple[int, str] = (OK, ''), u_sigma: float = 0.0,
+               rul_median: float | None = None) -> tuple[int, str]:
         """Return (level, message) at stamp ``t`` [s].
 
-        Inputs: u [-], eta_D [-], the RUL p5 [s of operating time], the
-        :meth:`DivergenceDetector.update` result and u's standard deviation [-] (end of life
-        is entered on u - EOL_Z u_sigma).
+        Inputs: u [-], eta_D [-], the RUL's 5 % bound [s of operating time], the
+        :meth:`DivergenceDetector.update` result, u's standard deviation [-] (end of life
+        is entered on u - EOL_Z u_sigma) and the RUL's median [s of operating time; None: a
+        RUL without a band, the median is ``rul_p5``].
         """
+        median = rul_p5 if rul_median is None else rul_median
         filter_level, filter_reason = filter_check
         if not math.isfinite(u):
             filter_level, filter_reason = ERROR, 'filter lost the signal: u is not finite'
@@ -225,7 +231,7 @@ class LevelTracker:
         sigma = u_sigma if math.isfinite(u_sigma) and u_sigma > 0.0 else 0.0
         eol = latch['eol'].update(t, u - EOL_Z * sigma >= self.u_eol, u >= self.u_clear)
         eta = latch['eta'].update(t, eta_opposing < self.eta_warn, eta_opposing < self.eta_clear)
-        rul = latch['rul'].update(t, rul_p5 < self.warn_horizon, rul_p5 < self.rul_clear)
+        rul = latch['rul'].update(t, median < self.warn_horizon, rul_p5 < self.rul_clear)
         errors = []
         if eol:
             what = 'self-locking' if self.eol_reason == 'self_locking' \
@@ -240,11 +246,11 @@ class LevelTracker:
             return ERROR, '; '.join(errors)
         warnings = []
         if rul:
-            warnings.append(f'RUL p5 {rul_p5:.4g} s of operation < {self.warn_horizon:.4g} s'
-                            if rul_p5 < self.warn_horizon
-                            else f'RUL p5 {rul_p5:.4g} s of operation (WARN below '
-                                 f'{self.warn_horizon:.4g} s, clears above '
-                                 f'{self.rul_clear:.4g} s)')
+            warnings.append(f'RUL {median:.4g} s of operation < {self.warn_horizon:.4g} s'
+                            if median < self.warn_horizon
+                            else f'RUL {median:.4g} s of operation, p5 {rul_p5:.4g} s (WARN '
+                                 f'while the median is below {self.warn_horizon:.4g} s, '
+                                 f'clears when p5 is above {self.rul_clear:.4g} s)')
         if eta:
             warnings.append(f'eta_D {eta_opposing:.4g} < {self.eta_warn:.4g}'
                             if eta_opposing < self.eta_warn
