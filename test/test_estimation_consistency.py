@@ -118,30 +118,37 @@ def _spur_run(rate: float, seed: int):
 
 @pytest.mark.parametrize('rate', [100.0, 1000.0])
 def test_direction_offset_of_a_spur_gear_plant_is_measured(rate: float) -> None:
-    """Spur stage with bearing friction: the direction offset is measured, mismatch learned.
+    """Spur stage with bearing friction: the direction bias is learned and taken off.
 
     Its opposing windows read u = 0.180, its aiding ones 0.161 (a 12-sigma disagreement per
-    1 kHz window). The offset is measured (0.019-0.021) and both directions learn a mismatch;
-    without adaptation the filter re-initialises about every third window (49-54 times in
-    300 s; adaptive: 0-2 at 100 Hz, 19-22 at 1 kHz).
+    1 kHz window). The offset is measured (0.0175-0.0187 of 0.0188), each direction's bias is
+    half of it (0.0083-0.0090), u is the midpoint (0.1688-0.1709), and the variance learned
+    on top is small (sigma <= 0.0017): the bias is not counted twice. Without adaptation the
+    filter re-initialises about every third window (49-53 times in 300 s; adaptive: 0-4).
     """
     for seed in (0, 1):
         run, gap = _spur_run(rate, seed)
         pipeline, _ = _run(run)
         summary = pipeline.summary()
         assert abs(summary['direction_offset'] / gap - 1.0) < 0.15, summary['direction_offset']
-        assert summary['mismatch_sigma_opposing'] > 0.1 * gap
-        assert summary['mismatch_sigma_aiding'] > 0.1 * gap
+        bias = pipeline.filter.direction_bias(0)
+        assert 0.4 * gap < bias < 0.5 * gap and pipeline.filter.direction_bias(1) == -bias
+        assert pipeline.filter.x[0] == pytest.approx(0.1705, abs=0.003)
+        for name in ('mismatch_sigma_opposing', 'mismatch_sigma_aiding'):
+            assert summary[name] < 0.15 * gap, summary
         fixed, _ = _run(run, CONFIG.replace(adaptive=False))
-        assert fixed.counts['reinitialised'] > 2 * pipeline.counts['reinitialised']
+        assert fixed.counts['reinitialised'] > 5 * max(pipeline.counts['reinitialised'], 1)
 
 
-@pytest.mark.xfail(strict=True, reason='known defect (docs/estimation.md): the learned '
-                   'mismatch sigma is 0.005-0.008 where the half gap is 0.0094 and the NIS '
-                   'stays 1.5-3.4; q rises to ~3e-6 and the filter chases each direction')
 @pytest.mark.parametrize('rate', [100.0, 1000.0])
 def test_nis_in_bounds_once_the_spur_gear_mismatch_is_learned(rate: float) -> None:
-    """After 150 s of a 300 s run the pooled NIS of 3 seeds is inside its 95 % bounds."""
+    """After 150 s of a 300 s run the pooled NIS of 3 seeds is inside its 95 % bounds.
+
+    Measured: per seed 0.68-1.04 (100 Hz), 0.88-1.01 (1 kHz). Before the direction bias was
+    taken off the measurements, 1.45-1.75 and 1.6-3.4: the windows of one direction had
+    innovations of one sign, the whiteness test raised q to ~3e-6 and the filter chased each
+    direction.
+    """
     nis = []
     for seed in range(3):
         run, _ = _spur_run(rate, seed)

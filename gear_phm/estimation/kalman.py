@@ -8,10 +8,12 @@ The filter adapts itself to the data (docs/estimation.md, "Adaptation"):
   below the wear-law floor ``r^3 / u`` (r: the part of |du/dt| beyond 2 sigma;
   acceleration ~ rate^2/u over a time scale u/rate
   for linear, exponential and power-law wear);
-- measurement side: per power-flow direction, an additive model-mismatch variance learned by
-  covariance matching on the innovations (their mean common to both directions, which is lag,
-  taken out), so a systematic disagreement between opposing and aiding windows becomes a
-  reported variance and not divergence.
+- measurement side: per power-flow direction, a bias (half the offset between the two
+  directions' mean innovations, shrunk by two standard errors) taken off each measurement,
+  and an additive model-mismatch variance learned by covariance matching on the innovations
+  around it (their mean common to both directions, which is lag, taken out), so a systematic
+  disagreement between opposing and aiding windows becomes a reported bias and variance and
+  not divergence.
 """
 from __future__ import annotations
 
@@ -27,13 +29,18 @@ from gear_phm.persistence import decode_float, decode_floats, encode_float, enco
 
 @dataclass(frozen=True)
 class UpdateResult:
-    """Outcome of one pseudo-measurement: innovation y [-], its variance S, NIS [-]."""
+    """Outcome of one pseudo-measurement: innovation y [-], its variance S, NIS [-].
+
+    ``bias`` [-]: the direction's learned systematic error taken off the measurement
+    (:meth:`FrictionFilter.direction_bias`).
+    """
 
     accepted: bool
     innovation: float
     innovation_variance: float
     nis: float
     reinitialised: bool = False
+    bias: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -118,6 +125,22 @@ class FrictionFilter:
         """Learned model-mismatch variance [-] of direction 0 (opposing) or 1 (aiding)."""
         return max(self._excess[direction], 0.0) if self.adaptation.enabled else 0.0
 
+    def direction_bias(self, direction: int) -> float:
+        """Learned systematic error [-] of direction 0 (opposing) or 1 (aiding) windows.
+
+        Half the direction offset, signed per direction (opposing +, aiding -), shrunk by two
+        standard errors of the two means towards 0 (so noise on a plant without mismatch
+        moves nothing). Measurements are fused as z - bias: u is the midpoint of the two
+        directions' readings.
+        """
+        if not (self.adaptation.enabled and self._n[0] and self._n[1]
+                and self._mean_den[0] > 0.0 and self._mean_den[1] > 0.0):
+            return 0.0
+        half = 0.5 * (self._mean[0] - self._mean[1])
+        error = 0.5 * math.sqrt(1.0 / self._mean_den[0] + 1.0 / self._mean_den[1])
+        bias = math.copysign(max(abs(half) - 2.0 * error, 0.0), half)
+        return bias if direction == 0 else -bias
+
     @property
     def direction_offset(self) -> float:
         """Mean innovation of opposing minus aiding windows [-] (0 until both are seen)."""
@@ -169,29 +192,32 @@ class FrictionFilter:
                              f'r={r!r}')
         self.predict(t)
         h = np.array([[1.0, -float(age)]])
-        y = z - float((h @ self.kf.x)[0, 0])
+        bias = self.direction_bias(direction)
+        raw = z - float((h @ self.kf.x)[0, 0])
+        z, y = z - bias, raw - bias
         p_uu = float((h @ self.kf.P @ h.T)[0, 0])
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
         if self.adaptation.enabled:
-            self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
+            self._adapt(raw, bias, p_uu, r, s, direction, nis > self.gate_threshold)
         r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1
             if self.consecutive_gated < self.max_consecutive_gated:
-                self.last = UpdateResult(False, y, s, nis)
+                self.last = UpdateResult(False, y, s, nis, bias=bias)
                 return self.last
             self._initialise(z, r)
             self._sum, self._power = 0.0, 1.0
             self.consecutive_gated = 0
             self.updates += 1
-            self.last = UpdateResult(True, y, s, nis, reinitialised=True)
+            self.last = UpdateResult(True, y, s, nis, reinitialised=True, bias=bias)
             return self.last
         self.consecutive_gated = 0
         self.kf.update(np.array([[z]]), R=r, H=h)
         self.updates += 1
-        self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis)
+        self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis,
+                                 bias=bias)
         if self.adaptation.enabled:
             u, rate = float(self.kf.x[0, 0]), float(self.kf.x[1, 0])
             # only a significant rate (beyond 2 sigma) sets the floor: no feedback from noise
@@ -249,12 +275,13 @@ class FrictionFilter:
         self.last = UpdateResult(bool(last[0]), decode_float(last[1]), decode_float(last[2]),
                                  decode_float(last[3]), bool(last[4]))
 
-    def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int,
+    def _adapt(self, y: float, bias: float, p_uu: float, r: float, s: float, direction: int,
                gated: bool) -> None:
         """Run one step of both adaptations (before the update).
 
-        ``y`` innovation, ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance;
-        ``gated``: the window fails the gate (it still feeds the matching, winsorised).
+        ``y`` innovation of the raw measurement, ``bias`` the direction's learned bias,
+        ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance; ``gated``: the
+        window fails the gate (it still feeds the matching, winsorised).
         """
         a = self.adaptation
         n, mean = self._n, self._mean
@@ -266,7 +293,7 @@ class FrictionFilter:
             # error, and a mean taken from it stayed in the matching as a persistent
             # "mismatch" of (initial error)^2 (sigma 0.05 on a constant lever plant,
             # docs/estimation.md).
-            self._match(y, p_uu, r, s, direction, common)
+            self._match(y, p_uu, r, s, direction, common + bias)
         if gated:
             return
         e = (y - offset) / math.sqrt(s)

@@ -565,9 +565,11 @@ class EstimatorPipeline:
             self._last_code = code
         variance = result.u_variance + self.filter.mismatch_variance(
             0 if result.code == OPPOSING else 1)
+        # the measurement as fused: less its direction's learned bias
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
                                used, rejected, operating,
-                               (result.u, variance, operating - 0.5 * window.duration))]
+                               (result.u - update.bias, variance,
+                                operating - 0.5 * window.duration))]
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.

@@ -44,9 +44,11 @@ Without them the band of a long, well-fitted history narrowed to 0.3 % of the RU
 of a second on a 300 s life at 1 kHz) and missed the truth, which the wear between two
 windows, or a measurement bias of 0.05 % of u, moved by more.
 
-Detection: the RUL is finite only when the growth of u is significant twice over:
+Detection: a law enters the RUL's mixture only when its own slope at the newest time is
+significant, r > detect_z sigma_r (half that once in; the Akaike weights are renormalised over
+the laws in). The RUL is finite only when the growth of u is significant twice over:
 
-1. the fitted slope at the newest time against the fit's own uncertainty, r > detect_z sigma_r;
+1. the best such law's slope (the condition above);
 2. the rise of u over the history against its own uncertainty (:func:`rise_sigma`;
    posteriors: rise > detect_z sqrt(sigma_start^2 + sigma_end^2), sigma_end from the newest
    bin's P_uu, sigma_start from the first quarter of the history); the rise is the
@@ -583,6 +585,12 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
     return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
 
 
+def _renormalised(laws: tuple[Trend, ...]) -> tuple[Trend, ...]:
+    """Return ``laws`` with their Akaike weights scaled to sum to 1."""
+    total = sum(law.weight for law in laws)
+    return tuple(replace(law, weight=law.weight / total) for law in laws) if total > 0 else ()
+
+
 def _shape_range(fit: _Fit, scale: float) -> tuple[float, float]:
     """Return the shapes whose profile rss is within SHAPE_PROFILE_Z^2 ``scale`` of the best.
 
@@ -834,15 +842,22 @@ class RulPredictor:
         laws = tuple(replace(law, t_end=law.t_end + history.t_start)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
                                          self.prior, self._curved))
+        # a law extrapolates only once its own slope now is significant (a curved law's slope
+        # is uncertain with its shape); hysteresis: half that for the laws already in
+        admitted = (self._curved | {LINEAR}) if self.detected else self._curved
+        fitted = laws
+        laws = _renormalised(tuple(
+            law for law in laws if law.slope > self.detect_z * law.slope_sigma
+            * (DETECT_RELEASE if law.model in admitted else 1.0)))
         self._curved = frozenset(law.model for law in laws if law.model != LINEAR)
-        self._trend = laws[0] if laws else Trend(points=t.size)
+        # the trend reported: the RUL's best law, else the best fitted one (no growth seen)
+        self._trend = (laws or fitted or (Trend(points=t.size),))[0]
         # hysteresis: once growth was seen, it is dropped only below half the threshold
         z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
         enough = self.detected or not history.independent or (
             bool(laws) and laws[0].effective_points >= DETECT_MIN_POINTS)
-        self.detected = bool(laws) and enough and laws[0].slope > z * laws[0].slope_sigma \
-            and rise(laws[0], t, u, precision) > z * rise_sigma(
-                t, precision, history.independent, laws[0].scale)
+        self.detected = bool(laws) and enough and rise(laws[0], t, u, precision) > z * rise_sigma(
+            t, precision, history.independent, laws[0].scale)
         self._crossing = self._crossing_quantiles(laws) if self.detected \
             else (math.inf, math.inf, math.inf)
 
