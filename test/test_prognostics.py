@@ -292,3 +292,28 @@ def test_rul_quantiles_equal_numpys_inverted_cdf(values: list[float],
     array = np.array(values)
     assert inverted_cdf_quantiles(array, tuple(probabilities)) == \
         np.quantile(array, probabilities, method='inverted_cdf').tolist()
+
+
+def test_end_of_life_on_the_opposing_reading_when_the_directions_disagree() -> None:
+    """eta_opposing_min is about the opposing windows' reading, u + its direction bias.
+
+    The estimator reports u as the midpoint of the two directions' readings and each
+    efficiency at its own reading (FrictionFilter.direction_bias): here the opposing windows
+    read u + 0.01, the aiding ones u - 0.01. End of life (u_eol 0.6) comes when u + 0.01
+    reaches it, and the ratio check still sees the same ratio on both sides.
+    """
+    from gear_phm.models.lever import efficiencies
+    monitor = HealthAssessor(HealthConfig(level_dwell=0.0, eta_warn=0.6))
+    first_error = None
+    for t in np.arange(0.0, 600.0, 1.0):
+        u = 0.05 + 1e-3 * t
+        eta_d = efficiencies(u + 0.01, 3.0)[0]
+        eta_i = efficiencies(u - 0.01, 3.0)[1]
+        state = monitor.on_estimate(FrictionEstimate(int(t * 1e9), u, 1e-3, (1e-8, 0.0, 1e-12),
+                                                     eta_d, eta_i))
+        assert state is not None and 'ratio mismatch' not in state.message
+        if state.level == ERROR and first_error is None:
+            first_error = t
+            assert state.message.startswith('end of life (eta_opposing_min)')
+    # u + 0.01 - 1.645e-4 >= 0.6 at t = 540.2 s; u alone would reach it at 550.2 s
+    assert first_error == pytest.approx(541.0, abs=1.0)

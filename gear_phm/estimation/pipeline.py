@@ -586,7 +586,9 @@ class EstimatorPipeline:
         """The record at ``stamp_ns``; ``measurement``: (u [-], variance, operating time [s]
         at which it measures u) of the window fused for it, carried here with the rate."""
         u, rate = float(x[0]), float(x[1])
-        eta_d, eta_i = efficiencies(u, self.config.ratio)
+        # each efficiency as its direction's windows read it: u plus that direction's bias
+        eta_d = efficiencies(u + self.filter.direction_bias(0), self.config.ratio)[0]
+        eta_i = efficiencies(u + self.filter.direction_bias(1), self.config.ratio)[1]
         last = self.filter.last
         at = self.operating_time if operating_time is None else operating_time
         z = variance = math.nan

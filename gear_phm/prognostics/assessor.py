@@ -21,7 +21,7 @@ import math
 from typing import Any
 
 from gear_phm.estimation.records import FrictionEstimate
-from gear_phm.models.lever import efficiencies
+from gear_phm.models.lever import efficiencies, u_from_eta_aiding, u_from_eta_opposing
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
@@ -160,6 +160,9 @@ class HealthAssessor:
             self.predictor.shift(offset)
             self.utilisation.shift(offset)
         operating = self._operating_time(estimate)
+        # end of life on the reading its criterion is about (eta_D: the opposing windows')
+        reading = self._reading_offset(estimate)
+        self.predictor.u_eol = self.u_eol - reading
         if math.isfinite(estimate.measurement) and estimate.measurement_variance > 0.0:
             # the window's measurement: independent of the others, no filter lag
             self.predictor.add(operating, estimate.measurement, estimate.measurement_variance,
@@ -175,9 +178,10 @@ class HealthAssessor:
         utilisation = self.utilisation.fraction
         rul = rul_operating.in_elapsed_time(utilisation)
         trend = self.predictor.trend
-        level, message = self.levels.update(estimate.t, estimate.u, estimate.eta_opposing,
+        level, message = self.levels.update(estimate.t, estimate.u + reading,
+                                            estimate.eta_opposing,
                                             rul_operating.p5, filter_check, u_sigma,
-                                            rul_operating.median)
+                                            rul_operating.median, rul_operating.p95)
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
@@ -192,6 +196,25 @@ class HealthAssessor:
                                   operating if self._on_operating_time(estimate) else math.nan,
                                   utilisation)
         return self.latest
+
+    def _reading_offset(self, estimate: FrictionEstimate) -> float:
+        """Return the end-of-life criterion's reading of u minus u [-] (0 without one).
+
+        The estimator reports each efficiency as its direction's windows read it (u plus the
+        direction's learned bias, :meth:`~gear_phm.estimation.kalman.FrictionFilter.
+        direction_bias`); u itself is the midpoint of the two. ``eta_opposing_min`` is about
+        the opposing windows' reading, self-locking about the aiding ones', ``u_max`` about u.
+        On a plant without mismatch (and for an older stream) the offset is 0.
+        """
+        ratio = self.config.ratio
+        if self.eol_reason == 'eta_opposing_min':
+            read = float(u_from_eta_opposing(estimate.eta_opposing, ratio))
+        elif self.eol_reason == 'self_locking':
+            read = float(u_from_eta_aiding(estimate.eta_aiding, ratio))
+        else:
+            return 0.0
+        offset = read - estimate.u
+        return offset if math.isfinite(offset) else 0.0
 
     def _on_operating_time(self, estimate: FrictionEstimate) -> bool:
         """Whether the stream carries operating time: this estimate or the latest state."""
@@ -242,14 +265,21 @@ class HealthAssessor:
     def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:
         """'' or why the estimator's ratio differs from this assessor's.
 
-        The estimator reports eta_D at u with its own ratio; eq 10 inverted for R gives
-        R = u / (1 - eta_D (1 + u)). End of life is a u computed with this assessor's ratio,
-        so two different ratios would put it at the wrong u, silently. Not decidable at
-        u ~ 0, where eta_D = 1 for every R.
+        The estimator reports eta_D and eta_I with its own ratio at u plus and minus its
+        direction bias (0 on a plant without mismatch): with this assessor's ratio, eq 13
+        must map them back to two readings whose midpoint is u. Eq 10 inverted for R gives
+        the implied ratio R = u / (1 - eta_D (1 + u)) (exact without a bias). End of life is a
+        u computed with this assessor's ratio, so two different ratios would put it at the
+        wrong u, silently. Not decidable at u ~ 0, where eta_D = 1 for every R.
         """
-        expected, _ = efficiencies(estimate.u, self.config.ratio)
-        if not (math.isfinite(expected) and math.isfinite(estimate.eta_opposing)) \
-                or abs(expected - estimate.eta_opposing) <= RATIO_TOLERANCE:
+        ratio = self.config.ratio
+        expected, _ = efficiencies(estimate.u, ratio)
+        centre = 0.5 * (float(u_from_eta_opposing(estimate.eta_opposing, ratio))
+                        + float(u_from_eta_aiding(estimate.eta_aiding, ratio)))
+        reported = efficiencies(centre, ratio)[0] if math.isfinite(centre) \
+            else estimate.eta_opposing
+        if not (math.isfinite(expected) and math.isfinite(reported)) \
+                or abs(expected - reported) <= RATIO_TOLERANCE:
             return ''
         denominator = 1.0 - estimate.eta_opposing * (1.0 + estimate.u)
         implied = estimate.u / denominator if denominator != 0.0 else math.inf
