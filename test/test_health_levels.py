@@ -255,20 +255,20 @@ def test_end_of_life_needs_u_past_u_eol_beyond_its_noise() -> None:
     assert 300.0 < first_error < 300.0 + 3.0 * sigma / rate
 
 
-def test_end_of_life_is_also_entered_when_the_rul_95_percent_bound_is_zero() -> None:
+def test_end_of_life_is_also_entered_when_the_fitted_law_is_past_it() -> None:
     """The filter's u lags accelerating wear that its window measurements show.
 
     Measured (spur-gear plant, R 30, power-law wear, `test_analyze_cli.py`): the posterior u
-    crossed u_eol 172 s after the true end of life, the RUL fitted to the measurements 69 s
-    after it with its 95 % bound.
+    crossed u_eol 172 s after the true end of life, the wear law fitted to the measurements
+    (95 % of its draws) 69 s after it.
     """
     tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.05, dwell=5.0)
     for t in np.arange(0.0, 10.0, 1.0):        # u below u_eol, the fit's p95 not yet 0
-        assert tracker.update(t, 0.2, 0.9, 0.0, rul_median=1.0, rul_p95=3.0)[0] != ERROR
+        assert tracker.update(t, 0.2, 0.9, 0.0, rul_median=1.0)[0] != ERROR
     for t in np.arange(10.0, 15.0, 1.0):       # p95 0: held for the dwell
-        assert tracker.update(t, 0.2, 0.9, 0.0, rul_median=0.0, rul_p95=0.0)[0] == WARN
-    level, message = tracker.update(15.0, 0.2, 0.9, 0.0, rul_median=0.0, rul_p95=0.0)
+        assert tracker.update(t, 0.2, 0.9, 0.0, rul_median=0.0, law_past_eol=True)[0] == WARN
+    level, message = tracker.update(15.0, 0.2, 0.9, 0.0, rul_median=0.0, law_past_eol=True)
     assert level == ERROR and 'wear law of the measurements is past u_eol 0.25' in message
-    # without a RUL band (None) only u counts, as before
+    # without it only u counts, as before
     plain = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.0, dwell=0.0)
     assert plain.update(0.0, 0.2, 0.9, 0.0)[0] == WARN

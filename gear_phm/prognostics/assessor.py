@@ -181,7 +181,8 @@ class HealthAssessor:
         level, message = self.levels.update(estimate.t, estimate.u + reading,
                                             estimate.eta_opposing,
                                             rul_operating.p5, filter_check, u_sigma,
-                                            rul_operating.median, rul_operating.p95)
+                                            rul_operating.median,
+                                            self.predictor.law_past_eol(operating))
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')

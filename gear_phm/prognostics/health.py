@@ -2,8 +2,8 @@
 
 Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 
-- ERROR: u - EOL_Z sigma_u >= u_eol, or the RUL's 95 % bound is 0 (the wear law fitted to the
-  measurements is past u_eol: end of life past reasonable doubt; includes
+- ERROR: u - EOL_Z sigma_u >= u_eol, or the wear law fitted to the measurements crossed u_eol
+  in 95 % of its draws (end of life past reasonable doubt; includes
   self-locking u >= 1 when enabled; it clears below u_eol (1 - hysteresis)), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
@@ -214,18 +214,19 @@ class LevelTracker:
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
                filter_check: tuple[int, str] = (OK, ''), u_sigma: float = 0.0,
-               rul_median: float | None = None, rul_p95: float | None = None
+               rul_median: float | None = None, law_past_eol: bool = False
                ) -> tuple[int, str]:
         """Return (level, message) at stamp ``t`` [s].
 
         Inputs: u [-], eta_D [-], the RUL's 5 % bound [s of operating time], the
         :meth:`DivergenceDetector.update` result, u's standard deviation [-] (end of life
         is entered on u - EOL_Z u_sigma), the RUL's median [s of operating time; None: a
-        RUL without a band, the median is ``rul_p5``] and its 95 % bound [s; 0: the wear law
-        fitted to the measurements is past u_eol with 95 % confidence, which also enters
-        end of life: the filter's u lags accelerating wear that its measurements show].
+        RUL without a band, the median is ``rul_p5``] and ``law_past_eol``: the wear law
+        fitted to the measurements has crossed u_eol in 95 % of its draws
+        (:meth:`~gear_phm.prognostics.rul.RulPredictor.law_past_eol`), which also enters end
+        of life (the filter's u lags accelerating wear that its measurements show).
         """
-        crossed = rul_p95 is not None and rul_p95 == 0.0
+        crossed = law_past_eol
         median = rul_p5 if rul_median is None else rul_median
         filter_level, filter_reason = filter_check
         if not math.isfinite(u):
@@ -246,7 +247,8 @@ class LevelTracker:
                 errors.append(f'{what}: u {u:.4g} >= u_eol {self.u_eol:.4g}')
             elif crossed:
                 errors.append(f'{what}: the wear law of the measurements is past u_eol '
-                              f'{self.u_eol:.4g} (RUL p95 0 s; the filter estimate u {u:.4g})')
+                              f'{self.u_eol:.4g} (95 % of its draws; the filter estimate u '
+                              f'{u:.4g})')
             else:
                 errors.append(f'{what}: u {u:.4g} reached u_eol {self.u_eol:.4g} '
                               f'(clears below {self.u_clear:.4g})')

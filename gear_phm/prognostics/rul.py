@@ -900,6 +900,13 @@ class RulPredictor:
         p5, median, p95 = inverted_cdf_quantiles(crossing, (0.05, 0.5, 0.95))
         return (p5, median, p95)
 
+    def law_past_eol(self, t: float) -> bool:
+        """Whether the fitted law crossed u_eol before time t [s] in 95 % of its draws.
+
+        From the fit alone (the filter's u, which :meth:`predict` also checks, does not count).
+        """
+        return bool(self._crossing[2] <= t)
+
     def predict(self, t: float, u: float) -> RulEstimate:
         """RUL [s] at time t [s] given the filter's current u [-] (0 once u >= u_eol)."""
         trend = self.trend
