@@ -231,3 +231,19 @@ def test_bad_array_element_is_located() -> None:
 def test_non_numeric_argument_is_named() -> None:
     with pytest.raises(ValueError, match=r"^u must be a real number or array, got 'abc'$"):
         eta_opposing('abc', 2.0)
+
+
+@pytest.mark.parametrize('ratio', [0.5, 3.0, 30.0])
+def test_float_readings_are_eq_13_both_ways(ratio: float) -> None:
+    """``readings`` (the diagnostics' per-update path) agrees with the numpy functions."""
+    from gear_phm.models.lever import efficiencies, readings, u_from_eta_aiding
+    for u in (0.0, 0.05, 0.3, 0.9):
+        eta_d, eta_i = efficiencies(u, ratio)
+        u_d, u_i = readings(eta_d, eta_i, ratio)
+        assert u_d == pytest.approx(float(u_from_eta_opposing(eta_d, ratio)), rel=1e-12,
+                                    abs=1e-15)
+        assert u_i == pytest.approx(float(u_from_eta_aiding(eta_i, ratio)), rel=1e-12,
+                                    abs=1e-15)
+        assert (u_d, u_i) == pytest.approx((u, u), abs=1e-12)
+    u_d, u_i = readings(-1.0 / ratio - 0.1, math.nan, ratio)     # no u reaches them
+    assert math.isnan(u_d) and math.isnan(u_i)

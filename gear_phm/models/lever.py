@@ -103,6 +103,16 @@ def efficiencies(u: float, ratio: float) -> tuple[float, float]:
     return eta_d, eta_i
 
 
+def _u_d_terms(eta: Any, ratio: Any) -> tuple[Any, Any]:
+    """Numerator and denominator of eq 13 (floats or arrays)."""
+    return ratio * (1.0 - eta), ratio * eta + 1.0
+
+
+def _u_i_terms(eta: Any, ratio: Any) -> tuple[Any, Any]:
+    """Numerator and denominator of eq 13, aiding (floats or arrays)."""
+    return ratio * (1.0 - eta), ratio + eta
+
+
 def u_from_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """Friction parameter u [-] from the opposing-load efficiency eta_D [-] (eq 13).
 
@@ -110,7 +120,8 @@ def u_from_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """
     eta = finite('eta', eta)
     ratio = positive('ratio', ratio)
-    return _where_valid(ratio * eta + 1.0 > 0.0, ratio * (1.0 - eta), ratio * eta + 1.0)
+    numerator, denominator = _u_d_terms(eta, ratio)
+    return _where_valid(denominator > 0.0, numerator, denominator)
 
 
 def u_from_eta_aiding(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
@@ -120,7 +131,25 @@ def u_from_eta_aiding(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """
     eta = finite('eta', eta)
     ratio = positive('ratio', ratio)
-    return _where_valid(ratio + eta > 0.0, ratio * (1.0 - eta), ratio + eta)
+    numerator, denominator = _u_i_terms(eta, ratio)
+    return _where_valid(denominator > 0.0, numerator, denominator)
+
+
+def readings(eta_d: float, eta_i: float, ratio: float) -> tuple[float, float]:
+    """(u from eta_D, u from eta_I) [-] (eq 13 both ways), for Python floats.
+
+    The per-update path of the diagnostics: the formulas of :func:`u_from_eta_opposing` and
+    :func:`u_from_eta_aiding` without numpy's per-call cost. NaN where one is undefined or
+    an argument is not finite; ``ratio`` must be > 0.
+    """
+    u_d = u_i = math.nan
+    if math.isfinite(eta_d):
+        numerator, denominator = _u_d_terms(eta_d, ratio)
+        u_d = numerator / denominator if denominator > 0.0 else math.nan
+    if math.isfinite(eta_i):
+        numerator, denominator = _u_i_terms(eta_i, ratio)
+        u_i = numerator / denominator if denominator > 0.0 else math.nan
+    return u_d, u_i
 
 
 def eta_aiding_from_opposing(eta_opposing: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:

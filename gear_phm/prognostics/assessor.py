@@ -21,7 +21,7 @@ import math
 from typing import Any
 
 from gear_phm.estimation.records import FrictionEstimate
-from gear_phm.models.lever import efficiencies, u_from_eta_aiding, u_from_eta_opposing
+from gear_phm.models.lever import efficiencies, readings
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
@@ -161,7 +161,8 @@ class HealthAssessor:
             self.utilisation.shift(offset)
         operating = self._operating_time(estimate)
         # end of life on the reading its criterion is about (eta_D: the opposing windows')
-        reading = self._reading_offset(estimate)
+        u_d, u_i = readings(estimate.eta_opposing, estimate.eta_aiding, self.config.ratio)
+        reading = self._reading_offset(estimate.u, u_d, u_i)
         self.predictor.u_eol = self.u_eol - reading
         if math.isfinite(estimate.measurement) and estimate.measurement_variance > 0.0:
             # the window's measurement: independent of the others, no filter lag
@@ -186,7 +187,7 @@ class HealthAssessor:
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
-        mismatch = self._ratio_mismatch(estimate)
+        mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i))
         if mismatch:
             level, message = ERROR, mismatch
         self.latest = HealthState(estimate.stamp_ns, level, message, estimate.u, u_sigma,
@@ -198,23 +199,23 @@ class HealthAssessor:
                                   utilisation)
         return self.latest
 
-    def _reading_offset(self, estimate: FrictionEstimate) -> float:
+    def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:
         """Return the end-of-life criterion's reading of u minus u [-] (0 without one).
 
         The estimator reports each efficiency as its direction's windows read it (u plus the
         direction's learned bias, :meth:`~gear_phm.estimation.kalman.FrictionFilter.
         direction_bias`); u itself is the midpoint of the two. ``eta_opposing_min`` is about
         the opposing windows' reading, self-locking about the aiding ones', ``u_max`` about u.
-        On a plant without mismatch (and for an older stream) the offset is 0.
+        On a plant without mismatch (and for an older stream) the offset is 0. ``u_d``,
+        ``u_i``: the readings of u that the reported eta_D and eta_I give (eq 13).
         """
-        ratio = self.config.ratio
         if self.eol_reason == 'eta_opposing_min':
-            read = float(u_from_eta_opposing(estimate.eta_opposing, ratio))
+            read = u_d
         elif self.eol_reason == 'self_locking':
-            read = float(u_from_eta_aiding(estimate.eta_aiding, ratio))
+            read = u_i
         else:
             return 0.0
-        offset = read - estimate.u
+        offset = read - u
         return offset if math.isfinite(offset) else 0.0
 
     def _on_operating_time(self, estimate: FrictionEstimate) -> bool:
@@ -263,7 +264,7 @@ class HealthAssessor:
         self.utilisation = fresh.utilisation
         self.rejected = rejected
 
-    def _ratio_mismatch(self, estimate: FrictionEstimate) -> str:
+    def _ratio_mismatch(self, estimate: FrictionEstimate, centre: float) -> str:
         """'' or why the estimator's ratio differs from this assessor's.
 
         The estimator reports eta_D and eta_I with its own ratio at u plus and minus its
@@ -271,12 +272,11 @@ class HealthAssessor:
         must map them back to two readings whose midpoint is u. Eq 10 inverted for R gives
         the implied ratio R = u / (1 - eta_D (1 + u)) (exact without a bias). End of life is a
         u computed with this assessor's ratio, so two different ratios would put it at the
-        wrong u, silently. Not decidable at u ~ 0, where eta_D = 1 for every R.
+        wrong u, silently. Not decidable at u ~ 0, where eta_D = 1 for every R. ``centre``: the
+        midpoint of the readings that eq 13 gives for the reported efficiencies.
         """
         ratio = self.config.ratio
         expected, _ = efficiencies(estimate.u, ratio)
-        centre = 0.5 * (float(u_from_eta_opposing(estimate.eta_opposing, ratio))
-                        + float(u_from_eta_aiding(estimate.eta_aiding, ratio)))
         reported = efficiencies(centre, ratio)[0] if math.isfinite(centre) \
             else estimate.eta_opposing
         if not (math.isfinite(expected) and math.isfinite(reported)) \
