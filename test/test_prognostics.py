@@ -317,3 +317,22 @@ def test_end_of_life_on_the_opposing_reading_when_the_directions_disagree() -> N
             assert state.message.startswith('end of life (eta_opposing_min)')
     # u + 0.01 - 1.645e-4 >= 0.6 at t = 540.2 s; u alone would reach it at 550.2 s
     assert first_error == pytest.approx(541.0, abs=1.0)
+
+
+def test_utilisation_is_measured_from_the_first_update_with_operating_time() -> None:
+    """A first update without operating time (lost to a callback race, or an older estimator)
+    does not count as motion: the utilisation of a gearbox moving half the time is 0.5.
+
+    Measured in the suite (test_diagnostics_node.py, live node): 0.5013 while the first
+    interval was taken as motion throughout.
+    """
+    monitor = HealthAssessor(HealthConfig())
+    for k, t in enumerate(np.arange(0.0, 4000.0, 10.0)):
+        u = 0.05 + 1.5e-4 * t
+        operating = 0.5 * t if k else math.nan
+        state = monitor.on_estimate(FrictionEstimate(int(t * 1e9), u, 1.5e-4,
+                                                     (1e-6, 0.0, 1e-12),
+                                                     operating_time=operating))
+        assert state is not None
+    assert state.utilisation == pytest.approx(0.5, abs=1e-12)
+    assert state.operating_time == 0.5 * 3990.0

@@ -155,10 +155,12 @@ class HealthAssessor:
                 and not math.isfinite(self.latest.operating_time):
             # the stream gained operating time (its first updates came without: the topic
             # matched late, or a newer estimator): the history so far moves onto the
-            # operating axis, as if the gearbox had moved throughout it
+            # operating axis, as if the gearbox had moved throughout it; the utilisation is
+            # measured from here on (taking that motion as real made a live node's 0.5 come
+            # out 0.5013 when its first update lost its operating time to a callback race)
             offset = estimate.operating_time - estimate.t
             self.predictor.shift(offset)
-            self.utilisation.shift(offset)
+            self.utilisation.reset()
         operating = self._operating_time(estimate)
         # end of life on the reading its criterion is about (eta_D: the opposing windows')
         u_d, u_i = readings(estimate.eta_opposing, estimate.eta_aiding, self.config.ratio)

@@ -195,11 +195,6 @@ class Utilisation:
                 self.operating += ds
         self._last = (t, s)
 
-    def shift(self, offset: float) -> None:
-        """Move the last update's operating time by ``offset`` [s] (onto another axis)."""
-        if self._last is not None:
-            self._last = (self._last[0], self._last[1] + offset)
-
     @property
     def fraction(self) -> float:
         """Operating over elapsed time [-] (1 before any time elapsed)."""
