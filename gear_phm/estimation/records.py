@@ -32,7 +32,9 @@ class FrictionEstimate:
 
     ``stamp_ns`` is that sample's stamp [ns]; u [-], rate du/dt [1/s]; ``covariance`` is
     (P_uu, P_ur, P_rr) [-, 1/s, 1/s^2]; ``eta_opposing``/``eta_aiding`` [-] are eqs 10/12 at
-    u; ``measured_efficiency`` [-] is the newest window's (NaN before the first);
+    u plus each direction's learned bias (its windows' reading; the bias is 0 without a
+    mismatch between directions); ``measured_efficiency`` [-] is the newest window's (NaN
+    before the first);
     ``innovation`` [-], its variance ``innovation_variance`` S and ``nis`` come from the last
     filter update; ``samples_used``/``samples_rejected`` count samples so far;
     ``power_flow`` is the code (:mod:`gear_phm.models.power_flow`) of the newest sample;

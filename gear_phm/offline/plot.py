@@ -65,10 +65,10 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     u, sigma = e.u, e.u_sigma
     fig, (ax_eta, ax_u, ax_rul, ax_level) = plt.subplots(
         4, 1, sharex=True, figsize=(10, 11), gridspec_kw={'height_ratios': [3, 3, 3, 0.5]})
-    ax_eta.plot(t, eta_opposing(np.maximum(u, -0.5), ratio), color='C0',
-                label='eta_D from u_hat')
-    ax_eta.plot(t, eta_aiding(np.maximum(u, -0.5), ratio), color='C1',
-                label='eta_I from u_hat')
+    # the estimator's own efficiencies (eqs 10/12 at u_hat plus each direction's learned
+    # bias), not recomputed from u_hat: on a plant whose directions disagree they differ
+    ax_eta.plot(t, e.eta_opposing, color='C0', label='eta_D from u_hat')
+    ax_eta.plot(t, e.eta_aiding, color='C1', label='eta_I from u_hat')
     if analysis.measurements:
         m_t = np.array([(stamp - t0) * 1e-9 for stamp, _, _ in analysis.measurements])
         eta = np.array([m.eta for _, m, _ in analysis.measurements])

@@ -226,7 +226,6 @@ class LevelTracker:
         (:meth:`~gear_phm.prognostics.rul.RulPredictor.law_past_eol`), which also enters end
         of life (the filter's u lags accelerating wear that its measurements show).
         """
-        crossed = law_past_eol
         median = rul_p5 if rul_median is None else rul_median
         filter_level, filter_reason = filter_check
         if not math.isfinite(u):
@@ -235,8 +234,8 @@ class LevelTracker:
         lost = latch['lost'].update(t, filter_level == ERROR, filter_level == ERROR)
         mismatch = latch['mismatch'].update(t, filter_level >= WARN, filter_level >= WARN)
         sigma = u_sigma if math.isfinite(u_sigma) and u_sigma > 0.0 else 0.0
-        eol = latch['eol'].update(t, u - EOL_Z * sigma >= self.u_eol or crossed,
-                                  u >= self.u_clear or crossed)
+        eol = latch['eol'].update(t, u - EOL_Z * sigma >= self.u_eol or law_past_eol,
+                                  u >= self.u_clear or law_past_eol)
         eta = latch['eta'].update(t, eta_opposing < self.eta_warn, eta_opposing < self.eta_clear)
         rul = latch['rul'].update(t, median < self.warn_horizon, rul_p5 < self.rul_clear)
         errors = []
@@ -245,7 +244,7 @@ class LevelTracker:
                 else f'end of life ({self.eol_reason})'
             if u >= self.u_eol:
                 errors.append(f'{what}: u {u:.4g} >= u_eol {self.u_eol:.4g}')
-            elif crossed:
+            elif law_past_eol:
                 errors.append(f'{what}: the wear law of the measurements is past u_eol '
                               f'{self.u_eol:.4g} (95 % of its draws; the filter estimate u '
                               f'{u:.4g})')
