@@ -73,6 +73,23 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     assert 'end of life' in statuses[changes[1]].message
 
 
+@pytest.mark.parametrize('trend', ['auto', 'proportional', 'linear'])
+def test_analyze_fits_the_wear_law_the_trend_option_names(tmp_path: Path, trend: str) -> None:
+    """bags/wearing wears as u0 exp(k t): 'auto' finds the proportional law on its own."""
+    out = tmp_path / 'out'
+    assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
+                 str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
+                 '--trend', trend]) == 0
+    health = json.loads((out / 'summary.json').read_text())['health']
+    fitted = health['trend']
+    assert fitted['model'] == ('proportional' if trend == 'auto' else trend)
+    if fitted['model'] == 'proportional':
+        # true k: ln(0.30 / 0.05) / 300 s of elapsed time; the fit is in operating time
+        utilisation = float(health['values']['utilisation'])
+        assert 0.5 < utilisation < 1.0
+        assert fitted['shape'] == pytest.approx(math.log(6.0) / 300.0 / utilisation, rel=0.05)
+
+
 def test_plot_helpers_true_end_of_life_and_level_runs() -> None:
     truth = np.array([[0.0, 0.1], [1e9, 0.2], [2e9, 0.25], [3e9, 0.3]])    # stamp ns, u
     assert true_end_of_life(truth, 0.25) == 2_000_000_000       # first u >= u_eol, as evaluate

@@ -53,7 +53,7 @@ def test_shape_prior_pulls_an_early_fit_to_the_fleet_shape() -> None:
 
 
 def test_shape_prior_rejects_what_has_no_shape() -> None:
-    with pytest.raises(ValueError, match='exponential or power'):
+    with pytest.raises(ValueError, match='exponential, power or proportional'):
         ShapePrior('linear', 0.0, 0.1)
     with pytest.raises(ValueError, match='log sigma > 0'):
         ShapePrior('power', 1.0, 0.0)
@@ -91,7 +91,8 @@ def test_fleet_cli_population_prior(tmp_path: Path) -> None:
     assert fleet.returncode == 0, fleet.stderr
     run = json.loads((out / 'fleet_run.json').read_text())
     prior = run['population_prior']
-    assert prior is not None and prior['model'] == 'exponential', run
+    # the simulator's exponential wear, u0 exp(k t), is the proportional law
+    assert prior is not None and prior['model'] == 'proportional', run
     rows = {line.split(',')[0]: line.split(',') for line in
             (out / 'fleet.csv').read_text().splitlines()[1:]}
     ended = {unit for unit, row in rows.items() if row[14] == 'ERROR' and 'end of life' in

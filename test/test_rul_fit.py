@@ -15,8 +15,19 @@ LIFE, U0, U_EOL = 3000.0, 0.05, 0.6
 SIGMA = 2e-3                                  # noise of the synthetic u histories [-]
 
 
+#: 'offset': u = c + a exp(k t) with a = OFFSET_A (the simulator's exponential has c = 0)
+OFFSET_A = 0.01
+
+
+def _offset_k() -> float:
+    """Return k [1/s] of the 'offset' law: c + a exp(k LIFE) = U_EOL with c = U0 - a."""
+    return math.log((U_EOL - U0 + OFFSET_A) / OFFSET_A) / LIFE
+
+
 def _law(kind: str) -> Callable[[np.ndarray], np.ndarray]:
     """u(t) going from U0 to U_EOL in LIFE seconds (power: exponent 3)."""
+    if kind == 'offset':
+        return lambda t: U0 - OFFSET_A + OFFSET_A * np.exp(_offset_k() * np.asarray(t))
     wear = Wear.reaching(kind, U0, U_EOL, LIFE, exponent=3.0)
     assert wear.time_to_reach(U_EOL) == pytest.approx(LIFE)
     return wear.value
@@ -33,16 +44,25 @@ def _feed(predictor: RulPredictor, kind: str, until: float, seed: int,
     return float(t[-1])
 
 
-@pytest.mark.parametrize('kind', ['linear', 'exponential', 'power'])
+#: The law each kind of history should be fitted with: the simulator's exponential wear,
+#: u0 exp(k t), is the proportional law; the exponential law has an offset.
+FITTED = {'linear': 'linear', 'exponential': 'proportional', 'offset': 'exponential',
+          'power': 'power'}
+
+
+@pytest.mark.parametrize('kind', ['linear', 'exponential', 'offset', 'power'])
 @pytest.mark.parametrize('seed', [0, 1, 2])
 def test_aicc_picks_the_wear_law(kind: str, seed: int) -> None:
     predictor = RulPredictor(U_EOL)
     t_now = _feed(predictor, kind, 0.5 * LIFE, seed)
     trend = predictor.trend
-    assert trend.model == kind
-    assert trend.weight > (0.5 if kind == 'linear' else 0.9)   # linear nests in both others
+    assert trend.model == FITTED[kind]
+    # the line nests in the exponential and power laws, the proportional in the exponential
+    assert trend.weight > (0.5 if kind in ('linear', 'exponential') else 0.9)
     if kind == 'exponential':
         assert trend.shape == pytest.approx(math.log(U_EOL / U0) / LIFE, rel=0.1)
+    if kind == 'offset':
+        assert trend.shape == pytest.approx(_offset_k(), rel=0.1)
     if kind == 'power':
         assert trend.shape == pytest.approx(3.0, rel=0.1)
     true_rul = LIFE - t_now
@@ -292,7 +312,8 @@ def test_a_law_extrapolates_only_once_its_own_slope_is_significant() -> None:
     A curved law's slope now is uncertain with its shape. Measured (power wear, 30 000 s life,
     0.114 of it): an exponential with k = 0.0032/s and a power law with p = 8.8 (their slopes
     at 1.2 sigma) put the RUL median at 2700 s against a true 23 000 s, a false WARN. Such a
-    law stays out of the RUL until its slope passes detect_z; the RUL is the line's meanwhile.
+    law stays out of the RUL until its slope passes detect_z; the RUL is the line's and the
+    proportional law's meanwhile (two parameters each: their curvature is not free).
     """
     rng = np.random.default_rng(2)
     t = np.arange(0.0, 0.3 * LIFE, 2.0)
@@ -307,9 +328,46 @@ def test_a_law_extrapolates_only_once_its_own_slope_is_significant() -> None:
         predictor.add(ti, ui, SIGMA ** 2, independent=True)
         rul = predictor.predict(ti, ui)
         if math.isfinite(rul.median):
-            models.append((ti, predictor.trend.model, predictor.trend.weight))
-    at = {ti: (model, weight) for ti, model, weight in models}
-    assert at[float(t[early][-1])] == ('linear', 1.0)          # the curved laws are out
+            models.append((ti, predictor.trend.model, rul.median))
+    at = {ti: (model, median) for ti, model, median in models}
+    model, median = at[float(t[early][-1])]
+    assert model in ('linear', 'proportional')                 # the free-shape laws are out
+    assert median > 0.5 * (LIFE - float(t[early][-1]))          # no early end of life
     assert models[-1][1] == 'power'                             # ... until their slope is in
-    first_curved = next(ti for ti, model, _ in models if model != 'linear')
+    first_curved = next(ti for ti, model, _ in models if model in ('exponential', 'power'))
     assert 0.15 * LIFE < first_curved < 0.3 * LIFE
+
+
+def test_before_24_points_growth_needs_evidence_in_proportion() -> None:
+    """Below DETECT_MIN_POINTS effective points, growth needs detect_z * 24 / n_eff sigma.
+
+    A steep rise (a 300 s life at windows 1 s apart) is plain at 16 points: the RUL is finite
+    there (a hard minimum of 24 points kept it inf for the first 0.1 of the life). A marginal
+    one, at 2.6 sigma on both tests at 16 points, is not yet growth; it is once it goes on.
+    """
+    t = np.arange(16.0)
+    precision = np.full(t.size, SIGMA ** -2)
+    histories = {}
+    for name, slope, seed in (('steep', 0.0018, 0), ('marginal', 0.00035, 1)):
+        rng = np.random.default_rng(seed)
+        histories[name] = U0 + slope * t + SIGMA * rng.standard_normal(t.size)
+    marginal = fit_laws(t, histories['marginal'], precision)[0]
+    z_rise = rise(marginal, t, histories['marginal'], precision) / rise_sigma(
+        t, precision, True, marginal.scale)
+    assert marginal.effective_points == pytest.approx(16.0)
+    assert 2.0 < z_rise < 3.0 and 2.0 < marginal.slope / marginal.slope_sigma < 3.0
+    for name, expected in (('steep', True), ('marginal', False)):
+        predictor = RulPredictor(U_EOL)
+        for ti, ui in zip(t.tolist(), histories[name].tolist()):
+            predictor.add(ti, ui, SIGMA ** 2, independent=True)
+        rul = predictor.predict(15.0, float(histories[name][-1]))
+        assert math.isfinite(rul.median) is expected, (name, rul)
+        if name == 'steep':
+            assert rul.p5 <= (U_EOL - U0) / 0.0018 - 15.0 <= rul.p95
+    rng = np.random.default_rng(1)
+    longer = np.arange(48.0)
+    u = U0 + 0.00035 * longer + SIGMA * rng.standard_normal(longer.size)
+    predictor = RulPredictor(U_EOL)
+    for ti, ui in zip(longer.tolist(), u.tolist()):
+        predictor.add(ti, ui, SIGMA ** 2, independent=True)
+    assert math.isfinite(predictor.predict(47.0, float(u[-1])).median)

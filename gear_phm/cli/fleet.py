@@ -35,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--population-prior', action='store_true',
                         help='units at end of life teach the others their wear law: analyse '
                              'the running units again with a prior on its shape (needs 3 '
-                             'units at end of life with one exponential or power law)')
+                             'units at end of life with one exponential, power or '
+                             'proportional law)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     add_health_arguments(parser)
 

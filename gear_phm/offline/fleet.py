@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from gear_phm.prognostics import ShapePrior
+from gear_phm.prognostics.rul import SHAPED
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
@@ -47,17 +48,17 @@ PRIOR_MIN_LOG_SIGMA = 0.1
 def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
     """Return the fleet's wear-law prior from its units' analyses (summary.json dicts), or None.
 
-    The units at end of life (u >= u_eol) whose fitted law is exponential or power vote; the
-    law of most votes, with at least :data:`PRIOR_MIN_UNITS`, gives the prior: the mean and
-    the spread (at least :data:`PRIOR_MIN_LOG_SIGMA`) of their log shapes. A linear law has no
-    shape, so a fleet that wears linearly gets no prior.
+    The units at end of life (u >= u_eol) whose fitted law has a shape (exponential, power or
+    proportional) vote; the law of most votes, with at least :data:`PRIOR_MIN_UNITS`, gives
+    the prior: the mean and the spread (at least :data:`PRIOR_MIN_LOG_SIGMA`) of their log
+    shapes. A linear law has no shape, so a fleet that wears linearly gets no prior.
     """
     shapes: dict[str, list[float]] = {}
     for summary in summaries:
         if not _at_end_of_life(summary):
             continue
         trend = summary['health']['trend']
-        if trend['model'] in ('exponential', 'power') and trend['shape'] > 0.0:
+        if trend['model'] in SHAPED and trend['shape'] > 0.0:
             shapes.setdefault(trend['model'], []).append(math.log(trend['shape']))
     if not shapes:
         return None

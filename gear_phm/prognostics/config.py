@@ -10,8 +10,9 @@ from dataclasses import asdict, dataclass, fields
 import math
 
 from gear_phm.parameters import check_values, defaults, ParamSpec
+from gear_phm.prognostics.rul import MODELS
 
-TRENDS = ('auto', 'linear', 'exponential', 'power')
+TRENDS = ('auto', *MODELS)
 #: The derived eta_warn lies this fraction of the way from eta_opposing_min up to 1 [-].
 ETA_WARN_MARGIN = 0.25
 

@@ -16,6 +16,14 @@ newest bin time t_end (s = t - t_end <= 0, tau = t - t_start >= 0, T = t_end - t
 - linear:       u = u_end + r s
 - exponential:  u = u_end + r (exp(k s) - 1) / k                 (u = c + a exp(k t), k > 0)
 - power:        u = u_end + r T / p ((tau / T)^p - 1)            (u = c + a (t - t_start)^p)
+- proportional: u = u_end exp(k s), r = k u_end                  (du/dt = k u, k > 0)
+
+The proportional law is the exponential one without its offset c: wear whose rate grows with
+the friction itself (progpy's exponential degradation model). It has two parameters
+(u_end, k), like the line, so the data need not show the curvature before it can be chosen:
+its curvature, r^2 / u, comes with the slope. The line and it are the two extrapolations a
+short history cannot tell apart; their Akaike weights share the RUL until the data can
+(a 300 s exponential life: from 0.04 of the life it is within 10 %; the line, 40 % long).
 
 The shape (k or p) is found on a log grid (refined by a parabola through the three best grid
 points) with u_end and r in closed form (weighted least squares with the bins' precisions).
@@ -56,15 +64,17 @@ the laws in). The RUL is finite only when the growth of u is significant twice o
    first-quarter mean (:func:`rise`: a law fitted to a few points can extrapolate a steep
    start that the data do not show).
 
-A history of measurements needs ``DETECT_MIN_POINTS`` effective points first. Otherwise every
-quantile is inf (model 'none'). Once detected, growth is dropped only when the
-tests fail at ``DETECT_RELEASE`` (0.5) times detect_z: a hysteresis, so that the RUL does not
-toggle between finite and inf (and the RUL-based WARN with it) while the evidence hovers at
-the threshold (3 of 18 matrix runs did, 2026-11-24). Test 2 is needed early in a history: a
-few seconds of a filter settling from its prior or wandering within its sigma are a
-"significant" slope to a fit of a handful of correlated points (bags/healthy gave a RUL p5 of
-4 s, hence a false WARN, at 5 s). The rise of each law over the span T: r T (linear),
-r (1 - exp(-k T)) / k (exponential), r T / p (power). Already worn (the filter's u >= u_eol):
+Before a history of measurements has ``DETECT_MIN_POINTS`` effective points, growth is first
+detected only at detect_z DETECT_MIN_POINTS / n_eff sigma (a steep rise is plain from a dozen
+windows, a marginal one is not). Otherwise every quantile is inf (model 'none'). Once
+detected, growth is dropped only when the tests fail at ``DETECT_RELEASE`` (0.5) times
+detect_z: a hysteresis, so that the RUL does not toggle between finite and inf (and the
+RUL-based WARN with it) while the evidence hovers at the threshold (3 of 18 matrix runs did,
+2026-11-24). Test 2 is needed early in a history: a few seconds of a filter settling from
+its prior or wandering within its sigma are a "significant" slope to a fit of a handful of
+correlated points (bags/healthy gave a RUL p5 of 4 s, hence a false WARN, at 5 s). The rise
+of each law over the span T: r T (linear), r (1 - exp(-k T)) / k (exponential and
+proportional), r T / p (power). Already worn (the filter's u >= u_eol):
 every quantile is 0.
 """
 from __future__ import annotations
@@ -78,11 +88,17 @@ import numpy as np
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
 LINEAR, EXPONENTIAL, POWER, NONE = 'linear', 'exponential', 'power', 'none'
-MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER)
+PROPORTIONAL = 'proportional'
+MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER, PROPORTIONAL)
+#: The laws with a shape (k or p): a population prior can be learned for them.
+SHAPED: tuple[str, ...] = (EXPONENTIAL, POWER, PROPORTIONAL)
 
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
 #: Both laws accelerate (k > 0, p >= P_FLOOR): see P_FLOOR.
 K_SPAN_GRID = np.geomspace(0.02, 30.0, 80)
+#: The proportional law's k span grid: from growth too slow to see (k -> 0 is a constant u,
+#: not the line) to the exponential's limit.
+K_PROPORTIONAL_GRID = np.geomspace(1e-4, 30.0, 100)
 #: Smallest power-law exponent fitted or drawn. Wear-out does not decelerate: a running-in
 #: or a filter settling from its prior early in a history fits p < 1 and extrapolates an
 #: asymptote, i.e. RULs of 1e6 s at 6-13 % of a 300 s exponential life (2026-11-25), and a
@@ -92,11 +108,13 @@ P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
 #: Once growth is detected, it is dropped only when both tests fall below this fraction of
 #: detect_z (hysteresis: one WARN per real crossing, docs/prognostics.md).
 DETECT_RELEASE = 0.5
-#: Effective points (n_eff) a history of measurements needs before growth can first be
-#: detected (posteriors: none; their n_eff is small by their correlation). With
-#: fewer, a 2-sigma slope is a noise excursion often enough to be found, lost and found
-#: again within seconds (a 3000 s linear matrix run, seed 1, 2026-11-25: detected at 14
-#: points, released at 19, detected again at 29), and the RUL-based WARN with it.
+#: Effective points (n_eff) of a history of measurements below which growth is first
+#: detected only at detect_z DETECT_MIN_POINTS / n_eff sigma (posteriors: no such rule; their
+#: n_eff is small by their correlation). With fewer, a 2-sigma slope is a noise excursion
+#: often enough to be found, lost and found again within seconds (a 3000 s linear matrix
+#: run, seed 1, 2026-11-25: detected at 14 points, released at 19, detected again at 29), and
+#: the RUL-based WARN with it. A hard minimum of 24 points (until 2026-11-26) kept the RUL of
+#: a 300 s life inf for its first 0.1, while its rise was at 6 sigma from 0.04.
 DETECT_MIN_POINTS = 24.0
 #: A curved law joins the RUL's mixture only when it fits better than the line by this many
 #: sigma (likelihood ratio): before, its extrapolation is unconstrained. On a 30 000 s linear
@@ -115,7 +133,7 @@ class Trend:
     """Fitted wear law at the newest history time ``t_end`` [s].
 
     u_end [-], slope r [1/s] and shape (k [1/s] or p [-], 0 for linear); ``covariance`` of
-    (u_end, r, shape), row-major.
+    (u_end, r, shape), row-major (proportional: rank 2, r = k u_end to first order).
     """
 
     model: str = NONE
@@ -384,7 +402,7 @@ def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: fl
     """
     shape = np.asarray(shape, dtype=float)[:, None]
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        if model == EXPONENTIAL:
+        if model in (EXPONENTIAL, PROPORTIONAL):
             ks = shape * s
             e = np.exp(ks)
             g = np.expm1(ks) / shape
@@ -423,9 +441,66 @@ class _Fit:
     model: str
     params: np.ndarray           # u_end, r (, shape)
     rss: float
-    jacobian: np.ndarray         # (n, 2 or 3)
+    jacobian: np.ndarray         # (n, free): in u_end, r (, shape); proportional: u_end, k
     #: curved laws: the shape grid and its profile rss (prior penalty included)
     profile: tuple[np.ndarray, np.ndarray] | None = None
+    #: number of free parameters
+    free: int = 2
+
+    def expanded(self, cov: np.ndarray) -> np.ndarray:
+        """Return the covariance ``cov`` of the free parameters as one of (u_end, r, shape).
+
+        Proportional: r = k u_end, to first order.
+        """
+        if self.model != PROPORTIONAL:
+            return cov
+        u_end, _, k = (float(v) for v in self.params)
+        a = np.array([[1.0, 0.0], [k, u_end], [0.0, 1.0]])
+        return np.asarray(a @ cov @ a.T)
+
+
+def _refined(grid: np.ndarray, rss: np.ndarray, best: int) -> float:
+    """Return the shape at the vertex of a parabola in log(shape) through the 3 best points."""
+    shape = float(grid[best])
+    if 0 < best < grid.size - 1:
+        y0, y1, y2 = rss[best - 1], rss[best], rss[best + 1]
+        denominator = y0 - 2.0 * y1 + y2
+        if denominator > 0.0:
+            step = math.log(grid[best + 1] / grid[best])
+            shape = float(grid[best] * math.exp(0.5 * step * (y0 - y2) / denominator))
+    return shape
+
+
+def _fit_proportional(s: np.ndarray, span: float, u: np.ndarray, w: np.ndarray,
+                      prior: tuple[ShapePrior, float] | None = None) -> _Fit | None:
+    """Best fit of u = u_end exp(k s): closed form in u_end, a grid in k.
+
+    ``prior``: as in :func:`_fit_model`.
+    """
+    grid = K_PROPORTIONAL_GRID / span
+
+    def profile(k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        with np.errstate(over='ignore', invalid='ignore'):
+            g = np.exp(np.asarray(k, dtype=float)[:, None] * s)
+            sgg, sgu = (g * g) @ w, g @ (w * u)
+            b = np.where(sgg > 0.0, sgu / np.where(sgg > 0.0, sgg, 1.0), 0.0)
+            rss = np.where(sgg > 0.0, np.maximum(w @ (u * u) - b * sgu, 0.0), np.inf)
+        if prior is not None:
+            rss = rss + prior[1] * prior[0].penalty(np.asarray(k, dtype=float))
+        return rss, b, g
+    rss, _, _ = profile(grid)
+    best = int(np.argmin(rss))
+    if not math.isfinite(rss[best]):
+        return None
+    candidates = np.array([_refined(grid, rss, best), float(grid[best])])
+    rss2, b, g = profile(candidates)
+    i = 0 if rss2[0] <= rss2[1] else 1
+    k, u_end = float(candidates[i]), float(b[i])
+    if not u_end > 0.0:
+        return None
+    jacobian = np.column_stack([g[i], u_end * s * g[i]])
+    return _Fit(PROPORTIONAL, np.array([u_end, k * u_end, k]), float(rss2[i]), jacobian,
+                (grid, rss), free=2)
 
 
 @dataclass(frozen=True)
@@ -433,12 +508,12 @@ class ShapePrior:
     """A population prior on a wear law's shape (issue 13): log-normal on k or p.
 
     Units that reached their end of life teach the fleet its wear law
-    (:func:`gear_phm.offline.fleet.population_prior`): ``model`` (exponential or power) is
-    then the only law fitted, and its shape has the prior log(shape) ~ N(``log_mean``,
-    ``log_sigma``^2), combined with the history's likelihood (a MAP shape, and the prior's
-    information added to the parameter covariance). The exponential's k is in 1/s of the time
-    axis; the power law's p is dimensionless, so it carries over between units of different
-    wear speeds.
+    (:func:`gear_phm.offline.fleet.population_prior`): ``model`` (exponential, power or
+    proportional) is then the only law fitted, and its shape has the prior log(shape) ~
+    N(``log_mean``, ``log_sigma``^2), combined with the history's likelihood (a MAP shape, and
+    the prior's information added to the parameter covariance). The exponential's and the
+    proportional law's k are in 1/s of the time axis; the power law's p is dimensionless, so
+    it carries over between units of different wear speeds.
     """
 
     model: str
@@ -446,8 +521,9 @@ class ShapePrior:
     log_sigma: float
 
     def __post_init__(self) -> None:
-        if self.model not in (EXPONENTIAL, POWER):
-            raise ValueError(f'a shape prior needs exponential or power, got {self.model!r}')
+        if self.model not in SHAPED:
+            raise ValueError(f'a shape prior needs exponential, power or proportional, got '
+                             f'{self.model!r}')
         if not (math.isfinite(self.log_mean) and self.log_sigma > 0.0):
             raise ValueError(f'prior log mean must be finite and log sigma > 0, got '
                              f'{self.log_mean!r}, {self.log_sigma!r}')
@@ -465,6 +541,8 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
 
     ``prior``: (shape prior, residual scale): the shape then minimises rss + scale * penalty.
     """
+    if model == PROPORTIONAL:
+        return _fit_proportional(s, span, u, w, prior)
     if model == LINEAR:
         rss, b0, b1 = _profile(s[None, :], u, w)
         if not math.isfinite(rss[0]):
@@ -479,13 +557,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
     best = int(np.argmin(rss))
     if not math.isfinite(rss[best]):
         return None
-    shape = float(grid[best])
-    if 0 < best < grid.size - 1:                   # parabola in log(shape) through 3 points
-        y0, y1, y2 = rss[best - 1], rss[best], rss[best + 1]
-        denominator = y0 - 2.0 * y1 + y2
-        if denominator > 0.0:
-            step = math.log(grid[best + 1] / grid[best])
-            shape = float(grid[best] * math.exp(0.5 * step * (y0 - y2) / denominator))
+    shape = _refined(grid, rss, best)
     g, dg = _basis(model, np.array([shape, float(grid[best])]), s, x, span)
     rss2, b0, b1 = _profile(g, u, w)
     if prior is not None:
@@ -494,18 +566,19 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
     shape = shape if i == 0 else float(grid[best])
     jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
     return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian,
-                (grid, rss))
+                (grid, rss), free=3)
 
 
 def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
                 shape_information: float = 0.0) -> np.ndarray | None:
     """Return scale (J^T W J + scale P)^-1, with column equilibration; None when singular.
 
-    P is zero but for ``shape_information`` [1/shape^2] on the shape (a prior's).
+    P is zero but for ``shape_information`` [1/shape^2] on the shape (the last parameter: a
+    prior's).
     """
     m = jacobian.T @ (jacobian * w[:, None])
     if shape_information > 0.0:
-        m[2, 2] += scale * shape_information
+        m[-1, -1] += scale * shape_information
     d = np.sqrt(np.diag(m))
     if not np.all(d > 0.0):
         return None
@@ -536,10 +609,10 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
     fits = {m: f for m in models if (f := _fit_model(m, s, x, span, u, precision)) is not None}
     if not fits:
         return ()
-    flexible = min(fits.values(), key=lambda f: (-f.params.size, f.rss))
+    flexible = min(fits.values(), key=lambda f: (-f.free, f.rss))
     residuals = np.sqrt(precision) * (u - _fitted_values(flexible, s, x, span))
     n_eff = _effective_points(residuals)
-    sigma2 = max(flexible.rss / max(n - flexible.params.size, 1), 1.0)
+    sigma2 = max(flexible.rss / max(n - flexible.free, 1), 1.0)
     information = 0.0
     if prior is not None:       # the MAP shape, at the likelihood fit's residual scale
         fitted = _fit_model(prior.model, s, x, span, u, precision,
@@ -550,7 +623,7 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
         information = 1.0 / (float(fitted.params[2]) * prior.log_sigma) ** 2
     laws = []
     for name, fit in fits.items():
-        k = fit.params.size
+        k = fit.free
         if not n_eff > k + 1.0:
             continue
         aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
@@ -558,21 +631,23 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
         cov = _covariance(fit.jacobian, precision, scale, information)
         low, high = _shape_range(fit, scale)
         if cov is not None:
+            cov = fit.expanded(cov)
             laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
                                      math.sqrt(max(float(cov[1, 1]), 0.0)),
-                                     float(fit.params[2]) if k == 3 else 0.0, span,
+                                     float(fit.params[2]) if name != LINEAR else 0.0, span,
                                      tuple(float(v) for v in cov.ravel()), n, n_eff,
                                      scale=scale, shape_low=low, shape_high=high)))
     if not laws:
         return ()
     if LINEAR in fits and len(laws) > 1:
         # a curved law extends the line (k -> 0, p = 1): it is extrapolated only once its
-        # curvature is significant (its fit better than the line's by CURVATURE_Z^2 sigma^2)
+        # curvature is significant (its fit better than the line's by CURVATURE_Z^2 sigma^2).
+        # The proportional law does not extend the line: its curvature is not a free parameter
         line = fits[LINEAR].rss
 
         def z(name: str) -> float:
             return CURVATURE_Z * (DETECT_RELEASE if name in admitted else 1.0)
-        laws = [law for law in laws if law[1].model == LINEAR
+        laws = [law for law in laws if law[1].model in (LINEAR, PROPORTIONAL)
                 or (line - fits[law[1].model].rss) > z(law[1].model) ** 2 * sigma2]
     laws.sort(key=lambda law: law[0])
     weights = np.exp(-0.5 * (np.array([law[0] for law in laws]) - laws[0][0]))
@@ -616,6 +691,8 @@ def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.n
     """Return the fit's u at the history's times."""
     if fit.model == LINEAR:
         return np.asarray(fit.params[0] + fit.params[1] * s)
+    if fit.model == PROPORTIONAL:
+        return np.asarray(fit.params[0] * np.exp(fit.params[2] * s))
     g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
     return np.asarray(fit.params[0] + fit.params[1] * g[0])
 
@@ -629,7 +706,7 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
     """
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         ratio = gap / rate
-        if model == EXPONENTIAL:
+        if model in (EXPONENTIAL, PROPORTIONAL):
             growth = shape * ratio
             offset = np.where(np.abs(growth) < 1e-9, ratio, np.log1p(growth) / shape)
             offset = np.where(growth > -1.0, offset, np.inf)
@@ -647,13 +724,14 @@ def crossing_slopes(model: str, offset: np.ndarray, rate: np.ndarray, shape: np.
                     span: float) -> np.ndarray:
     """Return du/dt [1/s] of each draw at its crossing ``offset`` after t_end [s].
 
-    linear r, exponential r exp(k s), power r (1 + s / T)^(p - 1); inf where the offset is not
+    linear r, exponential and proportional r exp(k s), power r (1 + s / T)^(p - 1); inf where
+    the offset is not
     finite (a time shift of an infinite crossing is no shift).
     """
     finite = np.isfinite(offset)
     s = np.where(finite, np.maximum(offset, 0.0), 0.0)
     with np.errstate(over='ignore', invalid='ignore'):
-        if model == EXPONENTIAL:
+        if model in (EXPONENTIAL, PROPORTIONAL):
             slope = rate * np.exp(shape * s)
         elif model == POWER:
             slope = rate * np.power(1.0 + s / span, np.maximum(shape, P_MIN) - 1.0)
@@ -706,7 +784,7 @@ def rise(law: Trend, t: np.ndarray, u: np.ndarray, precision: np.ndarray) -> flo
 def fitted_rise(law: Trend) -> float:
     """Return the rise [-] of u over the fitted span, u_end - u(t_start) (module docstring)."""
     span = law.span
-    if law.model == EXPONENTIAL and law.shape > 0.0:
+    if law.model in (EXPONENTIAL, PROPORTIONAL) and law.shape > 0.0:
         return law.slope * -math.expm1(-law.shape * span) / law.shape
     if law.model == POWER and law.shape > 0.0:
         return law.slope * span / law.shape
@@ -849,9 +927,9 @@ class RulPredictor:
         self._trend = (laws or fitted or (Trend(points=t.size),))[0]
         # hysteresis: once growth was seen, it is dropped only below half the threshold
         z = self.detect_z * (DETECT_RELEASE if self.detected else 1.0)
-        enough = self.detected or not history.independent or (
-            bool(laws) and laws[0].effective_points >= DETECT_MIN_POINTS)
-        self.detected = bool(laws) and enough and rise(laws[0], t, u, precision) > z * rise_sigma(
+        if laws and history.independent and not self.detected:
+            z *= max(DETECT_MIN_POINTS / laws[0].effective_points, 1.0)
+        self.detected = bool(laws) and rise(laws[0], t, u, precision) > z * rise_sigma(
             t, precision, history.independent, laws[0].scale)
         self._crossing = self._crossing_quantiles(laws) if self.detected \
             else (math.inf, math.inf, math.inf)
@@ -882,6 +960,8 @@ class RulPredictor:
                 shape = np.clip(shape, law.shape_low, law.shape_high)
             if law.model == POWER:
                 shape = np.maximum(shape, P_FLOOR)
+            elif law.model == PROPORTIONAL:     # r = k u_end exactly, not to first order
+                rate = (law.u_end + draws[0]) * shape
             offsets = crossing_offsets(
                 law.model, self.u_eol - (law.u_end + draws[0]), rate, shape, law.span)
             if self.u_systematic > 0.0:
