@@ -17,6 +17,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('load_speed_noise', 0.01, 'std dev of one load velocity sample', 'rad/s', 0.0,
               1e6),
     ParamSpec('motor_inertia', 0.0, 'rotor inertia J_m on the motor shaft', 'kg m^2', 0.0, 1e6),
+    ParamSpec('learn_motor_inertia', True, 'learn the rotor inertia that motor_inertia leaves '
+              'in the windows (a torque that includes J_m dw/dt; it matters at high ratios)'),
     ParamSpec('load_inertia', 0.0,
               'inertia between the load torque sensor and the gear (usually 0)', 'kg m^2', 0.0,
               1e6),
@@ -94,6 +96,7 @@ class EstimatorConfig:
     max_consecutive_gated: int = int(_D['max_consecutive_gated'])
     process_noise: float = float(_D['process_noise'])
     adaptive: bool = bool(_D['adaptive'])
+    learn_motor_inertia: bool = bool(_D['learn_motor_inertia'])
     adapt_memory: float = float(_D['adapt_memory'])
     adapt_gain: float = float(_D['adapt_gain'])
     adapt_pull: float = float(_D['adapt_pull'])

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
+from gear_phm.estimation.inertia import InertiaLearner
 from gear_phm.estimation.kalman import Adaptation, FrictionFilter
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
@@ -117,6 +118,7 @@ class EstimatorPipeline:
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
+        self.inertia = InertiaLearner(c.motor_inertia)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
@@ -152,6 +154,7 @@ class EstimatorPipeline:
             'origin_ns': self._origin_ns, 'grid': self._grid, 'last_code': self._last_code,
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
             'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
+            'inertia': self.inertia.to_state(),
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -174,7 +177,10 @@ class EstimatorPipeline:
         carry = state.get('carry')          # added within schema 2 (2026-11-25)
         carried = None if carry is None else (decode_float(carry[0]), decode_float(carry[1]),
                                               decode_float(carry[2]))
+        if 'inertia' in state:              # added within schema 2 (2026-11-26)
+            fresh.inertia.from_state(state['inertia'])
         self.filter = fresh.filter
+        self.inertia = fresh.inertia
         self.counts = counts
         self._carry = carried
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
@@ -541,7 +547,9 @@ class EstimatorPipeline:
     def _apply_window(self, window: Window, code: int | None = None, used: int | None = None,
                       rejected: int | None = None) -> list[FrictionEstimate]:
         c = self.config
-        result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma)
+        inertia = self.inertia.correction if c.learn_motor_inertia else (0.0, 0.0)
+        result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
+                                inertia)
         if isinstance(result, str):
             self.counts[result] += 1
             return []
@@ -563,6 +571,8 @@ class EstimatorPipeline:
         self.windows_used += 1
         if code is not None:
             self._last_code = code
+        if c.learn_motor_inertia:
+            self._learn_inertia(window, 0 if result.code == OPPOSING else 1)
         variance = result.u_variance + self.filter.mismatch_variance(
             0 if result.code == OPPOSING else 1)
         # the measurement as fused: less its direction's learned bias
@@ -570,6 +580,12 @@ class EstimatorPipeline:
                                used, rejected, operating,
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration))]
+
+    def _learn_inertia(self, window: Window, direction: int) -> None:
+        """Add a fused window to the inertia learner (:mod:`gear_phm.estimation.inertia`)."""
+        self.inertia.add(direction, window.t_end, window.motor_energy, window.load_energy,
+                         window.motor_kinetic, window.motor_energy_variance,
+                         window.load_energy_variance)
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.
@@ -618,6 +634,7 @@ class EstimatorPipeline:
             'mismatch_sigma_opposing': math.sqrt(self.filter.mismatch_variance(0)),
             'mismatch_sigma_aiding': math.sqrt(self.filter.mismatch_variance(1)),
             'direction_offset': self.filter.direction_offset,
+            'motor_inertia': self.inertia.inertia,
             'operating_time_s': self.operating_time,
             'samples_used': self.samples_used, 'samples_rejected': self.samples_rejected,
             'samples_missing': self.samples_missing,
@@ -664,7 +681,7 @@ class EstimatorPipeline:
             'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
             'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
             'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
-            'operating_time_s')]
+            'motor_inertia', 'operating_time_s')]
         values.append(('loss_ratio', loss))
         for reason, count in sorted(summary['counts'].items()):
             if reason in WINDOW_REASONS:

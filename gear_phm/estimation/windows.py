@@ -41,6 +41,9 @@ class Window:
     motor_energy_variance: float
     load_energy_variance: float
     close_index: int
+    #: (w_m,end^2 - w_m,start^2) / 2 [rad^2/s^2]: a motor inertia J leaves J times this in
+    #: the motor energy (:mod:`gear_phm.estimation.inertia`)
+    motor_kinetic: float = 0.0
 
     @property
     def duration(self) -> float:
@@ -116,7 +119,8 @@ class EnergyIntegrator:
         e_l = w.e_l - 0.5 * jl * (w.w_l_end ** 2 - w.w_l_start ** 2)
         v_m = w.v_m + (jm * s_wm) ** 2 * (w.w_m_start ** 2 + w.w_m_end ** 2)
         v_l = w.v_l + (jl * s_wl) ** 2 * (w.w_l_start ** 2 + w.w_l_end ** 2)
-        return Window(w.code, w.t_start, w.t_end, w.samples, e_m, e_l, v_m, v_l, close_index)
+        return Window(w.code, w.t_start, w.t_end, w.samples, e_m, e_l, v_m, v_l, close_index,
+                      0.5 * (w.w_m_end ** 2 - w.w_m_start ** 2))
 
     def flush(self, close_index: int = 0) -> list[Window]:
         """Close the open window now (e.g. on a sensor timeout)."""
@@ -232,8 +236,12 @@ class EnergyIntegrator:
 
 
 def to_measurement(window: Window, ratio: float, min_window: float, min_energy: float,
-                   model_sigma: float = 0.0) -> Measurement | str:
+                   model_sigma: float = 0.0, inertia: tuple[float, float] = (0.0, 0.0)
+                   ) -> Measurement | str:
     """Efficiency and pseudo-measurement of u for ``window``, or the rejection reason.
+
+    ``inertia``: a learned rotor inertia dJ [kg m^2] still in the window's motor energy and
+    its variance: E_m - dJ K is used, its variance increased by K^2 var(dJ).
 
     Opposing: eta_D = -E_l / E_m, u from eq 13. Aiding and self-locking: eta_I = -E_m / E_l,
     u from eq 13 (aiding). var(eta) to first order from the energy variances; var(u) =
@@ -242,10 +250,12 @@ def to_measurement(window: Window, ratio: float, min_window: float, min_energy: 
     """
     if window.duration < min_window or window.samples < 2:
         return 'short_window'
-    e_m, e_l = window.motor_energy, window.load_energy
+    e_l = window.load_energy
+    e_m = window.motor_energy - inertia[0] * window.motor_kinetic
     if abs(e_m) < min_energy or abs(e_l) < min_energy or e_m == 0.0 or e_l == 0.0:
         return 'low_energy'
-    rel_var = window.motor_energy_variance / e_m ** 2 + window.load_energy_variance / e_l ** 2
+    motor_variance = window.motor_energy_variance + window.motor_kinetic ** 2 * inertia[1]
+    rel_var = motor_variance / e_m ** 2 + window.load_energy_variance / e_l ** 2
     if window.code == OPPOSING:
         if not (e_m > 0.0 > e_l):
             return 'wrong_energy_sign'
