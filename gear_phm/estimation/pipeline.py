@@ -556,8 +556,8 @@ class EstimatorPipeline:
         # the filter runs on operating time; a window is motion throughout, so its age
         # (half its duration) is the same in stamp and in operating time
         operating = self._window_operating_time(window)
-        update = self.filter.update(result.u, result.u_variance, operating,
-                                    0 if result.code == OPPOSING else 1,
+        direction = 0 if result.code == OPPOSING else 1
+        update = self.filter.update(result.u, result.u_variance, operating, direction,
                                     0.5 * window.duration)
         self._last_eta = result.eta
         if self.on_measurement is not None:
@@ -571,21 +571,16 @@ class EstimatorPipeline:
         self.windows_used += 1
         if code is not None:
             self._last_code = code
-        if c.learn_motor_inertia:
-            self._learn_inertia(window, 0 if result.code == OPPOSING else 1)
-        variance = result.u_variance + self.filter.mismatch_variance(
-            0 if result.code == OPPOSING else 1)
+        if c.learn_motor_inertia:       # gear_phm.estimation.inertia
+            self.inertia.add(direction, window.t_end, window.motor_energy, window.load_energy,
+                             window.motor_kinetic, window.motor_energy_variance,
+                             window.load_energy_variance)
+        variance = result.u_variance + self.filter.mismatch_variance(direction)
         # the measurement as fused: less its direction's learned bias
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
                                used, rejected, operating,
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration))]
-
-    def _learn_inertia(self, window: Window, direction: int) -> None:
-        """Add a fused window to the inertia learner (:mod:`gear_phm.estimation.inertia`)."""
-        self.inertia.add(direction, window.t_end, window.motor_energy, window.load_energy,
-                         window.motor_kinetic, window.motor_energy_variance,
-                         window.load_energy_variance)
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.

@@ -74,8 +74,7 @@ RUL-based WARN with it) while the evidence hovers at the threshold (3 of 18 matr
 its prior or wandering within its sigma are a "significant" slope to a fit of a handful of
 correlated points (bags/healthy gave a RUL p5 of 4 s, hence a false WARN, at 5 s). The rise
 of each law over the span T: r T (linear), r (1 - exp(-k T)) / k (exponential and
-proportional), r T / p (power). Already worn (the filter's u >= u_eol):
-every quantile is 0.
+proportional), r T / p (power). Already worn (the filter's u >= u_eol): every quantile is 0.
 """
 from __future__ import annotations
 
@@ -92,6 +91,9 @@ PROPORTIONAL = 'proportional'
 MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER, PROPORTIONAL)
 #: The laws with a shape (k or p): a population prior can be learned for them.
 SHAPED: tuple[str, ...] = (EXPONENTIAL, POWER, PROPORTIONAL)
+#: The laws of the exponential form u_end + r (exp(k s) - 1) / k: they share its basis,
+#: crossing, slope and rise (proportional: r = k u_end).
+EXPONENTIAL_FORM: tuple[str, ...] = (EXPONENTIAL, PROPORTIONAL)
 
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
 #: Both laws accelerate (k > 0, p >= P_FLOOR): see P_FLOOR.
@@ -402,7 +404,7 @@ def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: fl
     """
     shape = np.asarray(shape, dtype=float)[:, None]
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        if model in (EXPONENTIAL, PROPORTIONAL):
+        if model in EXPONENTIAL_FORM:
             ks = shape * s
             e = np.exp(ks)
             g = np.expm1(ks) / shape
@@ -691,8 +693,6 @@ def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.n
     """Return the fit's u at the history's times."""
     if fit.model == LINEAR:
         return np.asarray(fit.params[0] + fit.params[1] * s)
-    if fit.model == PROPORTIONAL:
-        return np.asarray(fit.params[0] * np.exp(fit.params[2] * s))
     g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
     return np.asarray(fit.params[0] + fit.params[1] * g[0])
 
@@ -706,7 +706,7 @@ def crossing_offsets(model: str, gap: np.ndarray, rate: np.ndarray, shape: np.nd
     """
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         ratio = gap / rate
-        if model in (EXPONENTIAL, PROPORTIONAL):
+        if model in EXPONENTIAL_FORM:
             growth = shape * ratio
             offset = np.where(np.abs(growth) < 1e-9, ratio, np.log1p(growth) / shape)
             offset = np.where(growth > -1.0, offset, np.inf)
@@ -725,13 +725,12 @@ def crossing_slopes(model: str, offset: np.ndarray, rate: np.ndarray, shape: np.
     """Return du/dt [1/s] of each draw at its crossing ``offset`` after t_end [s].
 
     linear r, exponential and proportional r exp(k s), power r (1 + s / T)^(p - 1); inf where
-    the offset is not
-    finite (a time shift of an infinite crossing is no shift).
+    the offset is not finite (a time shift of an infinite crossing is no shift).
     """
     finite = np.isfinite(offset)
     s = np.where(finite, np.maximum(offset, 0.0), 0.0)
     with np.errstate(over='ignore', invalid='ignore'):
-        if model in (EXPONENTIAL, PROPORTIONAL):
+        if model in EXPONENTIAL_FORM:
             slope = rate * np.exp(shape * s)
         elif model == POWER:
             slope = rate * np.power(1.0 + s / span, np.maximum(shape, P_MIN) - 1.0)
@@ -784,7 +783,7 @@ def rise(law: Trend, t: np.ndarray, u: np.ndarray, precision: np.ndarray) -> flo
 def fitted_rise(law: Trend) -> float:
     """Return the rise [-] of u over the fitted span, u_end - u(t_start) (module docstring)."""
     span = law.span
-    if law.model in (EXPONENTIAL, PROPORTIONAL) and law.shape > 0.0:
+    if law.model in EXPONENTIAL_FORM and law.shape > 0.0:
         return law.slope * -math.expm1(-law.shape * span) / law.shape
     if law.model == POWER and law.shape > 0.0:
         return law.slope * span / law.shape
