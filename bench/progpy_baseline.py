@@ -22,7 +22,9 @@ exchanges .npz files with this script; gear_phm runs in the project's environmen
 
 Options: --lives 300 3000, --seeds 1 2 3, --laws linear exponential power, --samples 100,
 --q-rate 1e-10 (the UKFs' process noise), --reuse (keep the gear_phm runs already in OUT and
-redo only progpy: for a process-noise sensitivity check).
+redo only progpy: for a process-noise sensitivity check), --told-law (also run gear_phm told
+the true wear law, `analyze --trend LAW`, into OUT/<scenario>/told: the same information as
+the progpy model of that law; its columns are added to the table).
 """
 from __future__ import annotations
 
@@ -46,6 +48,9 @@ GRID = 50
 #: u^2 at u = 0.3 (rate = growth * u).
 Q_RATE = 1e-10
 U_TYPICAL = 0.3
+#: gear_phm's `--trend` for each simulated wear law with --told-law: the simulator's
+#: exponential wear, u0 exp(k t), is gear_phm's proportional law (docs/prognostics.md).
+TOLD_TREND = {'linear': 'linear', 'exponential': 'proportional', 'power': 'power'}
 
 
 def _worker(source: Path, target: Path, samples: int, seed: int, q_rate: float) -> None:
@@ -157,6 +162,9 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
     if not (args.reuse and (out / 'a' / 'evaluation.json').is_file()):
         gear_phm_chain(out, law, life, seed, [])
     gear = json.loads((out / 'a' / 'evaluation.json').read_text())
+    if args.told_law and not (args.reuse and (out / 'told' / 'evaluation.json').is_file()):
+        gear_phm_chain(out, law, life, seed, ['--trend', TOLD_TREND[law]], reuse=True,
+                       analysis_name='told')
     t_start, t_eol = float(gear['t_start_s']), float(gear['t_eol_s'])
     analysis = analyze_bag(out / 'bag', 3.0, eta_opposing_min=0.5, plot=False)
     rows = [(stamp * 1e-9, m.u, m.u_variance) for stamp, m, accepted in analysis.measurements
@@ -174,15 +182,24 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
                     '--samples', str(args.samples), '--seed', str(seed),
                     '--q-rate', repr(args.q_rate)], check=True)
     progpy = np.load(predictions)
-    times, values = read_vector_topic(_find_bag(out / 'a'), HEALTH_RUL)
-    before = times < t_eol
-    index = np.searchsorted(times[before], t_pred, side='right') - 1
-    on_grid = prognostic_horizon(t_pred[index >= 0], values[before, 0][index[index >= 0]],
-                                 t_eol, 0.2, t_start)
+
+    def horizon_on_grid(analysis: Path) -> float:
+        """Horizon [s] of a gear_phm run from its latest RUL at each of progpy's times."""
+        times, values = read_vector_topic(_find_bag(analysis), HEALTH_RUL)
+        before = times < t_eol
+        index = np.searchsorted(times[before], t_pred, side='right') - 1
+        return prognostic_horizon(t_pred[index >= 0], values[before, 0][index[index >= 0]],
+                                  t_eol, 0.2, t_start)
+
     scored = {'gear_phm': gear}
     for name in ('linear', 'exponential'):
         scored[f'progpy_{name}'] = evaluate(t_pred, progpy[name], t_eol, 0.2, LAMBDAS, t_start)
-    gear['prognostic_horizon_on_grid_s'] = on_grid
+    gear['prognostic_horizon_on_grid_s'] = horizon_on_grid(out / 'a')
+    if args.told_law:
+        told = json.loads((out / 'told' / 'evaluation.json').read_text())
+        told['prognostic_horizon_on_grid_s'] = horizon_on_grid(out / 'told')
+        told['trend'] = TOLD_TREND[law]
+        scored['gear_phm_told_law'] = told
     (out / 'baseline.json').write_text(json.dumps(scored, indent=2) + '\n')
 
     def cells(metrics: dict[str, Any]) -> str:
@@ -195,7 +212,8 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
                      else math.inf)
             parts.append(f"{'pass' if check['passed'] else 'FAIL'} {error:+.0%}")
         horizon = f"{float(metrics['prognostic_horizon_s']) / (t_eol - t_start):.0%}"
-        if metrics is gear:
+        if 'prognostic_horizon_on_grid_s' in metrics:
+            on_grid = float(metrics['prognostic_horizon_on_grid_s'])
             horizon += f' ({on_grid / (t_eol - t_start):.0%})'
         return ' | '.join(parts) + f' | {horizon}'
 
@@ -219,6 +237,8 @@ def main() -> int:
                         help='UKF wear-rate random walk [(1/s)^2/s] (default %(default)g)')
     parser.add_argument('--reuse', action='store_true',
                         help='keep gear_phm runs already in OUT; redo only progpy')
+    parser.add_argument('--told-law', action='store_true',
+                        help='also run gear_phm told the true wear law (analyze --trend)')
     parser.add_argument('--seed', type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument('--worker', type=Path, nargs=2, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -233,6 +253,9 @@ def main() -> int:
     header = ('| law | life [s] | seed | gear_phm 0.5 | 0.75 | 0.9 | PH | progpy linear 0.5 | '
               '0.75 | 0.9 | PH | progpy exponential 0.5 | 0.75 | 0.9 | PH |\n'
               '|---|---|---|' + '---|' * 12)
+    if args.told_law:
+        header = header.replace(' |\n|', ' | gear_phm told the law 0.5 | 0.75 | 0.9 | PH |\n|')
+        header += '---|' * 4
     print(header, flush=True)
     rows = [header]
     for life in args.lives:

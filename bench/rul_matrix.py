@@ -6,8 +6,8 @@ For linear, exponential and power-law (exponent 3) wear from u = 0.05 to u_eol =
 the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL. Prints one
 markdown row per run and writes OUT/table.md.
 
-Usage: .venv/bin/python bench/rul_matrix.py OUT [--lives 300 3000 30000] [--seeds 1 2 3]
-       [--rate 1000] [--laws linear exponential power] [-- extra analyze options]
+Usage: .venv/bin/python bench/rul_matrix.py [--lives 300 3000 30000] [--seeds 1 2 3]
+       [--rate 1000] [--laws linear exponential power] [--reuse] OUT [-- extra analyze options]
 
 Truth is written every 10th sample at 100 Hz and every 100th at 1 kHz (10 Hz either way).
 """
@@ -33,9 +33,12 @@ HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']
 
 
 def run(out: Path, law: str, life: float, seed: int, extra: list[str],
-        rate: float = 100.0, reuse: bool = False) -> str:
-    """One scenario; returns its markdown row. ``reuse``: keep a bag simulated before."""
-    bag, analysis = out / 'bag', out / 'a'
+        rate: float = 100.0, reuse: bool = False, analysis_name: str = 'a') -> str:
+    """One scenario; returns its markdown row. ``reuse``: keep a bag simulated before.
+
+    The analysis goes to OUT/``analysis_name``.
+    """
+    bag, analysis = out / 'bag', out / analysis_name
     if reuse and bag.exists():
         shutil.rmtree(analysis, ignore_errors=True)
     else:
