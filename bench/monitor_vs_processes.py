@@ -87,7 +87,15 @@ def run_mode(mode: str, bag: Path, rate_factor: float, workdir: Path,
             peaks[proc.pid] = max(peaks.get(proc.pid, 0.0), peak_rss_mib(proc.pid))
             proc.terminate()
         for proc in procs[:2]:
-            proc.wait(timeout=20)
+            try:
+                proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                # Seen once in a full test run (2026-11-26; not reproduced in 13 bench runs
+                # and 40 direct SIGTERMs): say so, and do not leave the node running.
+                print(f'warning: {proc.args[0]} still running 60 s after SIGTERM; killed',
+                      file=sys.stderr)
+                proc.kill()
+                proc.wait()
     wall = time.monotonic() - start
     cpu_after = os.times()
     cpu = (cpu_after.children_user - cpu_before.children_user
