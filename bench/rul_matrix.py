@@ -3,7 +3,8 @@
 For linear, exponential and power-law (exponent 3) wear from u = 0.05 to u_eol = 0.6
 (eta_opposing_min 0.5, ratio 3) in LIFE seconds at 100 Hz, per seed: alpha-lambda at 0.5,
 0.75 and 0.9, the prognostic horizon, from which fraction of the life the RUL stays finite, and
-the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL. Prints one
+the share of predictions from lambda 0.25 whose p5-p95 band holds the true RUL, and the health
+level transitions, all as `gear-phm evaluate` scores them (evaluation.json). Prints one
 markdown row per run and writes OUT/table.md.
 
 Usage: .venv/bin/python bench/rul_matrix.py [--lives 300 3000 30000] [--seeds 1 2 3]
@@ -20,11 +21,6 @@ from pathlib import Path
 import shutil
 import subprocess
 import sys
-
-import numpy as np
-
-from gear_phm.cli.evaluate import _find_bag, read_vector_topic
-from gear_phm.interfaces import HEALTH_EFFICIENCY, HEALTH_RUL
 
 GEAR_PHM = [sys.executable, '-m', 'gear_phm.cli.main']
 RATES = {'linear': lambda life: 0.55 / life, 'exponential': lambda life: math.log(12) / life,
@@ -56,15 +52,7 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str],
     subprocess.run([*GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag), *HEALTH,
                     '--lambdas', '0.25', '0.5', '0.75', '0.9'], **quiet)
     metrics = json.loads((analysis / 'evaluation.json').read_text())
-    t, rul = read_vector_topic(_find_bag(analysis), HEALTH_RUL)
     t_eol = metrics['t_eol_s']
-    t = t - t[0]
-    before = t < t_eol
-    infinite = ~np.isfinite(rul[:, 0]) & before
-    finite_from = t[infinite].max() / t_eol if infinite.any() else 0.0
-    scored = (t >= 0.25 * t_eol) & before
-    truth = t_eol - t[scored]
-    band = float(np.mean((rul[scored, 1] <= truth) & (truth <= rul[scored, 2])))
     checks = {check['lam']: check for check in metrics['alpha_lambda']}
 
     def cell(lam: float) -> str:
@@ -74,25 +62,21 @@ def run(out: Path, law: str, life: float, seed: int, extra: list[str],
         return f"{'pass' if check['passed'] else 'FAIL'} {error:+.0%}"
 
     horizon = metrics['prognostic_horizon_s']
+    finite_from = float(metrics['rul_finite_from'])
+    band = float(metrics['band_coverage']['share'])
     return (f'| {law} | {life:.0f} | {rate:.0f} | {seed} | {cell(0.5)} | {cell(0.75)} | '
             f'{cell(0.9)} | {horizon:.0f} ({horizon / t_eol:.0%}) | {finite_from:.2f} | '
-            f'{band:.0%} | {level_changes(analysis, t_eol)} |')
+            f'{band:.0%} | {level_changes(metrics)} |')
 
 
-def level_changes(analysis: Path, t_eol: float) -> str:
-    """Return the health-level transitions of a run, e.g. 'OK>WARN 0.12, WARN>ERROR 1.01'.
+def level_changes(metrics: dict) -> str:
+    """Return the health-level transitions that `gear-phm evaluate` found.
 
-    Times as fractions of the true life from the first estimate; '(ERROR early)' if ERROR came
-    before the true end of life.
+    E.g. 'OK>WARN 0.12, WARN>ERROR 1.01' (fractions of the true life), with '(ERROR early)'
+    if ERROR came before the true end of life.
     """
-    t, vectors = read_vector_topic(_find_bag(analysis), HEALTH_EFFICIENCY)
-    t = t - t[0]
-    levels = vectors[:, 2].astype(int)
-    names = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
-    steps = [f'{names[levels[i - 1]]}>{names[levels[i]]} {t[i] / t_eol:.2f}'
-             for i in range(1, levels.size) if levels[i] != levels[i - 1]]
-    early = bool(np.any((levels == 2) & (t < t_eol)))
-    return ', '.join(steps) + (' (ERROR early)' if early else '')
+    steps = [f"{c['from']}>{c['to']} {c['lam']:.2f}" for c in metrics['level_transitions']]
+    return ', '.join(steps) + (' (ERROR early)' if metrics['error_before_eol'] else '')
 
 
 def main() -> int:

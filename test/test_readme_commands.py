@@ -117,7 +117,11 @@ def check_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
 
 def check_evaluate(cwd: Path, done: subprocess.CompletedProcess) -> None:
     assert 'alpha-lambda' in done.stdout + done.stderr
-    assert json.loads((cwd / 'out' / 'run-analysis' / 'evaluation.json').read_text())
+    result = json.loads((cwd / 'out' / 'run-analysis' / 'evaluation.json').read_text())
+    # the analysis carries its RUL band and levels: evaluate scores both
+    assert result['band_coverage']['predictions'] > 0
+    assert [c['from'] for c in result['level_transitions']][:1] == ['OK']
+    assert isinstance(result['error_before_eol'], bool)
 
 
 def check_regenerate(cwd: Path, done: subprocess.CompletedProcess) -> None:

@@ -5,7 +5,11 @@ estimate) in a rosbag2 directory -- a diagnostics recording or an ``analyze`` ou
 directory itself or a bag directly inside it). Truth: a simulated bag with
 ``gear_phm/truth/friction`` (EOL = first stamp where true u >= u_eol, u_eol from the health
 options) or a CSV ``time,true_eol`` (seconds; the last row's true_eol is used).
-Prints the metrics and writes them as JSON (``--output``). Definitions: docs/prognostics.md.
+Also scored: from which fraction of the life the RUL stays finite, how often its p5-p95 band
+(y, z of the RUL topic) holds the true RUL from ``--band-from``, and, when the run has
+``gear_phm/health/efficiency`` (z = level), its health-level transitions and whether ERROR came
+before the true end of life. Prints the metrics and writes them as JSON (``--output``).
+Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 
@@ -20,9 +24,12 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.interfaces import HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE
+from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION,
+                                 VECTOR3_STAMPED_TYPE)
 from gear_phm.prognostics import end_of_life_u, HealthConfig
-from gear_phm.prognostics.metrics import ALPHA, evaluate, LAMBDAS
+from gear_phm.prognostics.metrics import (ALPHA, band_coverage, BAND_FROM, evaluate,
+                                          finite_from, LAMBDAS, level_transitions)
+from gear_phm.status import ERROR, LEVEL_NAMES
 
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
 
@@ -40,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--lambdas', type=float, nargs='+', default=list(LAMBDAS),
                         help='fractions of life where alpha-lambda is checked '
                              '(default 0.25 0.5 0.75)')
+    parser.add_argument('--band-from', type=float, default=BAND_FROM,
+                        help='fraction of the life from which the p5-p95 band coverage is '
+                             f'counted (default {BAND_FROM})')
     parser.add_argument('--t-start', type=float, default=None,
                         help='prognostics start time [s] (default: first prediction)')
     parser.add_argument('--ratio', type=float, default=3.0,
@@ -75,6 +85,15 @@ def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
         raise CliError(f'topic {topic} in {path} has no messages')
     data = np.array(sorted(rows, key=lambda r: r[0]))
     return data[:, 0], data[:, 1:]
+
+
+def _levels(bag: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """(stamps [s], levels) of the run's health states, or None without that topic."""
+    with BagReader(bag) as reader:
+        if reader.resolve_topic(HEALTH_EFFICIENCY) not in reader.topics:
+            return None
+    times, vectors = read_vector_topic(bag, HEALTH_EFFICIENCY)
+    return times, vectors[:, 2]
 
 
 def truth_eol(truth: Path, u_eol: float) -> float:
@@ -118,11 +137,26 @@ def run(args: argparse.Namespace) -> int:
     before = times < t_eol
     if not before.any():
         raise CliError(f'no prediction before the true end of life at {t_eol:.6g} s')
+    levels = _levels(bag)
     try:
         metrics = evaluate(times[before], values[before, 0], t_eol, args.alpha, args.lambdas,
                            args.t_start)
+        start = float(metrics['t_start_s'])
+        share, counted = band_coverage(times, values[:, 1], values[:, 2], t_eol,
+                                       args.band_from, start)
+        changes = () if levels is None else level_transitions(*levels, t_eol, start)
+        finite = finite_from(times[before], values[before, 0], t_eol, start)
     except ValueError as exc:
         raise CliError(str(exc)) from None
+    metrics['rul_finite_from'] = 'inf' if math.isinf(finite) else finite
+    metrics['band_coverage'] = {'from_lambda': args.band_from,
+                                'share': 'nan' if math.isnan(share) else share,
+                                'predictions': counted}
+    if levels is not None:
+        metrics['level_transitions'] = [
+            {'t': c.t, 'lam': c.lam, 'from': LEVEL_NAMES.get(c.before, str(c.before)),
+             'to': LEVEL_NAMES.get(c.after, str(c.after))} for c in changes]
+        metrics['error_before_eol'] = bool(np.any((levels[1] == ERROR) & (levels[0] < t_eol)))
     metrics['u_eol'] = u_eol
     metrics['run'] = str(bag)
     metrics['truth'] = str(args.truth)
@@ -138,5 +172,13 @@ def run(args: argparse.Namespace) -> int:
               f'{check["true_rul"]:.6g} s, RA {check["relative_accuracy"]})')
     print(f'  prognostic horizon: {metrics["prognostic_horizon_s"]} s')
     print(f'  cumulative relative accuracy: {metrics["cumulative_relative_accuracy"]}')
+    print(f'  RUL finite from lambda {metrics["rul_finite_from"]}')
+    print(f'  p5-p95 band holds the true RUL at {metrics["band_coverage"]["share"]} of '
+          f'{counted} predictions from lambda {args.band_from:g}')
+    if levels is not None:
+        steps = ', '.join(f'{c["from"]}>{c["to"]} at {c["t"]:.6g} s (lambda {c["lam"]:.3f})'
+                          for c in metrics['level_transitions'])
+        print(f'  health levels: {steps or "no change"}; ERROR before the true end of life: '
+              f'{"YES" if metrics["error_before_eol"] else "no"}')
     print(f'metrics written to {output}')
     return 0

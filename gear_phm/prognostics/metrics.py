@@ -5,6 +5,10 @@ times (median; inf allowed), true end of life ``t_eol`` [s], and the time ``t_st
 which prognostics starts (default: the first prediction time). True RUL r*(t) = t_eol - t.
 Lambda times: t_lambda = t_start + lambda (t_eol - t_start). The prediction used at t_lambda
 is the latest one made at or before t_lambda.
+
+Beyond Saxena's: how early the RUL is finite (:func:`finite_from`), how often its p5-p95 band
+holds the true RUL (:func:`band_coverage`) and the health-level transitions of a run
+(:func:`level_transitions`), the acceptance measures of docs/prognostics.md.
 """
 from __future__ import annotations
 
@@ -17,6 +21,8 @@ from numpy.typing import ArrayLike
 
 LAMBDAS = (0.25, 0.5, 0.75)
 ALPHA = 0.2
+#: Fraction of the life from which :func:`band_coverage` counts predictions.
+BAND_FROM = 0.25
 
 
 @dataclass(frozen=True)
@@ -129,6 +135,74 @@ def evaluate(t: ArrayLike, rul: ArrayLike, t_eol: float, alpha: float = ALPHA,
                                                                      start),
     }
     return _json_ready(result)
+
+
+def finite_from(t: ArrayLike, rul: ArrayLike, t_eol: float,
+                t_start: float | None = None) -> float:
+    """Fraction of the life [-] from which every prediction before ``t_eol`` is finite.
+
+    (t_f - t_start) / (t_eol - t_start), t_f the time of the first prediction after the last
+    infinite one (0 if none in [t_start, t_eol) is infinite; inf if the last one is).
+    """
+    times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
+    keep = (times >= start) & (times < t_eol)
+    times, values = times[keep], values[keep]
+    infinite = np.flatnonzero(~np.isfinite(values))
+    if infinite.size == 0:
+        return 0.0
+    if infinite[-1] == times.size - 1:
+        return math.inf
+    return float((times[infinite[-1] + 1] - start) / (t_eol - start))
+
+
+def band_coverage(t: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
+                  lam: float = BAND_FROM, t_start: float | None = None) -> tuple[float, int]:
+    """Share [-] of the predictions in [t_lambda, t_eol) whose [p5, p95] holds r*(t).
+
+    Returns (share, number of those predictions); (NaN, 0) if there are none.
+    """
+    if not 0.0 <= lam < 1.0:
+        raise ValueError(f'lam must be in [0, 1), got {lam!r}')
+    times, lower, t_eol, start = _inputs(t, p5, t_eol, t_start)
+    upper = np.asarray(p95, dtype=float).ravel()
+    if upper.shape != times.shape or np.isnan(upper).any():
+        raise ValueError('p95 must have one value, not NaN, per prediction time')
+    keep = (times >= start + lam * (t_eol - start)) & (times < t_eol)
+    if not keep.any():
+        return math.nan, 0
+    true = t_eol - times[keep]
+    held = (lower[keep] <= true) & (true <= upper[keep])
+    return float(np.mean(held)), int(keep.sum())
+
+
+@dataclass(frozen=True)
+class Transition:
+    """A change of health level at time ``t`` [s]; ``lam`` = (t - t_start) / (t_eol - t_start)."""
+
+    t: float
+    lam: float
+    before: int
+    after: int
+
+
+def level_transitions(t: ArrayLike, levels: ArrayLike, t_eol: float,
+                      t_start: float | None = None) -> tuple[Transition, ...]:
+    """Every change of the level (0 OK, 1 WARN, 2 ERROR, 3 STALE) from one state to the next.
+
+    All states count, before and after ``t_eol``; ``t_start`` only sets lambda.
+    """
+    times = np.asarray(t, dtype=float).ravel()
+    codes = np.asarray(levels, dtype=float).ravel()
+    if times.shape != codes.shape or times.size == 0:
+        raise ValueError('t and levels must have the same, non-zero length')
+    if not np.isfinite(codes).all() or np.any(np.diff(times) < 0.0):
+        raise ValueError('levels must be finite and t non-decreasing')
+    start = float(times[0]) if t_start is None else float(t_start)
+    if not start < t_eol:
+        raise ValueError(f't_start must be < t_eol = {t_eol!r}, got {start!r}')
+    changed = np.flatnonzero(codes[1:] != codes[:-1]) + 1
+    return tuple(Transition(float(times[i]), float((times[i] - start) / (t_eol - start)),
+                            int(codes[i - 1]), int(codes[i])) for i in changed)
 
 
 def _json_ready(value: object) -> object:
