@@ -268,6 +268,14 @@ def test_eta_accuracy_widens_the_rul_band_not_its_median(tmp_path: Path) -> None
     assert not (tmp_path / 'bad').exists()
 
 
+def _true_eol(bag: Path, eta_opposing_min: float) -> float:
+    """First stamp [s] at which the simulated bag's true eta_D is at or below the threshold."""
+    with BagReader(bag) as truth:
+        rows = [(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.vector.x)
+                for _, _, m in truth.messages(['/' + interfaces.TRUTH_EFFICIENCY])]
+    return next(t for t, eta_d in rows if eta_d <= eta_opposing_min)
+
+
 def test_spur_gear_end_of_life_follows_the_opposing_efficiency(tmp_path: Path) -> None:
     """An unseen plant: a spur stage (R 30, bearing friction) whose tooth friction wears.
 
@@ -283,10 +291,7 @@ def test_spur_gear_end_of_life_follows_the_opposing_efficiency(tmp_path: Path) -
                  '--bearing-radius-1', '0.001', '--bearing-radius-2', '0.003']) == 0
     assert main(['analyze', str(bag), '--ratio', '30', '--eta-opposing-min', '0.8718',
                  '--out', str(out), '--no-progress', '--no-plot']) == 0
-    with BagReader(bag) as truth:
-        rows = [(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.vector.x)
-                for _, _, m in truth.messages(['/' + interfaces.TRUTH_EFFICIENCY])]
-    true_eol = next(t for t, eta_d in rows if eta_d <= 0.8718)
+    true_eol = _true_eol(bag, 0.8718)
     assert true_eol == pytest.approx(820.0, abs=1.0)
     health = json.loads((out / 'summary.json').read_text())['health']
     error = health['first_seen_ns']['ERROR'] * 1e-9
@@ -315,10 +320,7 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
                  '--truth-every', '10']) == 0
     assert main(['analyze', str(bag), '--ratio', '30', '--eta-opposing-min', '0.8616',
                  '--out', str(out), '--no-progress', '--no-plot']) == 0
-    with BagReader(bag) as truth:
-        rows = [(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.vector.x)
-                for _, _, m in truth.messages(['/' + interfaces.TRUTH_EFFICIENCY])]
-    true_eol = next(t for t, eta_d in rows if eta_d <= 0.8616)
+    true_eol = _true_eol(bag, 0.8616)
     assert true_eol == pytest.approx(820.0, abs=2.0)
     csv = tmp_path / 'eol.csv'
     csv.write_text(f'time,true_eol\n0,{true_eol!r}\n')
