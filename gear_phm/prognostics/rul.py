@@ -660,20 +660,25 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = '
         # The proportional law does not extend the line: its curvature is not a free parameter
         line = fits[LINEAR].rss
 
-        def z(name: str) -> float:
-            return CURVATURE_Z * (DETECT_RELEASE if name in admitted else 1.0)
-        kept = [law for law in laws if law[1].model in (LINEAR, PROPORTIONAL)
-                or (line - fits[law[1].model].rss) > z(law[1].model) ** 2 * sigma2]
-        if held_out is not None and len(kept) < len(laws):
-            best = min(aicc for aicc, _ in laws)
-            total = sum(math.exp(-0.5 * (aicc - best)) for aicc, _ in laws)
-            held_out.extend(replace(law, weight=math.exp(-0.5 * (aicc - best)) / total)
-                            for aicc, law in laws if all(law is not k for _, k in kept))
-        laws = kept
+        def shown(law: Trend) -> bool:
+            z = CURVATURE_Z * (DETECT_RELEASE if law.model in admitted else 1.0)
+            return law.model in (LINEAR, PROPORTIONAL) or (
+                line - fits[law.model].rss) > z ** 2 * sigma2
+        if held_out is not None:
+            weights = _akaike_weights([aicc for aicc, _ in laws])
+            held_out.extend(replace(law, weight=float(w))
+                            for (_, law), w in zip(laws, weights) if not shown(law))
+        laws = [entry for entry in laws if shown(entry[1])]
     laws.sort(key=lambda law: law[0])
-    weights = np.exp(-0.5 * (np.array([law[0] for law in laws]) - laws[0][0]))
-    weights /= weights.sum()
+    weights = _akaike_weights([aicc for aicc, _ in laws])
     return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
+
+
+def _akaike_weights(aicc: list[float]) -> np.ndarray:
+    """Return the Akaike weights exp(-AICc / 2), normalised, of the laws in that order."""
+    values = np.array(aicc)
+    weights = np.exp(-0.5 * (values - values.min()))
+    return weights / weights.sum()
 
 
 def _renormalised(laws: tuple[Trend, ...]) -> tuple[Trend, ...]:
