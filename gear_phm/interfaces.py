@@ -19,6 +19,7 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from gear_phm.errors import GearPhmError
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.status import format_value, StatusOut
 
@@ -64,7 +65,7 @@ def ns_to_sec_nanosec(stamp_ns: int) -> tuple[int, int]:
     return sec, nanosec
 
 
-class BadMessage(ValueError):
+class BadMessage(GearPhmError, ValueError):
     """A message that cannot be used; ``reason`` is a short counter key."""
 
     def __init__(self, reason: str, detail: str) -> None:

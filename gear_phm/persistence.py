@@ -32,6 +32,8 @@ from pathlib import Path
 import tempfile
 from typing import Any
 
+from gear_phm.errors import GearPhmError
+
 #: Version of the document layout; a file with another version is set aside. 2: the filter
 #: and the RUL history run on operating time (issue 13), not on stamp time as in 1.
 SCHEMA = 2
@@ -39,7 +41,7 @@ SCHEMA = 2
 IDENTITY_RTOL = 1e-9
 
 
-class StateError(Exception):
+class StateError(GearPhmError):
     """A state file that cannot be used; ``str()`` is the reason."""
 
 

@@ -32,6 +32,8 @@ import zlib
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from gear_phm.errors import GearPhmError
+
 _MAGIC = b'\x89MCAP0\r\n'
 _HEADER_OP, _FOOTER_OP, _SCHEMA_OP, _CHANNEL_OP = 0x01, 0x02, 0x03, 0x04
 _MESSAGE_OP, _CHUNK_OP, _MESSAGE_INDEX_OP = 0x05, 0x06, 0x07
@@ -45,7 +47,7 @@ _RECORD_HEAD = np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
                          ('sequence', '<u4'), ('log_time', '<u8')])
 
 
-class NotIndexed(Exception):
+class NotIndexed(GearPhmError):
     """The fast reader cannot prove a complete answer for this file: read it another way."""
 
 
@@ -53,7 +55,7 @@ class IndexMismatch(NotIndexed):
     """The file's index (chunk/message indexes, statistics) disagrees with its content."""
 
 
-class CorruptChunk(Exception):
+class CorruptChunk(GearPhmError):
     """A chunk or record is damaged (checksum, bounds, record types): no reader should trust
     its bytes."""
 

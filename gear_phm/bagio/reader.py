@@ -14,6 +14,7 @@ from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.bagio.chunks import CorruptChunk, McapBatchReader, RawBatch
+from gear_phm.errors import GearPhmError
 
 
 _JAZZY = get_typestore(Stores.ROS2_JAZZY)
@@ -30,7 +31,7 @@ def _to_jazzy(value: Any) -> Any:
     return cls(**{f.name: _to_jazzy(getattr(value, f.name)) for f in fields(cast(Any, cls))})
 
 
-class BagError(Exception):
+class BagError(GearPhmError):
     """A bag that cannot be used; the message names the bag and the problem on one line."""
 
 

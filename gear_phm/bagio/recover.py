@@ -39,6 +39,7 @@ from mcap.writer import CompressionType, Writer
 import yaml
 
 from gear_phm.bagio.writer import qos_list, TopicInfo, write_metadata
+from gear_phm.errors import GearPhmError
 
 MAGIC = b'\x89MCAP0\r\n'
 _RECORD_HEAD = struct.Struct('<BQ')             # opcode, record length
@@ -50,12 +51,12 @@ _ROS_SCHEMA_ENCODINGS = ('ros2msg', 'ros2idl')
 RECOVER_METADATA = 'gear_phm.recover'
 
 
-class RecoverError(Exception):
+class RecoverError(GearPhmError):
     """The input cannot be recovered (not MCAP, not ROS 2 where needed, output in the way);
     the message names the file and the problem on one line. Nothing was written."""
 
 
-class _Unreadable(Exception):
+class _Unreadable(GearPhmError):
     """A record's bytes do not parse (a damaged length or string)."""
 
 

@@ -11,6 +11,8 @@ from collections.abc import Sequence
 import importlib
 import sys
 
+from gear_phm.errors import GearPhmError
+
 #: name -> (module, one-line help). Only the module of the command being run is imported.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'paper': ('gear_phm.cli.paper', "regenerate the paper's figures 3, 4, 6 and samples.csv"),
@@ -25,7 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-class CliError(Exception):
+class CliError(GearPhmError):
     """A problem with the user's input: printed on one line, exit status 2."""
 
 

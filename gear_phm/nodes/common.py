@@ -17,6 +17,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 
+from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import DiagnosticsOut, ns_to_sec_nanosec, Vector3Out
 from gear_phm.parameters import ParamSpec
 from gear_phm.status import format_value, StatusOut
@@ -41,7 +42,7 @@ SENSOR_QOS = sensor_qos()
 OUTPUT_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-class ConfigError(Exception):
+class ConfigError(GearPhmError):
     """Invalid start-up configuration: printed on one line by :func:`run_node`, exit 2."""
 
 

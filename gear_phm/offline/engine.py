@@ -34,6 +34,7 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 
 from gear_phm import interfaces
+from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
@@ -45,7 +46,7 @@ BATCH = 20000
 ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
 
 
-class AnalysisError(ValueError):
+class AnalysisError(GearPhmError, ValueError):
     """A problem with the input or the options: one line, meant for the user."""
 
 

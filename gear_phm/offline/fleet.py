@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_phm.errors import GearPhmError
 from gear_phm.prognostics import ShapePrior
 from gear_phm.prognostics.rul import SHAPED
 
@@ -74,7 +75,7 @@ def _at_end_of_life(summary: dict[str, Any]) -> bool:
     return bool(trend) and summary.get('u', -math.inf) >= trend.get('u_eol', math.inf)
 
 
-class FleetError(ValueError):
+class FleetError(GearPhmError, ValueError):
     """The fleet as a whole cannot be analysed (e.g. no unit folder): one line."""
 
 

@@ -25,11 +25,13 @@ import queue
 import threading
 from typing import Any, Literal, Protocol, TypeVar
 
+from gear_phm.errors import GearPhmError
+
 #: Output of a recorded message: joint states, or one of the two truth topics.
 Channel = Literal['joints', 'truth_friction', 'truth_efficiency']
 
 
-class SourceError(ValueError):
+class SourceError(GearPhmError, ValueError):
     """A source cannot be built from its configuration; the text is one line."""
 
 
