@@ -5,10 +5,11 @@ import importlib
 import inspect
 import pkgutil
 
+import pytest
+
 import gear_phm
 from gear_phm import GearPhmError
 from gear_phm.bagio import BagReader
-import pytest
 
 
 def _modules() -> list[str]:
