@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import math
 from typing import Any
 
-from filterpy.kalman import KalmanFilter
 import numpy as np
 
+from gear_phm.estimation.filterpy_light import KalmanFilter
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
 
