@@ -132,3 +132,10 @@ def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[
 def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
     """``{name: default}``."""
     return {spec.name: spec.default for spec in specs}
+
+
+#: The gearbox ratio, one parameter of the simulation (publisher), the estimator and the
+#: diagnostics alike: they must agree on it. Finite and positive; the bounds are those of a
+#: ratio the float arithmetic of eqs 10/12 handles (u/R and R u stay far from overflow).
+RATIO = ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
+                  1e-6, 1e6)

@@ -78,7 +78,7 @@ def test_rul_inf_without_significant_degradation_and_zero_at_end_of_life() -> No
 @settings(max_examples=25, deadline=None, derandomize=True)
 @given(rate=st.floats(1e-5, 1e-3), sigma=st.floats(1e-4, 1e-2))
 def test_rul_quantiles_ordered_and_deterministic(rate: float, sigma: float) -> None:
-    predictor = RulPredictor(0.6, samples=500, seed=3)
+    predictor = RulPredictor(0.6, mc_samples=500, seed=3)
     _line(predictor, rate, 400.0, sigma)
     first = predictor.predict(398.0, 0.1 + rate * 398.0)
     assert first.p5 <= first.median <= first.p95
