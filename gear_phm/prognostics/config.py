@@ -70,6 +70,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 )
 #: ``{name: default}`` of :data:`PARAMETERS`, the one home of these defaults.
 DEFAULTS = defaults(PARAMETERS)
+#: The health parameters that are not options of the offline tools (``analyze_bag``,
+#: ``gear-phm analyze``/``evaluate``): the ratio is their own argument, and staleness is a
+#: live-only concept (no clock runs offline).
+NOT_OFFLINE_OPTIONS: tuple[str, ...] = (RATIO.name, 'stale_timeout')
 
 
 @dataclass(frozen=True)

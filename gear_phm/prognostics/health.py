@@ -56,8 +56,8 @@ class DivergenceDetector:
       innovations of a step the filter then follows (a sudden fault) are not a loss.
     - model mismatch (WARN): that mean above the chi-square bound
       :func:`chi_square_mean_bound` (at ``nis_probability``) but not above ``nis_lost``: the
-      innovations are larger than predicted (a plant that is not the lever model, wear faster than the filter's
-      random walk) while the estimate still tracks.
+      innovations are larger than predicted (a plant that is not the lever model, wear
+      faster than the filter's random walk) while the estimate still tracks.
 
     NIS values are only counted when the innovation changes, because the estimator
     republishes the last innovation between filter updates.
