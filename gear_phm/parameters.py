@@ -139,3 +139,16 @@ def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
 #: ratio the float arithmetic of eqs 10/12 handles (u/R and R u stay far from overflow).
 RATIO = ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
                   1e-6, 1e6)
+#: The joints' names in the JointState messages: the publisher's, the estimator's and
+#: ``gear-phm analyze``/``simulate``'s.
+MOTOR_JOINT = ParamSpec('motor_joint', 'motor', 'name of the motor joint in the JointState '
+                        'messages')
+LOAD_JOINT = ParamSpec('load_joint', 'load', 'name of the load joint in the JointState '
+                       'messages')
+#: The /diagnostics status of the health: the diagnostics node's and ``gear-phm analyze``'s
+#: (whose option for ``rate`` is ``--diagnostics-rate``).
+TRANSMISSION_NAME = ParamSpec('transmission_name', 'gearbox',
+                              'status name is "gear_phm: <transmission_name>"')
+HARDWARE_ID = ParamSpec('hardware_id', 'gearbox', 'hardware_id of the /diagnostics status')
+DIAGNOSTICS_RATE = ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0,
+                             read_only=True)

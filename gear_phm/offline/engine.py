@@ -38,7 +38,8 @@ from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
 from gear_phm.offline.records import Analysis, EstimateHistory, HealthHistory
-from gear_phm.parameters import RATIO
+from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,
+                                 TRANSMISSION_NAME)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.status import LEVEL_NAMES
@@ -147,11 +148,14 @@ def _metadata_start_ns(path: Path) -> int | None:
 
 
 def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, *,
-                motor_joint: str = 'motor', load_joint: str = 'load',
+                motor_joint: str = str(MOTOR_JOINT.default),
+                load_joint: str = str(LOAD_JOINT.default),
                 topic: str = interfaces.JOINT_STATES, out: str | Path | None = None,
                 overwrite: bool = False, plot: bool = True, progress: bool = False,
-                transmission_name: str = 'gearbox', hardware_id: str = 'gearbox',
-                diagnostics_rate: float = 1.0, history: int | None = None,
+                transmission_name: str = str(TRANSMISSION_NAME.default),
+                hardware_id: str = str(HARDWARE_ID.default),
+                diagnostics_rate: float = float(DIAGNOSTICS_RATE.default),
+                history: int | None = None,
                 prior: ShapePrior | None = None, **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
