@@ -4,7 +4,7 @@ Simulates a fleet (``gear-phm simulate --fleet``) whose recordings are separated
 (a week by default; ``--gap-spread`` scatters them as irregular flights would), analyses each
 unit's campaign with the Python API (``gear_phm.offline.analyze_bag`` over its recordings) and
 scores, for every unit that reaches its end of life within its recordings, the alpha-lambda
-checks (alpha 0.2) and the prognostic horizon of:
+checks (``gear_phm.prognostics.metrics.ALPHA``) and the prognostic horizon of:
 
 - **operating time**: the diagnostics' ``rul_operating`` against the true RUL in operating
   time (the true end of life, from the ``gear_phm/truth/friction`` topic, mapped through the
@@ -30,13 +30,12 @@ import numpy as np
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.interfaces import TRUTH_FRICTION
 from gear_phm.offline import analyze_bag
-from gear_phm.offline.engine import EstimateHistory
+from gear_phm.offline.records import EstimateHistory
 from gear_phm.prognostics import end_of_life_u, HealthAssessor, HealthConfig
-from gear_phm.prognostics.metrics import evaluate
+from gear_phm.prognostics.metrics import ALPHA, evaluate, LAMBDAS, true_end_of_life_index
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 RATIO, ETA_MIN = 3.0, 0.7333
-LAMBDAS = (0.25, 0.5, 0.75)
 
 
 def estimates_of(history: EstimateHistory) -> list[FrictionEstimate]:
@@ -91,11 +90,11 @@ def main() -> int:
             bags = sorted(unit.glob('rec_*'))
             analysis = analyze_bag(bags, RATIO, eta_opposing_min=ETA_MIN, plot=True)
             truth = analysis.truth[TRUTH_FRICTION]           # (stamp [ns], u, value, 0)
-            reached = np.flatnonzero(truth[:, 1] >= u_eol)
-            if reached.size == 0:
+            reached = true_end_of_life_index(truth[:, 1], u_eol)
+            if reached is None:
                 rows.append((unit.name, None))
                 continue
-            eol_stamp = truth[reached[0], 0] * 1e-9
+            eol_stamp = truth[reached, 0] * 1e-9
             e, h = analysis.estimates, analysis.health
             eol_operating = float(np.interp(eol_stamp, e.t, e.operating_time))
             operating = score(h.operating_time, h.rul_operating_median, eol_operating)
@@ -108,7 +107,7 @@ def main() -> int:
                                      converted)))
     print(f'fleet: {args.units} units x {args.recordings} recordings of {args.duration:g} s, '
           f'gaps {args.gap:g} s (spread {args.gap_spread:g}), {args.wear} wear, seed '
-          f'{args.seed}; alpha 0.2, lambda {", ".join(map(str, LAMBDAS))}\n')
+          f'{args.seed}; alpha {ALPHA:g}, lambda {", ".join(map(str, LAMBDAS))}\n')
     print('| unit | EOL: operating time [s] / elapsed [days] | RUL on operating time: '
           'alpha-lambda, horizon | RUL on elapsed time (trend on stamps) | rul_s '
           '(rul_operating / utilisation) |')

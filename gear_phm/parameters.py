@@ -132,3 +132,23 @@ def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[
 def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
     """``{name: default}``."""
     return {spec.name: spec.default for spec in specs}
+
+
+#: The gearbox ratio, one parameter of the simulation (publisher), the estimator and the
+#: diagnostics alike: they must agree on it. Finite and positive; the bounds are those of a
+#: ratio the float arithmetic of eqs 10/12 handles (u/R and R u stay far from overflow).
+RATIO = ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
+                  1e-6, 1e6)
+#: The joints' names in the JointState messages: the publisher's, the estimator's and
+#: ``gear-phm analyze``/``simulate``'s.
+MOTOR_JOINT = ParamSpec('motor_joint', 'motor', 'name of the motor joint in the JointState '
+                        'messages')
+LOAD_JOINT = ParamSpec('load_joint', 'load', 'name of the load joint in the JointState '
+                       'messages')
+#: The /diagnostics status of the health: the diagnostics node's and ``gear-phm analyze``'s
+#: (whose option for ``rate`` is ``--diagnostics-rate``).
+TRANSMISSION_NAME = ParamSpec('transmission_name', 'gearbox',
+                              'status name is "gear_phm: <transmission_name>"')
+HARDWARE_ID = ParamSpec('hardware_id', 'gearbox', 'hardware_id of the /diagnostics status')
+DIAGNOSTICS_RATE = ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0,
+                             read_only=True)

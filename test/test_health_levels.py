@@ -33,13 +33,14 @@ def transitions(levels: list[int]) -> list[tuple[int, int]]:
 def test_level_rules_without_dwell(u: float, eta: float, p5: float, check: tuple[int, str],
                                    level: int, text: str) -> None:
     u_eol, reason = (1.0, 'self_locking') if u >= 1.0 else (0.6, 'eta_opposing_min')
-    tracker = LevelTracker(u_eol, reason, 0.6, 3600.0, hysteresis=0.0, dwell=0.0)
+    tracker = LevelTracker(u_eol, reason, 0.6, 3600.0, level_hysteresis=0.0, level_dwell=0.0)
     got, message = tracker.update(0.0, u, eta, p5, check)
     assert got == level and text in message, message
 
 
 def test_dwell_and_hysteresis_thresholds_exact() -> None:
-    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 100.0, hysteresis=0.05, dwell=5.0)
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 100.0,
+                           level_hysteresis=0.05, level_dwell=5.0)
     assert tracker.eta_clear == pytest.approx(0.81)
     assert tracker.u_clear == pytest.approx(0.2375)
     assert tracker.rul_clear == pytest.approx(105.0)
@@ -72,7 +73,8 @@ def test_rul_warn_is_entered_on_the_median_and_cleared_on_the_5_percent_bound() 
     significant, the exponential still weighed 0.45, and the RUL's p5 dipped to 3300-3750 s
     against a true 22 000 s for 700 s: a WARN, then OK, then the real WARN at 0.86.
     """
-    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.05, dwell=5.0)
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
+                           level_hysteresis=0.05, level_dwell=5.0)
     # median 8700 s, p5 3300 s: the band reaches the horizon, the median does not: OK
     for t in np.arange(0.0, 700.0, 1.0):
         assert tracker.update(t, 0.1, 0.9, 3300.0, rul_median=8700.0)[0] == OK
@@ -88,7 +90,8 @@ def test_rul_warn_is_entered_on_the_median_and_cleared_on_the_5_percent_bound() 
     assert tracker.update(901.0, 0.1, 0.9, 3800.0, rul_median=9000.0)[0] == WARN
     assert tracker.update(906.0, 0.1, 0.9, 3800.0, rul_median=9000.0) == (OK, 'ok')
     # with the old rule (entered on p5) the first stretch would have warned
-    old = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.05, dwell=5.0)
+    old = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
+                       level_hysteresis=0.05, level_dwell=5.0)
     assert [old.update(t, 0.1, 0.9, 3300.0)[0] for t in (0.0, 5.0)] == [OK, WARN]
 
 
@@ -101,7 +104,7 @@ def test_noisy_crossing_gives_exactly_one_transition() -> None:
     t = np.arange(0.0, 1000.0, 0.1)                            # 10 Hz for 1000 s
     eta = 0.83 - 6e-5 * t + rng.normal(0.0, 0.003, t.size)       # crosses 0.8 at t = 500 s
     steady = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0)   # defaults: 0.05, 5 s
-    raw = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, hysteresis=0.0, dwell=0.0)
+    raw = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, level_hysteresis=0.0, level_dwell=0.0)
     levels = [steady.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
     flapping = [raw.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
     assert transitions(levels) == [(OK, WARN)]
@@ -134,7 +137,8 @@ def test_noisy_wear_through_warn_and_end_of_life_one_transition_each() -> None:
 
 # --- filter checks -------------------------------------------------------------------------
 def test_divergence_detector_mismatch_warn_and_lost_error() -> None:
-    detector = DivergenceDetector(window=10, probability=0.999, max_u_sigma=0.5, lost_nis=100.0)
+    detector = DivergenceDetector(nis_window=10, nis_probability=0.999, max_u_sigma=0.5,
+                                  nis_lost=100.0)
     exact = chi2.ppf(0.999, 10) / 10                       # the bound the detector approximates
     rng = np.random.default_rng(1)
     fed: list[float] = []
@@ -161,13 +165,13 @@ def test_divergence_detector_mismatch_warn_and_lost_error() -> None:
                                         'updates > 100'
     # a step the filter follows (a sudden fault): three huge innovations, then consistent
     # ones; the mean is far above the bound, the median is not: mismatch, not lost
-    step = DivergenceDetector(window=20)
+    step = DivergenceDetector(nis_window=20)
     nis_values = [0.5, 1.2, 0.1] * 5 + [1660.0, 1920.0, 528.0] + [0.03, 1.1]
     for i, nis in enumerate(nis_values):
         level, reason = step.update(float(i), 1.0, nis, 0.01)
     assert step.nis_mean > 200.0 and step.nis_median < 1.0
     assert level == WARN and reason.startswith('model mismatch: mean NIS 206')
-    fresh = DivergenceDetector(window=3)
+    fresh = DivergenceDetector(nis_window=3)
     for _ in range(5):                                     # republished, counted once
         fresh.update(3.0, 1.0, 9.0, 0.01)
     assert fresh.nis_mean == 9.0 and len(fresh._nis) == 1
@@ -240,7 +244,8 @@ def test_end_of_life_needs_u_past_u_eol_beyond_its_noise() -> None:
     life on the point estimate; the lower 95 % bound u - 1.645 sigma must reach u_eol.
     """
     rng = np.random.default_rng(7)
-    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, hysteresis=0.05, dwell=5.0)
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0,
+                           level_hysteresis=0.05, level_dwell=5.0)
     sigma, rate = 1e-3, 1.8e-5
     first_error = None
     for t in np.arange(0.0, 600.0, 1.0):
@@ -262,7 +267,8 @@ def test_end_of_life_is_also_entered_when_the_fitted_law_is_past_it() -> None:
     crossed u_eol 172 s after the true end of life, the wear law fitted to the measurements
     (95 % of its draws) 69 s after it.
     """
-    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.05, dwell=5.0)
+    tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
+                           level_hysteresis=0.05, level_dwell=5.0)
     for t in np.arange(0.0, 10.0, 1.0):        # u below u_eol, the fit's p95 not yet 0
         assert tracker.update(t, 0.2, 0.9, 0.0, rul_median=1.0)[0] != ERROR
     for t in np.arange(10.0, 15.0, 1.0):       # p95 0: held for the dwell
@@ -270,5 +276,6 @@ def test_end_of_life_is_also_entered_when_the_fitted_law_is_past_it() -> None:
     level, message = tracker.update(15.0, 0.2, 0.9, 0.0, rul_median=0.0, law_past_eol=True)
     assert level == ERROR and 'wear law of the measurements is past u_eol 0.25' in message
     # without it only u counts, as before
-    plain = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0, hysteresis=0.0, dwell=0.0)
+    plain = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
+                         level_hysteresis=0.0, level_dwell=0.0)
     assert plain.update(0.0, 0.2, 0.9, 0.0)[0] == WARN

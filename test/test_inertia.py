@@ -51,7 +51,7 @@ def test_the_learner_recovers_the_inertia_and_applies_it_only_once_significant(
     none = InertiaLearner()                              # nothing left: nothing applied
     _windows(none, 10 * BLOCK, 0.0, seed, drift=1.0)
     assert none.correction == (0.0, 0.0) and none.inertia == 0.0
-    too_much = InertiaLearner(configured=J_M)            # configured 2e-3 on a drive without
+    too_much = InertiaLearner(motor_inertia=J_M)            # configured 2e-3 on a drive without
     _windows(too_much, 10 * BLOCK, -3.0 * J_M, seed)
     assert too_much.inertia == 0.0                       # an inertia is not negative
     restored = InertiaLearner()

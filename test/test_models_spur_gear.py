@@ -135,8 +135,12 @@ def test_textbook_pair_with_usual_tooth_friction() -> None:
     assert loss == pytest.approx(0.00879, abs=1e-5)
     assert eta_d == pytest.approx(1 - loss, abs=1e-4)
     assert eta_i == pytest.approx(1 - loss, abs=1e-4)
-    # Standard full-depth pair: contact ratio about 1.67.
-    assert gear.contact_ratio == pytest.approx(1.67, abs=0.01)
+    # The model's path of contact is this A, B (eq 3 on the motor side, no bearings) ...
+    d_1, s = r_p1 * math.sin(theta), 0.05 / (a + b)
+    assert gear.torques()['T_M_D'] == pytest.approx(
+        r_b1 - s * b * (d_1 - b / 2) + s * a * (d_1 + a / 2), rel=1e-12)
+    # ... and a standard full-depth pair's is about 1.67 base pitches (contact ratio).
+    assert (a + b) / (math.pi * module * math.cos(theta)) == pytest.approx(1.67, abs=0.01)
 
 
 # ---------------------------------------------------------------- independent integration
@@ -218,7 +222,7 @@ def test_array_fields_broadcast_and_match_scalar_instances() -> None:
     eta_d, eta_i = gear.efficiencies()
     assert eta_d.shape == eta_i.shape == (3, 4)
     assert np.shape(gear.ratio) == (3, 4)
-    assert np.shape(gear.contact_ratio) == (3, 4)
+    assert all(np.shape(torque) == (3, 4) for torque in gear.torques().values())
     for i in range(3):
         for j in range(4):
             single = SpurGear(float(z1[i, 0]), float(z2[j]), module=1e-3,

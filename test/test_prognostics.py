@@ -20,7 +20,8 @@ from gear_phm.prognostics import (end_of_life_u, HealthAssessor, HealthConfig, H
                                   RulPredictor)
 from gear_phm.prognostics.health import chi_square_mean_bound
 from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
-                                          evaluate, prognostic_horizon)
+                                          evaluate, prognostic_horizon,
+                                          true_end_of_life_index)
 from gear_phm.simulation.wear import Wear
 from gear_phm.status import ERROR, OK, WARN
 
@@ -78,7 +79,7 @@ def test_rul_inf_without_significant_degradation_and_zero_at_end_of_life() -> No
 @settings(max_examples=25, deadline=None, derandomize=True)
 @given(rate=st.floats(1e-5, 1e-3), sigma=st.floats(1e-4, 1e-2))
 def test_rul_quantiles_ordered_and_deterministic(rate: float, sigma: float) -> None:
-    predictor = RulPredictor(0.6, samples=500, seed=3)
+    predictor = RulPredictor(0.6, mc_samples=500, seed=3)
     _line(predictor, rate, 400.0, sigma)
     first = predictor.predict(398.0, 0.1 + rate * 398.0)
     assert first.p5 <= first.median <= first.p95
@@ -223,6 +224,15 @@ def test_metrics_on_perfect_and_biased_predictions() -> None:
     # PH bound +/- 0.2 * 100 = 20 s: 0.3 (100 - t) <= 20 from t >= 33.33 -> t_i = 34
     assert prognostic_horizon(t, biased, 100.0) == 66.0
     assert cumulative_relative_accuracy(t, biased, 100.0) == pytest.approx(0.7)
+
+
+def test_true_end_of_life_is_the_first_sample_at_or_above_u_eol() -> None:
+    true_u = np.array([0.1, 0.2, 0.25, 0.3, 0.2])
+    assert true_end_of_life_index(true_u, 0.25) == 2             # >=: reaching it counts
+    assert true_end_of_life_index(true_u, 0.21) == 2
+    assert true_end_of_life_index(true_u, 0.31) is None          # never reached
+    assert true_end_of_life_index(true_u, math.inf) is None
+    assert true_end_of_life_index(np.array([]), 0.25) is None
 
 
 def test_metrics_inputs_validated_and_infinite_predictions() -> None:

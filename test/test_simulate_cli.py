@@ -141,7 +141,7 @@ def test_truth_every_and_joint_names(tmp_path: Path) -> None:
 @pytest.mark.parametrize('args, expected', [
     (['--rate', '-1'], '--rate must be > 0'),
     (['--duration', '0'], '--duration must be > 0'),
-    (['--ratio', '0'], 'ratio must be >= 1e-06'),
+    (['--ratio', '0'], 'ratio must be in [1e-06, 1e+06]'),
     (['--friction-final', '0.3'], '--friction-final needs --wear linear, exponential or power'),
     (['--wear', 'linear', '--wear-rate', '1.0', '--duration', '10'], 'gearbox jams'),
     (['--plant', 'worm'], 'plant must be one of lever, spur'),

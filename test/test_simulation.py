@@ -12,6 +12,8 @@ from gear_phm.simulation import (Channel, DutyCycle, Plant, sample_times, Sensor
                                  SimulationConfig, Simulator, Wear)
 
 RATE = 200.0
+#: Perfect sensors: no noise, no bias on any of the four channels.
+NOISELESS = Sensors(Channel(), Channel(), Channel(), Channel())
 
 
 def steady_segments(result) -> list[np.ndarray]:
@@ -63,7 +65,7 @@ def test_steady_power_ratio_matches_lever_efficiencies_within_noise() -> None:
 
 
 def test_noiseless_power_ratio_is_exact_in_each_phase() -> None:
-    config = SimulationConfig(wear=Wear('constant', 0.2), sensors=Sensors.noiseless())
+    config = SimulationConfig(wear=Wear('constant', 0.2), sensors=NOISELESS)
     result = simulate(config, sample_times(30.0, RATE))
     p_motor = result.effort_motor * result.velocity_motor
     p_load = -result.effort_load * result.velocity_load
@@ -103,7 +105,7 @@ def test_spur_plant_truth_and_power_ratio() -> None:
 
 
 def test_self_locking_motor_pushes_back() -> None:
-    config = SimulationConfig(wear=Wear('constant', 1.4), sensors=Sensors.noiseless())
+    config = SimulationConfig(wear=Wear('constant', 1.4), sensors=NOISELESS)
     result = simulate(config, sample_times(12.0, RATE))
     locking = result.phase == SELF_LOCKING
     assert locking.sum() > 100
@@ -121,7 +123,7 @@ def test_jammed_gearbox_is_reported() -> None:
 
 
 def test_kinematics_and_positions() -> None:
-    config = SimulationConfig(sensors=Sensors.noiseless())
+    config = SimulationConfig(sensors=NOISELESS)
     duty = config.duty_cycle
     t = sample_times(3 * duty.period, 1000.0)
     result = simulate(config, t)
@@ -189,20 +191,22 @@ def test_wear_trajectories(kind: str, expected: list[float]) -> None:
         assert wear.value(4.999) == pytest.approx(0.1)
 
 
-def test_wear_reaching_and_time_to_reach() -> None:
+def test_wear_reaching_and_when_each_law_passes_a_value() -> None:
     for kind in ('linear', 'exponential', 'power'):
         wear = Wear.reaching(kind, 0.05, 0.3, 200.0, exponent=3.0)
         assert wear.value(200.0) == pytest.approx(0.3)
-        assert wear.time_to_reach(0.3) == pytest.approx(200.0)
-        assert wear.time_to_reach(0.1) == pytest.approx(float(
-            {'linear': 40.0, 'exponential': 200.0 * np.log(2.0) / np.log(6.0),
-             'power': 200.0 * 0.2 ** (1.0 / 3.0)}[kind]))
+        # the time each law reaches 0.1: 0.05 + 0.25 t/200, 0.05 6^(t/200), 0.05 + 0.25 (t/200)^3
+        t_01 = {'linear': 40.0, 'exponential': 200.0 * np.log(2.0) / np.log(6.0),
+                'power': 200.0 * 0.2 ** (1.0 / 3.0)}[kind]
+        assert wear.value(t_01) == pytest.approx(0.1)
+        assert np.all(np.diff(wear.value(np.linspace(0.0, 200.0, 401))) > 0.0)   # rising
     assert Wear.reaching('power', 0.05, 0.3, 200.0, exponent=3.0).value(100.0) \
         == pytest.approx(0.05 + 0.25 / 8.0)                   # slow at first, then faster
     with pytest.raises(ValueError, match='exponent must be > 0'):
         Wear('power', 0.1, 0.02, exponent=0.0)
-    assert Wear('constant', 0.1).time_to_reach(0.2) == np.inf
-    assert Wear('step', 0.1, t_fault=3.0, step=0.2).time_to_reach(0.25) == 3.0
+    assert np.all(Wear('constant', 0.1).value(np.linspace(0.0, 1e9, 11)) == 0.1)   # never 0.2
+    step = Wear('step', 0.1, t_fault=3.0, step=0.2)
+    assert step.value(np.nextafter(3.0, 0.0)) == 0.1 and step.value(3.0) == pytest.approx(0.3)
 
 
 @settings(max_examples=60, deadline=None)

@@ -15,6 +15,8 @@ from typing import Any
 from gear_phm import interfaces
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, estimator_params, health_values
+from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
+                                 TRANSMISSION_NAME)
 
 HELP = 'estimate friction offline from a recorded bag (same code as the estimator node)'
 
@@ -26,18 +28,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'times')
     parser.add_argument('--ratio', type=float, required=True,
                         help='ideal torque gain load/motor R = z2/z1 [-]')
-    parser.add_argument('--motor-joint', default='motor', help='motor joint name')
-    parser.add_argument('--load-joint', default='load', help='load joint name')
+    parser.add_argument('--motor-joint', default=MOTOR_JOINT.default,
+                        help=f'motor joint name (default {MOTOR_JOINT.default})')
+    parser.add_argument('--load-joint', default=LOAD_JOINT.default,
+                        help=f'load joint name (default {LOAD_JOINT.default})')
     parser.add_argument('--topic', default=interfaces.JOINT_STATES,
                         help='JointState topic (default joint_states)')
     parser.add_argument('--out', required=True, help='output directory (must not exist)')
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
                         help='estimator parameter, as in config/estimator.yaml (repeatable)')
-    parser.add_argument('--transmission-name', default='gearbox',
-                        help='diagnostics status name "gear_phm: <name>" (default gearbox)')
-    parser.add_argument('--hardware-id', default='gearbox', help='diagnostics hardware_id')
-    parser.add_argument('--diagnostics-rate', type=float, default=1.0, metavar='HZ',
-                        help='/diagnostics rate in bag time [Hz], as the nodes (default 1.0)')
+    parser.add_argument('--transmission-name', default=TRANSMISSION_NAME.default,
+                        help='diagnostics status name "gear_phm: <name>" (default '
+                             f'{TRANSMISSION_NAME.default})')
+    parser.add_argument('--hardware-id', default=HARDWARE_ID.default,
+                        help=f'diagnostics hardware_id (default {HARDWARE_ID.default})')
+    parser.add_argument('--diagnostics-rate', type=float, default=DIAGNOSTICS_RATE.default,
+                        metavar='HZ', help='/diagnostics rate in bag time [Hz], as the nodes '
+                                           f'(default {DIAGNOSTICS_RATE.default})')
     parser.add_argument('--overwrite', action='store_true',
                         help='replace --out if it holds a previous analysis (summary.json)')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')

@@ -26,9 +26,11 @@ from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
 from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION,
                                  VECTOR3_STAMPED_TYPE)
+from gear_phm.parameters import RATIO
 from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (ALPHA, band_coverage, BAND_FROM, evaluate,
-                                          finite_from, LAMBDAS, level_transitions)
+                                          finite_from, LAMBDAS, level_transitions,
+                                          true_end_of_life_index)
 from gear_phm.status import ERROR, LEVEL_NAMES
 
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
@@ -45,15 +47,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--alpha', type=float, default=ALPHA,
                         help=f'accuracy cone half-width (default {ALPHA})')
     parser.add_argument('--lambdas', type=float, nargs='+', default=list(LAMBDAS),
-                        help='fractions of life where alpha-lambda is checked '
-                             '(default 0.25 0.5 0.75)')
+                        help='fractions of life where alpha-lambda is checked (default '
+                             f'{" ".join(f"{lam:g}" for lam in LAMBDAS)})')
     parser.add_argument('--band-from', type=float, default=BAND_FROM,
                         help='fraction of the life from which the p5-p95 band coverage is '
                              f'counted (default {BAND_FROM})')
     parser.add_argument('--t-start', type=float, default=None,
                         help='prognostics start time [s] (default: first prediction)')
-    parser.add_argument('--ratio', type=float, default=3.0,
-                        help='gearbox ratio R for u_eol from --eta-opposing-min (default 3.0)')
+    parser.add_argument('--ratio', type=float, default=RATIO.default,
+                        help='gearbox ratio R for u_eol from --eta-opposing-min (default '
+                             f'{RATIO.default})')
     add_health_arguments(parser)
 
 
@@ -117,11 +120,11 @@ def truth_eol(truth: Path, u_eol: float) -> float:
             raise CliError(f'{truth} holds no finite time,true_eol row')
         return values[-1][1]
     times, vectors = read_vector_topic(truth, TRUTH_FRICTION)
-    crossed = np.flatnonzero(vectors[:, 0] >= u_eol)
-    if crossed.size == 0:
+    index = true_end_of_life_index(vectors[:, 0], u_eol)
+    if index is None:
         raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
                        f'{vectors[:, 0].max():.4g}): no end of life to score against')
-    return float(times[crossed[0]])
+    return float(times[index])
 
 
 def run(args: argparse.Namespace) -> int:

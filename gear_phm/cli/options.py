@@ -6,12 +6,10 @@ from typing import Any
 
 from gear_phm.cli.main import CliError
 from gear_phm.estimation.config import PARAMETERS as ESTIMATOR_PARAMETERS
-from gear_phm.parameters import ParamSpec, spec_map
+from gear_phm.parameters import ParamSpec, RATIO, spec_map
+from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.config import PARAMETERS as HEALTH_PARAMETERS
 
-#: Health parameters that are not options: the ratio comes from ``--ratio``; staleness is a
-#: live-only concept.
-_NOT_OPTIONS = ('ratio', 'stale_timeout')
 _PREFIX = 'health_'
 
 
@@ -28,13 +26,13 @@ def _help(spec: ParamSpec) -> str:
 
 
 def add_health_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add one option per health parameter: ``--eta-opposing-min``, ``--u-max``, ...
+    """Add one option per health parameter but :data:`NOT_OFFLINE_OPTIONS`: ``--u-max``, ...
 
     ``--no-self-locking-eol`` for the flag; read them back with :func:`health_values`.
     """
     group = parser.add_argument_group('health and end of life (diagnostics)')
     for spec in HEALTH_PARAMETERS:
-        if spec.name in _NOT_OPTIONS:
+        if spec.name in NOT_OFFLINE_OPTIONS:
             continue
         option = '--' + spec.name.replace('_', '-')
         if spec.kind is bool:
@@ -65,8 +63,8 @@ def estimator_params(items: list[str]) -> dict[str, Any]:
         name, sep, text = item.partition('=')
         if not sep:
             raise CliError(f'--param expects NAME=VALUE, got {item!r}')
-        if name not in table or name == 'ratio':
-            known = ', '.join(sorted(set(table) - {'ratio'}))
+        if name not in table or name == RATIO.name:
+            known = ', '.join(sorted(set(table) - {RATIO.name}))
             raise CliError(f'--param: unknown estimator parameter {name!r} (known: {known})')
         try:
             values[name] = table[name].parse(text)

@@ -20,10 +20,13 @@ from gear_phm.bagio import BagError, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli.main import CliError
 from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, ns_to_sec_nanosec,
                                  TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
+#: The default (motor, load) joint names.
+JOINT_NAMES = (str(MOTOR_JOINT.default), str(LOAD_JOINT.default))
 
 #: Samples simulated per chunk (bounds memory for long runs).
 CHUNK = 20_000
@@ -36,8 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (100)')
     parser.add_argument('--start-time', type=float, default=0.0,
                         help='stamp of the first sample [s since epoch] (0)')
-    parser.add_argument('--motor-joint', default='motor', help='motor joint name (motor)')
-    parser.add_argument('--load-joint', default='load', help='load joint name (load)')
+    for spec in (MOTOR_JOINT, LOAD_JOINT):
+        parser.add_argument('--' + spec.name.replace('_', '-'), default=spec.default,
+                            help=f'{spec.description} ({spec.default})')
     parser.add_argument('--friction-final', type=float, default=None,
                         help='linear/exponential/power wear: friction value reached at the '
                              'end of the run (sets --wear-rate)')
@@ -134,7 +138,7 @@ def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns:
 
 
 def write_simulation(out: Path, config: SimulationConfig, duration: float, rate: float,
-                     start_time: float = 0.0, names: tuple[str, str] = ('motor', 'load'),
+                     start_time: float = 0.0, names: tuple[str, str] = JOINT_NAMES,
                      truth_every: int = 1, compression: str | None = 'zstd',
                      operating_offset: float = 0.0) -> int:
     """Simulate ``duration`` [s] at ``rate`` [Hz] into the rosbag2 directory ``out``.

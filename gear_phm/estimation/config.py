@@ -4,12 +4,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 import math
 
-from gear_phm.parameters import check_values, defaults, ParamSpec
+from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
 
 #: The estimator's parameters (node parameters of the same names, config/estimator.yaml).
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
-              1e-6, 1e6),
+    RATIO,
     ParamSpec('motor_torque_noise', 0.01, 'std dev of one motor effort sample', 'N m', 0.0, 1e6),
     ParamSpec('motor_speed_noise', 0.01, 'std dev of one motor velocity sample', 'rad/s', 0.0,
               1e6),
@@ -72,44 +71,45 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('loss_warn', 0.01, 'WARN when the share of samples missing over the last '
               'status period exceeds this', '-', 0.0, 1.0),
 )
-_D = defaults(PARAMETERS)
+#: ``{name: default}`` of :data:`PARAMETERS`, the one home of these defaults.
+DEFAULTS = defaults(PARAMETERS)
 
 
 @dataclass(frozen=True)
 class EstimatorConfig:
     """Estimator parameters (SI units, see :data:`PARAMETERS`). Validated on construction."""
 
-    ratio: float = float(_D['ratio'])
-    motor_torque_noise: float = float(_D['motor_torque_noise'])
-    motor_speed_noise: float = float(_D['motor_speed_noise'])
-    load_torque_noise: float = float(_D['load_torque_noise'])
-    load_speed_noise: float = float(_D['load_speed_noise'])
-    motor_inertia: float = float(_D['motor_inertia'])
-    load_inertia: float = float(_D['load_inertia'])
-    window: float = float(_D['window'])
-    min_window: float = float(_D['min_window'])
-    min_energy: float = float(_D['min_energy'])
-    power_threshold: float = float(_D['power_threshold'])
-    speed_threshold: float = float(_D['speed_threshold'])
-    sensor_timeout: float = float(_D['sensor_timeout'])
-    gate_threshold: float = float(_D['gate_threshold'])
-    max_consecutive_gated: int = int(_D['max_consecutive_gated'])
-    process_noise: float = float(_D['process_noise'])
-    adaptive: bool = bool(_D['adaptive'])
-    learn_motor_inertia: bool = bool(_D['learn_motor_inertia'])
-    adapt_memory: float = float(_D['adapt_memory'])
-    adapt_gain: float = float(_D['adapt_gain'])
-    adapt_pull: float = float(_D['adapt_pull'])
-    mismatch_memory: float = float(_D['mismatch_memory'])
-    initial_u: float = float(_D['initial_u'])
-    initial_u_sigma: float = float(_D['initial_u_sigma'])
-    initial_rate_sigma: float = float(_D['initial_rate_sigma'])
-    model_sigma: float = float(_D['model_sigma'])
-    publish_rate: float = float(_D['publish_rate'])
-    backwards_policy: str = str(_D['backwards_policy'])
-    stamp_run: int = int(_D['stamp_run'])
-    period_hold: float = float(_D['period_hold'])
-    loss_warn: float = float(_D['loss_warn'])
+    ratio: float = float(DEFAULTS['ratio'])
+    motor_torque_noise: float = float(DEFAULTS['motor_torque_noise'])
+    motor_speed_noise: float = float(DEFAULTS['motor_speed_noise'])
+    load_torque_noise: float = float(DEFAULTS['load_torque_noise'])
+    load_speed_noise: float = float(DEFAULTS['load_speed_noise'])
+    motor_inertia: float = float(DEFAULTS['motor_inertia'])
+    load_inertia: float = float(DEFAULTS['load_inertia'])
+    window: float = float(DEFAULTS['window'])
+    min_window: float = float(DEFAULTS['min_window'])
+    min_energy: float = float(DEFAULTS['min_energy'])
+    power_threshold: float = float(DEFAULTS['power_threshold'])
+    speed_threshold: float = float(DEFAULTS['speed_threshold'])
+    sensor_timeout: float = float(DEFAULTS['sensor_timeout'])
+    gate_threshold: float = float(DEFAULTS['gate_threshold'])
+    max_consecutive_gated: int = int(DEFAULTS['max_consecutive_gated'])
+    process_noise: float = float(DEFAULTS['process_noise'])
+    adaptive: bool = bool(DEFAULTS['adaptive'])
+    learn_motor_inertia: bool = bool(DEFAULTS['learn_motor_inertia'])
+    adapt_memory: float = float(DEFAULTS['adapt_memory'])
+    adapt_gain: float = float(DEFAULTS['adapt_gain'])
+    adapt_pull: float = float(DEFAULTS['adapt_pull'])
+    mismatch_memory: float = float(DEFAULTS['mismatch_memory'])
+    initial_u: float = float(DEFAULTS['initial_u'])
+    initial_u_sigma: float = float(DEFAULTS['initial_u_sigma'])
+    initial_rate_sigma: float = float(DEFAULTS['initial_rate_sigma'])
+    model_sigma: float = float(DEFAULTS['model_sigma'])
+    publish_rate: float = float(DEFAULTS['publish_rate'])
+    backwards_policy: str = str(DEFAULTS['backwards_policy'])
+    stamp_run: int = int(DEFAULTS['stamp_run'])
+    period_hold: float = float(DEFAULTS['period_hold'])
+    loss_warn: float = float(DEFAULTS['loss_warn'])
 
     def __post_init__(self) -> None:
         check_values(PARAMETERS, asdict(self))

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_phm.estimation.config import DEFAULTS
 from gear_phm.persistence import decode_floats, encode_floats
 
 #: Windows of one direction in a block.
@@ -63,9 +64,9 @@ def _block_fit(rows: list[tuple[float, ...]]) -> tuple[float, float] | None:
 class InertiaLearner:
     """Blockwise least squares of the rotor inertia left in the windows (module docstring)."""
 
-    def __init__(self, configured: float = 0.0) -> None:
-        #: the configured motor_inertia [kg m^2]: dJ is at least -configured
-        self.configured = float(configured)
+    def __init__(self, motor_inertia: float = float(DEFAULTS['motor_inertia'])) -> None:
+        #: the configured motor_inertia [kg m^2]: dJ is at least -motor_inertia
+        self.motor_inertia = float(motor_inertia)
         self.reset()
 
     def reset(self) -> None:
@@ -109,12 +110,12 @@ class InertiaLearner:
         d_j, variance = self.fitted()
         if self.blocks < MIN_BLOCKS or not abs(d_j) > INERTIA_Z * math.sqrt(variance):
             return 0.0, 0.0
-        return max(d_j, -self.configured), variance
+        return max(d_j, -self.motor_inertia), variance
 
     @property
     def inertia(self) -> float:
-        """Return the motor inertia in use [kg m^2]: configured plus the applied dJ."""
-        return self.configured + self.correction[0]
+        """Return the motor inertia in use [kg m^2]: motor_inertia plus the applied dJ."""
+        return self.motor_inertia + self.correction[0]
 
     def to_state(self) -> dict[str, Any]:
         """Return the sums, the block count and the open blocks (JSON-safe)."""

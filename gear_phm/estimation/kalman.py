@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_phm.estimation.config import DEFAULTS
 from gear_phm.estimation.filterpy_light import KalmanFilter
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
@@ -45,19 +46,21 @@ class UpdateResult:
 
 @dataclass(frozen=True)
 class Adaptation:
-    """Settings of the adaptation (see the module docstring); ``enabled`` False: fixed q, R.
+    """Settings of the adaptation (see the module docstring); ``adaptive`` False: fixed q, R.
 
-    ``memory`` [updates]: length of the whiteness test (weight lambda = 1 - 1/memory);
-    ``gain`` [-]: step of log q per unit of test statistic; ``pull`` [-]: decrease of log q
-    per update towards small q; ``mismatch_memory`` [updates per direction]: window of the
-    mismatch covariance matching; ``q_min``, ``q_max`` [1/s^3]: limits of q.
+    The estimator parameters of the same names (:data:`gear_phm.estimation.config.PARAMETERS`):
+    ``adapt_memory`` [updates]: length of the whiteness test (weight lambda =
+    1 - 1/adapt_memory); ``adapt_gain`` [-]: step of log q per unit of test statistic;
+    ``adapt_pull`` [-]: decrease of log q per update towards small q; ``mismatch_memory``
+    [updates per direction]: window of the mismatch covariance matching. ``q_min``, ``q_max``
+    [1/s^3]: limits of q.
     """
 
-    enabled: bool = True
-    memory: float = 5.0
-    gain: float = 0.05
-    pull: float = 0.02
-    mismatch_memory: float = 50.0
+    adaptive: bool = bool(DEFAULTS['adaptive'])
+    adapt_memory: float = float(DEFAULTS['adapt_memory'])
+    adapt_gain: float = float(DEFAULTS['adapt_gain'])
+    adapt_pull: float = float(DEFAULTS['adapt_pull'])
+    mismatch_memory: float = float(DEFAULTS['mismatch_memory'])
     q_min: float = 1e-22
     q_max: float = 1e-4
 
@@ -94,7 +97,7 @@ class FrictionFilter:
         self.initial_u_sigma = float(initial_u_sigma)
         self.initial_rate_sigma = float(initial_rate_sigma)
         self.process_noise = float(process_noise)
-        self.adaptation = Adaptation(enabled=False) if adaptation is None else adaptation
+        self.adaptation = Adaptation(adaptive=False) if adaptation is None else adaptation
         #: q from the whiteness test alone [1/s^3] (process_noise is this or the floor).
         self.q_test = self.process_noise
         self._sum = 0.0               # weighted sum of normalised innovations
@@ -123,7 +126,7 @@ class FrictionFilter:
 
     def mismatch_variance(self, direction: int) -> float:
         """Learned model-mismatch variance [-] of direction 0 (opposing) or 1 (aiding)."""
-        return max(self._excess[direction], 0.0) if self.adaptation.enabled else 0.0
+        return max(self._excess[direction], 0.0) if self.adaptation.adaptive else 0.0
 
     def direction_bias(self, direction: int) -> float:
         """Learned systematic error [-] of direction 0 (opposing) or 1 (aiding) windows.
@@ -133,7 +136,7 @@ class FrictionFilter:
         moves nothing). Measurements are fused as z - bias: u is the midpoint of the two
         directions' readings.
         """
-        if not (self.adaptation.enabled and self._n[0] and self._n[1]
+        if not (self.adaptation.adaptive and self._n[0] and self._n[1]
                 and self._mean_den[0] > 0.0 and self._mean_den[1] > 0.0):
             return 0.0
         half = 0.5 * (self._mean[0] - self._mean[1])
@@ -144,7 +147,7 @@ class FrictionFilter:
     @property
     def direction_offset(self) -> float:
         """Mean innovation of opposing minus aiding windows [-] (0 until both are seen)."""
-        if not (self.adaptation.enabled and self._n[0] and self._n[1]):
+        if not (self.adaptation.adaptive and self._n[0] and self._n[1]):
             return 0.0
         return self._mean[0] - self._mean[1]
 
@@ -199,7 +202,7 @@ class FrictionFilter:
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
-        if self.adaptation.enabled:
+        if self.adaptation.adaptive:
             self._adapt(raw, bias, p_uu, r, s, direction, nis > self.gate_threshold)
         r = r_total
         if nis > self.gate_threshold:
@@ -218,7 +221,7 @@ class FrictionFilter:
         self.updates += 1
         self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis,
                                  bias=bias)
-        if self.adaptation.enabled:
+        if self.adaptation.adaptive:
             u, rate = float(self.kf.x[0, 0]), float(self.kf.x[1, 0])
             # only a significant rate (beyond 2 sigma) sets the floor: no feedback from noise
             rate = max(abs(rate) - 2.0 * math.sqrt(max(float(self.kf.P[1, 1]), 0.0)), 0.0)
@@ -297,13 +300,14 @@ class FrictionFilter:
         if gated:
             return
         e = (y - offset) / math.sqrt(s)
-        lam = 1.0 - 1.0 / a.memory
+        lam = 1.0 - 1.0 / a.adapt_memory
         lam2 = lam * lam
         self._sum = lam * self._sum + e
         self._power = lam2 * self._power + (1.0 - lam2) * e * e
         h = ((1.0 - lam2) * self._sum ** 2 - self._power) / max(self._power, 1e-3)
         h = min(max(h, -2.0), 10.0)
-        self.q_test = min(max(self.q_test * math.exp(a.gain * h - a.pull), a.q_min), a.q_max)
+        step = math.exp(a.adapt_gain * h - a.adapt_pull)
+        self.q_test = min(max(self.q_test * step, a.q_min), a.q_max)
 
     def _match(self, y: float, p_uu: float, r: float, s: float, direction: int,
                common: float) -> None:

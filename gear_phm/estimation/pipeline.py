@@ -112,8 +112,9 @@ class EstimatorPipeline:
         self.filter = FrictionFilter(c.initial_u, c.initial_u_sigma, c.initial_rate_sigma,
                                      c.process_noise, c.gate_threshold,
                                      c.max_consecutive_gated, Adaptation(
-                                         c.adaptive, c.adapt_memory, c.adapt_gain,
-                                         c.adapt_pull, c.mismatch_memory))
+                                         adaptive=c.adaptive, adapt_memory=c.adapt_memory,
+                                         adapt_gain=c.adapt_gain, adapt_pull=c.adapt_pull,
+                                         mismatch_memory=c.mismatch_memory))
         self.integrator = EnergyIntegrator(
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from gear_phm.estimation.config import DEFAULTS
 from gear_phm.models import d_u_d_eta_aiding, d_u_d_eta_opposing
 from gear_phm.models import u_from_eta_aiding, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
@@ -82,9 +83,11 @@ class _Open:
 class EnergyIntegrator:
     """Integrates usable samples into windows; ``process`` returns the windows it closed."""
 
-    def __init__(self, window: float, max_gap: float, motor_inertia: float = 0.0,
-                 load_inertia: float = 0.0, noise: tuple[float, float, float, float] = (
-                     0.0, 0.0, 0.0, 0.0), min_duration: float = 0.0) -> None:
+    def __init__(self, window: float, max_gap: float,
+                 motor_inertia: float = float(DEFAULTS['motor_inertia']),
+                 load_inertia: float = float(DEFAULTS['load_inertia']),
+                 noise: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+                 min_duration: float = 0.0) -> None:
         self.window = float(window)
         self.max_gap = float(max_gap)
         #: Windows that open and close inside one batch, shorter than this [s] or of one

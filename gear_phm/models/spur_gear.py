@@ -103,14 +103,6 @@ class SpurGear:
         geometry['B'] = geometry['reach2'] - geometry['d_p2']
         return geometry
 
-    @property
-    def contact_ratio(self) -> np.ndarray | float:
-        """Transverse contact ratio (A + B) / (pi m cos(theta)) [-]."""
-        g = self._geometry
-        ratio: np.ndarray = (g['A'] + g['B']) / (np.pi * np.asarray(self.module)
-                                                 * np.cos(self.pressure_angle))
-        return ratio
-
     def torques(self) -> dict[str, np.ndarray]:
         """Torques per unit normal force [N m / N] = [m]: T_M_D, T_U_D, T_M_I, T_U_I."""
         g = self._geometry

@@ -42,7 +42,8 @@ from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, Diagnostics
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
-from gear_phm.parameters import ParamSpec
+from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
+                                 TRANSMISSION_NAME)
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
 from gear_phm.status import STALE, WARN
@@ -52,9 +53,9 @@ INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 HEALTH_FIELDS = tuple(f.name for f in fields(HealthConfig))
 #: Parameters of the node itself (the health ones are :data:`gear_phm.prognostics.PARAMETERS`).
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('transmission_name', 'gearbox', 'status name is "gear_phm: <transmission_name>"'),
-    ParamSpec('hardware_id', 'gearbox', 'hardware_id of the /diagnostics status'),
-    ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0, read_only=True),
+    TRANSMISSION_NAME,
+    HARDWARE_ID,
+    DIAGNOSTICS_RATE,
     ParamSpec('record_path', '', 'rosbag2 MCAP directory to record to (empty: no recording); '
               'must not exist or be empty', read_only=True),
     ParamSpec('record_inputs', False, 'also record the six estimator input topics',

@@ -37,13 +37,13 @@ from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, r
 from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, JointStateDecoder,
                                       SampleLossPublisher, subscribe_joint_states_raw)
-from gear_phm.parameters import ParamSpec
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.status import WARN
 
 #: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('motor_joint', 'motor', 'name of the motor joint in joint_states'),
-    ParamSpec('load_joint', 'load', 'name of the load joint in joint_states'),
+    MOTOR_JOINT,
+    LOAD_JOINT,
     ParamSpec('frame_id', '', 'frame_id written in the output headers'),
     ParamSpec('diagnostics_period', 1.0, '/diagnostics status period', 's', 0.01, 3600.0,
               read_only=True),

@@ -43,7 +43,7 @@ from sensor_msgs.msg import JointState
 from gear_phm.interfaces import CLOCK, DIAGNOSTICS, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION
 from gear_phm.nodes.common import (ConfigError, declare_parameters, DropCounter, OUTPUT_QOS,
                                    run_node, stamp, status_msg)
-from gear_phm.parameters import ParamSpec
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.simulation import PARAMETERS
 from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
 from gear_phm.sources.replay import ReplaySource
@@ -61,8 +61,8 @@ GIL_SWITCH_INTERVAL_S = 0.001
 #: (declared with the prefix "simulate: " in their description). All are read at start only.
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('mode', 'simulate', 'simulate a transmission or replay a bag', choices=MODES),
-    ParamSpec('motor_joint', 'motor', 'name of the motor joint in JointState'),
-    ParamSpec('load_joint', 'load', 'name of the load joint in JointState'),
+    MOTOR_JOINT,
+    LOAD_JOINT,
     ParamSpec('rate', 100.0, 'simulate: sample rate', 'Hz', 1e-3, 10000.0),
     ParamSpec('duration', 0.0, 'simulate: run length; 0 runs until shut down', 's', 0.0),
     ParamSpec('bag_path', '', 'replay: rosbag2 directory, .mcap/.db3 in one, or ROS1 .bag'),

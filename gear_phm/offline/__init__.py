@@ -9,8 +9,8 @@ In a notebook::
 
 ``gear-phm analyze`` is a thin command-line wrapper around :func:`analyze_bag`.
 """
-from gear_phm.offline.engine import (Analysis, AnalysisError, analyze_bag, EstimateHistory,
-                                     HealthHistory, split_options)
+from gear_phm.offline.engine import AnalysisError, analyze_bag, split_options
+from gear_phm.offline.records import Analysis, EstimateHistory, HealthHistory
 
 __all__ = ['Analysis', 'AnalysisError', 'EstimateHistory', 'HealthHistory', 'analyze_bag',
            'split_options']

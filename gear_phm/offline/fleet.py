@@ -29,7 +29,7 @@ import numpy as np
 
 from gear_phm.errors import GearPhmError
 from gear_phm.prognostics import ShapePrior
-from gear_phm.prognostics.rul import SHAPED
+from gear_phm.prognostics.laws import SHAPED
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the

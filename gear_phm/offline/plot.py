@@ -4,34 +4,31 @@ from __future__ import annotations
 from collections.abc import Sequence
 import math
 from pathlib import Path
-from typing import Any, TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from gear_phm import interfaces
 from gear_phm.models import eta_aiding, eta_opposing
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
+from gear_phm.offline.records import Analysis, HealthHistory
+from gear_phm.prognostics.metrics import ALPHA, true_end_of_life_index
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE, WARN
-
-if TYPE_CHECKING:
-    from gear_phm.offline.engine import Analysis, HealthHistory
-
 
 #: Level colours of the timeline strip: OK, WARN, ERROR, STALE.
 LEVEL_COLOURS = {OK: '#2ca02c', WARN: '#ff9f1c', ERROR: '#d62728', STALE: '#7f7f7f'}
-#: Half-width of the accuracy cone around the true RUL (Saxena's alpha, as in evaluate).
-ALPHA = 0.2
 
 
 def true_end_of_life(truth_u: np.ndarray | None, u_eol: float) -> int | None:
-    """Stamp [ns] of the first truth-friction sample with true u >= u_eol, or None.
+    """Stamp [ns] of the true end of life in the truth-friction rows (stamp, u, ...), or None.
 
-    The same rule as ``gear-phm evaluate``'s truth bag (:func:`gear_phm.cli.evaluate.truth_eol`).
+    The rule of :func:`gear_phm.prognostics.metrics.true_end_of_life_index`, as
+    ``gear-phm evaluate``'s truth bag.
     """
-    if truth_u is None or not truth_u.size or not np.isfinite(u_eol):
+    if truth_u is None or not truth_u.size:
         return None
-    crossed = np.flatnonzero(truth_u[:, 1] >= u_eol)
-    return int(truth_u[crossed[0], 0]) if crossed.size else None
+    index = true_end_of_life_index(truth_u[:, 1], u_eol)
+    return None if index is None else int(truth_u[index, 0])
 
 
 def level_spans(t: np.ndarray, level: np.ndarray) -> list[tuple[float, float, int]]:
@@ -51,7 +48,8 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
 
     Panels, top to bottom: measured and estimated efficiency; u with its 2-sigma band and
     u_eol; the RUL median with its 5-95 % band (with ground truth: the true RUL, its
-    +/- alpha = 0.2 cone and the true end of life); a strip of the health level.
+    +/- alpha cone, :data:`~gear_phm.prognostics.metrics.ALPHA`, and the true end of life); a
+    strip of the health level.
     """
     import matplotlib
     matplotlib.use('Agg')

@@ -28,7 +28,7 @@ from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, ShapePrior, Trend,
                                       trend_from_state, trend_to_state, Utilisation)
-from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE
+from gear_phm.status import ERROR, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
 #: of eq 10 is ~1e-16, a 0.1 % ratio error at u = 0.05 moves eta_D by ~4e-5.
@@ -68,10 +68,6 @@ class HealthState:
         """This status turned STALE after ``silence`` [s] without input."""
         return replace(self, level=STALE,
                        message=f'no estimator input for {silence:.3g} s (last: {self.message})')
-
-    @property
-    def level_name(self) -> str:
-        return LEVEL_NAMES[self.level]
 
 
 def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
@@ -122,13 +118,15 @@ class HealthAssessor:
         self.u_eol, self.eol_reason = end_of_life_u(
             config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
         self.predictor = RulPredictor(
-            self.u_eol, config.detect_z, int(config.mc_samples), int(config.seed), config.trend,
-            prior=prior, u_systematic=u_accuracy(self.u_eol, config.ratio, config.eta_accuracy))
-        self.divergence = DivergenceDetector(int(config.nis_window), config.nis_probability,
-                                             config.max_u_sigma, config.nis_lost)
+            self.u_eol, detect_z=config.detect_z, mc_samples=int(config.mc_samples),
+            seed=int(config.seed), trend=config.trend, prior=prior,
+            u_systematic=u_accuracy(self.u_eol, config.ratio, config.eta_accuracy))
+        self.divergence = DivergenceDetector(
+            nis_window=config.nis_window, nis_probability=config.nis_probability,
+            max_u_sigma=config.max_u_sigma, nis_lost=config.nis_lost)
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
-                                   config.warn_horizon, config.level_hysteresis,
-                                   config.level_dwell)
+                                   config.warn_horizon, level_hysteresis=config.level_hysteresis,
+                                   level_dwell=config.level_dwell)
         self.utilisation = Utilisation()
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}

@@ -9,8 +9,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 import math
 
-from gear_phm.parameters import check_values, defaults, ParamSpec
-from gear_phm.prognostics.rul import MODELS
+from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
+from gear_phm.prognostics.laws import MODELS
 
 TRENDS = ('auto', *MODELS)
 #: The derived eta_warn lies this fraction of the way from eta_opposing_min up to 1 [-].
@@ -25,8 +25,7 @@ def derived_eta_warn(eta_opposing_min: float) -> float:
 #: The health parameters (diagnostics node parameters of the same names,
 #: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options).
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
-              1e-6, 1e6),
+    RATIO,
     ParamSpec('eta_opposing_min', 0.5,
               'end of life when the opposing-load efficiency eta_D falls to this', '-', -1.0,
               1.0),
@@ -69,31 +68,36 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('stale_timeout', 2.0, 'STALE when no estimator input arrives for this long', 's',
               1e-3, 1e6),
 )
-_D = defaults(PARAMETERS)
+#: ``{name: default}`` of :data:`PARAMETERS`, the one home of these defaults.
+DEFAULTS = defaults(PARAMETERS)
+#: The health parameters that are not options of the offline tools (``analyze_bag``,
+#: ``gear-phm analyze``/``evaluate``): the ratio is their own argument, and staleness is a
+#: live-only concept (no clock runs offline).
+NOT_OFFLINE_OPTIONS: tuple[str, ...] = (RATIO.name, 'stale_timeout')
 
 
 @dataclass(frozen=True)
 class HealthConfig:
     """End-of-life, RUL and health-level parameters (SI units, see :data:`PARAMETERS`)."""
 
-    ratio: float = float(_D['ratio'])
-    eta_opposing_min: float = float(_D['eta_opposing_min'])
-    self_locking_eol: bool = bool(_D['self_locking_eol'])
-    u_max: float = float(_D['u_max'])
-    eta_warn: float = float(_D['eta_warn'])
-    warn_horizon: float = float(_D['warn_horizon'])
-    detect_z: float = float(_D['detect_z'])
-    trend: str = str(_D['trend'])
-    eta_accuracy: float = float(_D['eta_accuracy'])
-    mc_samples: int = int(_D['mc_samples'])
-    seed: int = int(_D['seed'])
-    nis_window: int = int(_D['nis_window'])
-    nis_probability: float = float(_D['nis_probability'])
-    max_u_sigma: float = float(_D['max_u_sigma'])
-    nis_lost: float = float(_D['nis_lost'])
-    level_hysteresis: float = float(_D['level_hysteresis'])
-    level_dwell: float = float(_D['level_dwell'])
-    stale_timeout: float = float(_D['stale_timeout'])
+    ratio: float = float(DEFAULTS['ratio'])
+    eta_opposing_min: float = float(DEFAULTS['eta_opposing_min'])
+    self_locking_eol: bool = bool(DEFAULTS['self_locking_eol'])
+    u_max: float = float(DEFAULTS['u_max'])
+    eta_warn: float = float(DEFAULTS['eta_warn'])
+    warn_horizon: float = float(DEFAULTS['warn_horizon'])
+    detect_z: float = float(DEFAULTS['detect_z'])
+    trend: str = str(DEFAULTS['trend'])
+    eta_accuracy: float = float(DEFAULTS['eta_accuracy'])
+    mc_samples: int = int(DEFAULTS['mc_samples'])
+    seed: int = int(DEFAULTS['seed'])
+    nis_window: int = int(DEFAULTS['nis_window'])
+    nis_probability: float = float(DEFAULTS['nis_probability'])
+    max_u_sigma: float = float(DEFAULTS['max_u_sigma'])
+    nis_lost: float = float(DEFAULTS['nis_lost'])
+    level_hysteresis: float = float(DEFAULTS['level_hysteresis'])
+    level_dwell: float = float(DEFAULTS['level_dwell'])
+    stale_timeout: float = float(DEFAULTS['stale_timeout'])
 
     def __post_init__(self) -> None:
         check_values(PARAMETERS, asdict(self))

@@ -27,6 +27,7 @@ from statistics import NormalDist
 from typing import Any
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
+from gear_phm.prognostics.config import DEFAULTS
 from gear_phm.status import ERROR, OK, WARN
 
 
@@ -49,26 +50,28 @@ class DivergenceDetector:
     """Judges the filter's consistency from its NIS and sigma_u: OK, mismatch or lost.
 
     - lost (ERROR): sigma_u above ``max_u_sigma`` or not finite (variance growing without
-      bound), or the median of the last ``window`` NIS values above ``lost_nis``: most
-      innovations sqrt(lost_nis) times larger than the filter predicts mean the estimate no
+      bound), or the median of the last ``nis_window`` NIS values above ``nis_lost``: most
+      innovations sqrt(nis_lost) times larger than the filter predicts mean the estimate no
       longer follows the measurements. The median, not the mean, so that the few huge
       innovations of a step the filter then follows (a sudden fault) are not a loss.
     - model mismatch (WARN): that mean above the chi-square bound
-      :func:`chi_square_mean_bound` but not above ``lost_nis``: the innovations are larger
-      than predicted (a plant that is not the lever model, wear faster than the filter's
-      random walk) while the estimate still tracks.
+      :func:`chi_square_mean_bound` (at ``nis_probability``) but not above ``nis_lost``: the
+      innovations are larger than predicted (a plant that is not the lever model, wear
+      faster than the filter's random walk) while the estimate still tracks.
 
     NIS values are only counted when the innovation changes, because the estimator
     republishes the last innovation between filter updates.
     """
 
-    def __init__(self, window: int = 20, probability: float = 0.999,
-                 max_u_sigma: float = 1.0, lost_nis: float = 25.0) -> None:
-        self.window = int(window)
-        self.bound = chi_square_mean_bound(self.window, probability)
+    def __init__(self, nis_window: int = int(DEFAULTS['nis_window']),
+                 nis_probability: float = float(DEFAULTS['nis_probability']),
+                 max_u_sigma: float = float(DEFAULTS['max_u_sigma']),
+                 nis_lost: float = float(DEFAULTS['nis_lost'])) -> None:
+        self.nis_window = int(nis_window)
+        self.bound = chi_square_mean_bound(self.nis_window, nis_probability)
         self.max_u_sigma = float(max_u_sigma)
-        self.lost_nis = float(lost_nis)
-        self._nis: deque[float] = deque(maxlen=self.window)
+        self.nis_lost = float(nis_lost)
+        self._nis: deque[float] = deque(maxlen=self.nis_window)
         self._last_innovation: tuple[float, float] | None = None
 
     def reset(self) -> None:
@@ -89,7 +92,7 @@ class DivergenceDetector:
         pair = None if last is None else decode_floats(last)
         if pair is not None and len(pair) != 2:
             raise ValueError('last_innovation needs 2 values')
-        self._nis = deque(nis, maxlen=self.window)
+        self._nis = deque(nis, maxlen=self.nis_window)
         self._last_innovation = None if pair is None else (pair[0], pair[1])
 
     @property
@@ -111,12 +114,12 @@ class DivergenceDetector:
             self._last_innovation = key
         if not math.isfinite(u_sigma) or u_sigma > self.max_u_sigma:
             return ERROR, f'filter lost the signal: sigma_u {u_sigma:.3g} > {self.max_u_sigma:.3g}'
-        if len(self._nis) < self.window or not self.nis_mean > self.bound:
+        if len(self._nis) < self.nis_window or not self.nis_mean > self.bound:
             return OK, ''
-        if self.nis_median > self.lost_nis:
+        if self.nis_median > self.nis_lost:
             return ERROR, (f'filter lost the signal: median NIS {self.nis_median:.3g} over '
-                           f'{self.window} updates > {self.lost_nis:.3g}')
-        return WARN, (f'model mismatch: mean NIS {self.nis_mean:.3g} over {self.window} '
+                           f'{self.nis_window} updates > {self.nis_lost:.3g}')
+        return WARN, (f'model mismatch: mean NIS {self.nis_mean:.3g} over {self.nis_window} '
                       f'updates > {self.bound:.3g}')
 
 
@@ -175,25 +178,27 @@ class LevelTracker:
     """Health level of a stream of estimates by the rules of the module docstring.
 
     Every condition is a :class:`Latch`: it is entered when its value crosses the threshold
-    and left when the value is back by ``hysteresis`` times the threshold's distance from a
-    new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
+    and left when the value is back by ``level_hysteresis`` times the threshold's distance
+    from a new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
     eta_warn + h (1 - eta_warn), u below u_eol (1 - h), RUL p5 above warn_horizon (1 + h).
     The RUL condition is entered on the RUL's median and left on its 5 % bound: a hysteresis
     across the band as well, so that an early, wide band whose lower tail grazes the horizon
     (a fast law the data cannot exclude yet) does not warn and then clear.
-    Either change must hold for ``dwell`` [s] of stamp time first. The filter conditions
+    Either change must hold for ``level_dwell`` [s] of stamp time first. The filter conditions
     (mismatch, lost) have the dwell only.
     """
 
     def __init__(self, u_eol: float, eol_reason: str, eta_warn: float, warn_horizon: float,
-                 hysteresis: float = 0.05, dwell: float = 5.0) -> None:
+                 level_hysteresis: float = float(DEFAULTS['level_hysteresis']),
+                 level_dwell: float = float(DEFAULTS['level_dwell'])) -> None:
         self.u_eol, self.eol_reason = float(u_eol), eol_reason
         self.eta_warn, self.warn_horizon = float(eta_warn), float(warn_horizon)
-        self.hysteresis, self.dwell = float(hysteresis), float(dwell)
-        self.eta_clear = self.eta_warn + self.hysteresis * (1.0 - self.eta_warn)
-        self.u_clear = self.u_eol * (1.0 - self.hysteresis)
-        self.rul_clear = self.warn_horizon * (1.0 + self.hysteresis)
-        self.latches = {name: Latch(dwell) for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
+        self.level_hysteresis, self.level_dwell = float(level_hysteresis), float(level_dwell)
+        self.eta_clear = self.eta_warn + self.level_hysteresis * (1.0 - self.eta_warn)
+        self.u_clear = self.u_eol * (1.0 - self.level_hysteresis)
+        self.rul_clear = self.warn_horizon * (1.0 + self.level_hysteresis)
+        self.latches = {name: Latch(self.level_dwell)
+                        for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
 
     def reset(self) -> None:
         """Back to OK with nothing pending (a replay restarted)."""

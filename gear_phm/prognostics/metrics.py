@@ -20,6 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 LAMBDAS = (0.25, 0.5, 0.75)
+#: Half-width of the accuracy cone around the true RUL, as a fraction of it (Saxena's alpha):
+#: the default of ``gear-phm evaluate`` and the cone of ``analysis.png``.
 ALPHA = 0.2
 #: Fraction of the life from which :func:`band_coverage` counts predictions.
 BAND_FROM = 0.25
@@ -58,6 +60,19 @@ def _inputs(t: ArrayLike, rul: ArrayLike, t_eol: float,
     if not start < t_eol:
         raise ValueError(f't_start must be < t_eol = {t_eol!r}, got {start!r}')
     return times, values, float(t_eol), start
+
+
+def true_end_of_life_index(true_u: ArrayLike, u_eol: float) -> int | None:
+    """Index of the true end of life: the first sample whose true u [-] is >= u_eol [-].
+
+    None if no sample reaches it (or u_eol is not finite). The rule of ``gear-phm evaluate``'s
+    truth bag and of the true end of life drawn in ``analysis.png``.
+    """
+    values = np.asarray(true_u, dtype=float).ravel()
+    if not math.isfinite(u_eol):
+        return None
+    crossed = np.flatnonzero(values >= u_eol)
+    return int(crossed[0]) if crossed.size else None
 
 
 def relative_accuracy(true_rul: float, predicted_rul: float) -> float:

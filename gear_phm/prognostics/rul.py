@@ -96,15 +96,9 @@ from typing import Any
 import numpy as np
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
-
-LINEAR, EXPONENTIAL, POWER, NONE = 'linear', 'exponential', 'power', 'none'
-PROPORTIONAL = 'proportional'
-MODELS: tuple[str, ...] = (LINEAR, EXPONENTIAL, POWER, PROPORTIONAL)
-#: The laws with a shape (k or p): a population prior can be learned for them.
-SHAPED: tuple[str, ...] = (EXPONENTIAL, POWER, PROPORTIONAL)
-#: The laws of the exponential form u_end + r (exp(k s) - 1) / k: they share its basis,
-#: crossing, slope and rise (proportional: r = k u_end).
-EXPONENTIAL_FORM: tuple[str, ...] = (EXPONENTIAL, PROPORTIONAL)
+from gear_phm.prognostics.config import DEFAULTS
+from gear_phm.prognostics.laws import (EXPONENTIAL, EXPONENTIAL_FORM, LINEAR, MODELS, NONE,
+                                       POWER, PROPORTIONAL, SHAPED)
 
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
 #: Both laws accelerate (k > 0, p >= P_FLOOR): see P_FLOOR.
@@ -601,8 +595,9 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     return np.asarray(scale * np.linalg.inv(normalised) / np.outer(d, d))
 
 
-def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
-             min_points: int = 8, prior: ShapePrior | None = None,
+def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
+             trend: str = str(DEFAULTS['trend']), min_points: int = 8,
+             prior: ShapePrior | None = None,
              admitted: frozenset[str] = frozenset(),
              held_out: list[Trend] | None = None) -> tuple[Trend, ...]:
     """Fit the wear laws to a history: times since its start [s], u [-], 1/P_uu.
@@ -706,8 +701,8 @@ def _shape_range(fit: _Fit, scale: float) -> tuple[float, float]:
     return min(low, float(fit.params[2])), max(high, float(fit.params[2]))
 
 
-def fit_trend(t: np.ndarray, u: np.ndarray, precision: np.ndarray, trend: str = 'auto',
-              min_points: int = 8) -> Trend:
+def fit_trend(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
+              trend: str = str(DEFAULTS['trend']), min_points: int = 8) -> Trend:
     """Return the AICc-best law of :func:`fit_laws` (Trend() when none could be fitted)."""
     laws = fit_laws(t, u, precision, trend, min_points)
     return laws[0] if laws else Trend(points=t.size)
@@ -832,14 +827,15 @@ class RulPredictor:
     Fixed seeded draws; a refit each time the history gained 1/``refit_fraction`` of its bins.
     """
 
-    def __init__(self, u_eol: float, detect_z: float = 2.0, samples: int = 2000,
-                 seed: int = 0, trend: str = 'auto', max_points: int = 256,
-                 min_points: int = 8, refit_fraction: int = 16,
+    def __init__(self, u_eol: float, detect_z: float = float(DEFAULTS['detect_z']),
+                 mc_samples: int = int(DEFAULTS['mc_samples']),
+                 seed: int = int(DEFAULTS['seed']), trend: str = str(DEFAULTS['trend']),
+                 max_points: int = 256, min_points: int = 8, refit_fraction: int = 16,
                  prior: ShapePrior | None = None, u_systematic: float = 0.0) -> None:
         if not math.isfinite(u_eol):
             raise ValueError(f'u_eol must be finite, got {u_eol!r}')
-        if samples < 2:
-            raise ValueError(f'samples must be >= 2, got {samples!r}')
+        if mc_samples < 2:
+            raise ValueError(f'mc_samples must be >= 2, got {mc_samples!r}')
         if trend != 'auto' and trend not in MODELS:
             raise ValueError(f'trend must be auto or one of {MODELS}, got {trend!r}')
         if not (math.isfinite(u_systematic) and u_systematic >= 0.0):
@@ -854,10 +850,10 @@ class RulPredictor:
         self.refit_fraction = int(refit_fraction)
         self.history = WearHistory(max_points)
         rng = np.random.default_rng(seed)
-        self._normals = rng.standard_normal((3, int(samples)))
-        self._uniforms = rng.random(int(samples))
-        self._phases = rng.random(int(samples)) - 0.5
-        self._systematic = rng.standard_normal(int(samples))
+        self._normals = rng.standard_normal((3, int(mc_samples)))
+        self._uniforms = rng.random(int(mc_samples))
+        self._phases = rng.random(int(mc_samples)) - 0.5
+        self._systematic = rng.standard_normal(int(mc_samples))
         #: number of fits so far (the cost is bounded: tests count them)
         self.fits = 0
         self.reset()

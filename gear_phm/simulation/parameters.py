@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from gear_phm.parameters import check_values, defaults, ParamSpec
+from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
 from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
 from gear_phm.simulation.sensors import Channel, Sensors
@@ -36,8 +36,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('seed', 0, 'seed of the sensor noise (numpy PCG64)', '-', 0),
     ParamSpec('plant', _PLANT.efficiency_model, 'efficiency model of the plant',
               choices=EFFICIENCY_MODELS),
-    ParamSpec('ratio', _PLANT.ratio, 'transmission ratio R, ideal load/motor torque gain, > 0',
-              '-', 1e-6),
+    RATIO,
     ParamSpec('motor_inertia', _PLANT.motor_inertia, 'rotor inertia J_m', 'kg m^2', 0.0),
     ParamSpec('load_inertia', _PLANT.load_inertia, 'load (surface) inertia J_l', 'kg m^2', 0.0),
     ParamSpec('air_load_preload', _PLANT.air_load_preload,

@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
+from gear_phm.parameters import RATIO
 from gear_phm.simulation._checks import non_negative, one_of, positive, real
 
 EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
@@ -51,7 +52,7 @@ class Plant:
     pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur').
     """
 
-    ratio: float = 3.0
+    ratio: float = float(RATIO.default)
     motor_inertia: float = 2.0e-3
     load_inertia: float = 0.5
     air_load_preload: float = 20.0

@@ -40,11 +40,6 @@ class Sensors:
             if not isinstance(getattr(self, name), Channel):
                 raise ValueError(f'{name} must be a Channel, got {getattr(self, name)!r}')
 
-    @classmethod
-    def noiseless(cls) -> Sensors:
-        """Perfect sensors (no noise, no bias)."""
-        return cls(*(Channel() for _ in CHANNELS))
-
     def measure(self, truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Measured channels, shape (n, 4), from true channels ``truth`` (n, 4), CHANNELS order.
 

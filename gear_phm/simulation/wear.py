@@ -84,17 +84,3 @@ class Wear:
         if self.kind == 'step':
             return np.where(t >= self.t_fault, self.initial + self.step, self.initial)
         return np.full_like(t, self.initial)
-
-    def time_to_reach(self, value: float) -> float:
-        """First time [s] at which the friction value reaches ``value`` (inf if never)."""
-        if value <= self.initial:
-            return 0.0
-        if self.kind == 'linear' and self.rate > 0.0:
-            return float((value - self.initial) / self.rate)
-        if self.kind == 'exponential' and self.rate > 0.0:
-            return float(np.log(value / self.initial) / self.rate)
-        if self.kind == 'power' and self.rate > 0.0:
-            return float(((value - self.initial) / self.rate) ** (1.0 / self.exponent))
-        if self.kind == 'step' and self.initial + self.step >= value:
-            return float(self.t_fault)
-        return float('inf')

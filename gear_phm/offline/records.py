@@ -1,0 +1,142 @@
+"""The records of an offline analysis: :class:`Analysis` and its column histories.
+
+Their own module so that :mod:`gear_phm.offline.engine`, which makes them, and
+:mod:`gear_phm.offline.plot`, which draws them, import them without importing each other.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gear_phm.estimation import FrictionEstimate, Measurement
+from gear_phm.prognostics import HealthState
+
+
+@dataclass(frozen=True)
+class EstimateHistory:
+    """Every :class:`FrictionEstimate` of a run, as columns (same units and meanings)."""
+
+    stamp_ns: np.ndarray
+    u: np.ndarray
+    rate: np.ndarray
+    p_uu: np.ndarray
+    p_ur: np.ndarray
+    p_rr: np.ndarray
+    eta_opposing: np.ndarray
+    eta_aiding: np.ndarray
+    measured_efficiency: np.ndarray
+    innovation: np.ndarray
+    innovation_variance: np.ndarray
+    nis: np.ndarray
+    samples_used: np.ndarray
+    samples_rejected: np.ndarray
+    power_flow: np.ndarray
+    operating_time: np.ndarray
+
+    @property
+    def t(self) -> np.ndarray:
+        """Stamps [s]."""
+        return self.stamp_ns * 1e-9
+
+    @property
+    def u_sigma(self) -> np.ndarray:
+        """Return the standard deviation of u [-]."""
+        sigma: np.ndarray = np.sqrt(np.maximum(self.p_uu, 0.0))
+        return sigma
+
+    @classmethod
+    def of(cls, estimates: Sequence[FrictionEstimate]) -> EstimateHistory:
+        rows = [(e.stamp_ns, e.u, e.rate, *e.covariance, e.eta_opposing, e.eta_aiding,
+                 e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
+                 e.samples_used, e.samples_rejected, e.power_flow, e.operating_time)
+                for e in estimates]
+        table = np.array(rows, dtype=float).reshape(-1, 16)
+        columns = {f.name: table[:, i] for i, f in enumerate(fields(cls))}
+        for name in ('stamp_ns', 'samples_used', 'samples_rejected', 'power_flow'):
+            columns[name] = np.array([getattr(e, name) for e in estimates], dtype=np.int64)
+        return cls(**columns)
+
+
+@dataclass(frozen=True)
+class HealthHistory:
+    """Every :class:`HealthState` of a run, as columns.
+
+    The columns: level (0 OK .. 3 STALE), RUL median, p5 and p95 [s] of elapsed time (inf:
+    no degradation detectable), end-of-life u [-]; ``messages`` holds each state's reason;
+    the RUL in operating time [s], the operating time [s] and the utilisation [-] (see
+    :mod:`gear_phm.prognostics.assessor`).
+    """
+
+    stamp_ns: np.ndarray
+    level: np.ndarray
+    rul_median: np.ndarray
+    rul_p5: np.ndarray
+    rul_p95: np.ndarray
+    u_eol: np.ndarray
+    messages: tuple[str, ...]
+    rul_operating_median: np.ndarray
+    rul_operating_p5: np.ndarray
+    rul_operating_p95: np.ndarray
+    operating_time: np.ndarray
+    utilisation: np.ndarray
+
+    @property
+    def t(self) -> np.ndarray:
+        """Stamps [s]."""
+        return self.stamp_ns * 1e-9
+
+    @classmethod
+    def of(cls, states: Sequence[HealthState]) -> HealthHistory:
+        def column(values: list[float]) -> np.ndarray:
+            return np.array(values, dtype=float)
+        return cls(np.array([s.stamp_ns for s in states], dtype=np.int64),
+                   np.array([s.level for s in states], dtype=np.int64),
+                   column([s.rul.median for s in states]), column([s.rul.p5 for s in states]),
+                   column([s.rul.p95 for s in states]), column([s.u_eol for s in states]),
+                   tuple(s.message for s in states),
+                   column([s.rul_operating.median for s in states]),
+                   column([s.rul_operating.p5 for s in states]),
+                   column([s.rul_operating.p95 for s in states]),
+                   column([s.operating_time for s in states]),
+                   column([s.utilisation for s in states]))
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Result of :func:`analyze_bag`: histories, the JSON summary, and where it was written."""
+
+    estimates: EstimateHistory
+    health: HealthHistory
+    summary: dict[str, Any]
+    #: (stamp of the window end [ns], the window's measurement, accepted by the filter)
+    measurements: tuple[tuple[int, Measurement, bool], ...]
+    truth: dict[str, np.ndarray]
+    out: Path | None = None
+
+    def to_dataframe(self) -> Any:
+        """Return one row per estimate.
+
+        A row holds the estimate columns, ``t`` [s] and the health columns of the same stamp
+        (pandas required: ``pip install pandas``).
+        """
+        try:
+            import pandas as pd
+        except ImportError as exc:
+            raise ImportError('Analysis.to_dataframe needs pandas: pip install pandas') from exc
+        e = self.estimates
+        frame = pd.DataFrame({f.name: getattr(e, f.name) for f in fields(e)})
+        frame.insert(1, 't', e.t)
+        h = self.health
+        health = pd.DataFrame({'stamp_ns': h.stamp_ns, 'level': h.level,
+                               'rul_median': h.rul_median, 'rul_p5': h.rul_p5,
+                               'rul_p95': h.rul_p95, 'u_eol': h.u_eol,
+                               'health_message': list(h.messages),
+                               'rul_operating_median': h.rul_operating_median,
+                               'rul_operating_p5': h.rul_operating_p5,
+                               'rul_operating_p95': h.rul_operating_p95,
+                               'utilisation': h.utilisation})
+        return frame.merge(health, on='stamp_ns', how='left')
