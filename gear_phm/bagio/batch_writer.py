@@ -182,9 +182,8 @@ class BatchWriter:
                                 for _, _, p, _ in shaped])
         ends = (np.arange(n)[:, None] * dtype.itemsize + np.cumsum(sizes)).ravel()
         starts = ends - np.tile(sizes, n)
-        channels = np.concatenate([np.full(p.shape[1], c) for c, _, p, _ in shaped])
-        channels = np.tile(channels, n)
-        log = np.concatenate([lg for _, lg, _, _ in shaped], axis=1).ravel()
+        channels = np.tile(np.concatenate([np.full(p.shape[1], c) for c, _, p, _ in shaped]), n)
+        log_times = np.concatenate([lg for _, lg, _, _ in shaped], axis=1).ravel()
         data = groups.view(np.uint8).ravel()
         begin, total = 0, len(ends)
         while begin < total:             # chunks end where mcap's Writer would end them
@@ -192,8 +191,9 @@ class BatchWriter:
             end = min(total, max(begin, int(np.searchsorted(ends, limit, side='right'))) + 1)
             first = int(starts[begin])
             where = (self._size + starts[begin:end] - first).astype(np.uint64)
-            self._index.append((channels[begin:end], log[begin:end], where))
-            self._note(int(log[begin:end].min()), int(log[begin:end].max()), end - begin)
+            self._index.append((channels[begin:end], log_times[begin:end], where))
+            self._note(int(log_times[begin:end].min()), int(log_times[begin:end].max()),
+                       end - begin)
             self._append(data[first:int(ends[end - 1])].tobytes())
             begin = end
 

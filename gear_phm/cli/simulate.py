@@ -18,7 +18,7 @@ import numpy as np
 from gear_phm.bagio import BagError, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import (JOINT_STATE_TYPE, joint_state_rows, JOINT_STATES,
+from gear_phm.interfaces import (joint_state_rows, JOINT_STATE_TYPE, JOINT_STATES,
                                  TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
@@ -108,8 +108,11 @@ def _check(args: argparse.Namespace) -> None:
 
 def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns: np.ndarray,
                  first_index: int, names: list[str], truth_every: int) -> None:
-    """Write one chunk of samples: per sample its JointState, then (every ``truth_every``-th
-    sample of the run) its two truth Vector3Stamped, all packed as CDR rows at once."""
+    """Write one chunk of samples, packed as CDR rows at once.
+
+    Per sample its JointState, then (every ``truth_every``-th sample of the run) its two truth
+    Vector3Stamped: the order the message-by-message writer had.
+    """
     joints = joint_state_rows(
         stamps_ns, names, np.column_stack((result.position_motor, result.position_load)),
         np.column_stack((result.velocity_motor, result.velocity_load)),
