@@ -168,3 +168,34 @@ def test_analyze_columns_are_the_published_records() -> None:
     assert {r.topic for r in got} == {*interfaces.ESTIMATOR_TOPICS, interfaces.HEALTH_RUL,
                                       interfaces.HEALTH_EFFICIENCY}
     assert [r.x for r in got if r.topic == interfaces.OPERATING_TIME] == [0.0, 12.5, 25.0, 37.5]
+
+
+def _groups_bag(directory: Path, batch: bool) -> list[tuple[str, int, int, int, bytes]]:
+    """Write groups across small chunks: a topic in two parts, a part of 3 messages a group.
+
+    Returns (topic, log time, sequence, chunk count, payload) per message, in file order.
+    """
+    rng = np.random.default_rng(2)
+    with Rosbag2McapWriter(directory, batch=batch, flush_period_s=None,
+                           chunk_size=5000) as writer:
+        for topic in ('a', 'b'):
+            writer.add_topic(topic, 'geometry_msgs/msg/Vector3Stamped')
+        for block in range(5):
+            stamps = 10**9 + block * 10**6 + np.arange(37)
+            writer.write_groups([
+                ('a', stamps, rng.integers(0, 256, (37, 48), dtype=np.uint8)),
+                ('b', np.repeat(stamps[:, None], 3, axis=1),
+                 rng.integers(0, 256, (37, 3, 40), dtype=np.uint8)),
+                ('a', stamps, rng.integers(0, 256, (37, 48), dtype=np.uint8))])
+    with open(next(directory.glob('*.mcap')), 'rb') as stream:
+        reader = make_reader(stream)
+        starts = [i.message_start_time for i in reader.get_summary().chunk_indexes]
+        return [(c.topic, m.log_time, m.sequence, len(starts), m.data)
+                for _, c, m in reader.iter_messages(log_time_order=False)]
+
+
+def test_write_groups_batch_equals_message_by_message(tmp_path: Path) -> None:
+    batched, single = (_groups_bag(tmp_path / f'bag_{b}', b) for b in (True, False))
+    assert batched == single and len(batched) == 5 * 37 * 5
+    assert [m[2] for m in batched[:6]] == [0, 0, 1, 2, 1, 2]      # a, b b b, a, a ...
+    assert batched[0][3] >= 10                                    # many chunks

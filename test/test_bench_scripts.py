@@ -75,3 +75,13 @@ def test_bench_recorder_cost_tiny() -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     assert '5 s of node time, 405 records (inputs recorded)' in result.stdout
     assert '| A |' in result.stdout and 'B / A = ' in result.stdout
+
+
+def test_bench_simulate_speed_tiny() -> None:
+    tree = str(BENCH.parent)
+    result = subprocess.run([sys.executable, str(BENCH / 'simulate_speed.py'), tree, tree,
+                             '--samples', '3000', '--repeat', '1'],
+                            capture_output=True, text=True, timeout=240)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert '3,000 samples at 1000 Hz, medians of 1 runs' in result.stdout
+    assert result.stdout.count('| A: ') == 1 and 'A / B: wall ' in result.stdout

@@ -13,8 +13,10 @@ import pytest
 import yaml
 
 from gear_phm.bagio import BagReader, Rosbag2McapWriter, TYPESTORE
+from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
-from gear_phm.interfaces import decode_joint_states, stamp_to_ns, Vector3Out
+from gear_phm.interfaces import (decode_joint_states, joint_state_rows, stamp_to_ns,
+                                 Vector3Out)
 from gear_phm.models import eta_opposing, u_from_eta_opposing
 from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
 
@@ -394,3 +396,82 @@ def test_power_law_wear_from_the_command_line(tmp_path: Path) -> None:
     t = times - times[0]
     np.testing.assert_allclose(values[:, 0], 0.05 + 0.2 * (t / 20.0) ** 3, rtol=1e-9)
     assert values[np.searchsorted(t, 10.0), 0] == pytest.approx(0.05 + 0.2 / 8.0)
+
+
+# --- block writes against the message-by-message reference -------------------------------
+
+def _time(stamp_ns: int) -> object:
+    time = TYPESTORE.types['builtin_interfaces/msg/Time']
+    return time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+
+
+@pytest.mark.parametrize('names, frame_id', [(['motor', 'load'], ''), (['a'], 'base_link'),
+                                             (['motor_x', 'l', 'third'], 'ab')])
+def test_joint_state_rows_equal_rosbags_serializer(names: list[str], frame_id: str) -> None:
+    rng = np.random.default_rng(4)
+    stamps = np.sort(rng.integers(0, 2**31 * 10**9, 30))
+    columns = [rng.normal(size=(30, len(names))) for _ in range(3)]
+    rows = joint_state_rows(stamps, names, *columns, frame_id=frame_id)
+    joint_state = TYPESTORE.types['sensor_msgs/msg/JointState']
+    header = TYPESTORE.types['std_msgs/msg/Header']
+    for i in range(30):
+        message = joint_state(header=header(stamp=_time(int(stamps[i])), frame_id=frame_id),
+                              name=names, position=columns[0][i], velocity=columns[1][i],
+                              effort=columns[2][i])
+        assert rows[i].tobytes() == bytes(TYPESTORE.serialize_cdr(message, TOPICS[
+            '/joint_states']))
+    with pytest.raises(ValueError, match='int32'):
+        joint_state_rows(np.array([2**31 * 10**9]), names, *(c[:1] for c in columns))
+
+
+def _reference_simulation(out: Path, config: SimulationConfig, count: int, rate: float,
+                          start_ns: int, truth_every: int) -> None:
+    """Write with the message-by-message path ``simulate`` had before block writes.
+
+    Rosbags message objects, rosbags' CDR serializer and mcap's Writer, one record at a time.
+    """
+    types = TYPESTORE.types
+    result = simulate(config, np.round(np.arange(count) * (1e9 / rate)) * 1e-9)
+    with Rosbag2McapWriter(out, flush_period_s=None) as writer:
+        for topic, msgtype in TOPICS.items():
+            writer.add_topic(topic, msgtype)
+        for i in range(count):
+            t_ns = start_ns + int(round(i * (1e9 / rate)))
+            header = types['std_msgs/msg/Header'](stamp=_time(t_ns), frame_id='')
+            writer.write('/joint_states', t_ns, types[TOPICS['/joint_states']](
+                header=header, name=['motor', 'load'],
+                position=np.array([result.position_motor[i], result.position_load[i]]),
+                velocity=np.array([result.velocity_motor[i], result.velocity_load[i]]),
+                effort=np.array([result.effort_motor[i], result.effort_load[i]])))
+            if i % truth_every == 0:
+                for topic, x, y in (('/gear_phm/truth/friction', result.u, result.friction),
+                                    ('/gear_phm/truth/efficiency', result.eta_opposing,
+                                     result.eta_aiding)):
+                    writer.write(topic, t_ns, types[TOPICS[topic]](
+                        header=header, vector=types['geometry_msgs/msg/Vector3'](
+                            x=float(x[i]), y=float(y[i]), z=0.0)))
+
+
+@pytest.mark.parametrize('truth_every, chunk', [(1, 20_000), (1, 997), (3, 997), (7, 1000),
+                                                (2000, 997)])
+def test_block_writes_equal_the_message_by_message_writer(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, truth_every: int, chunk: int) -> None:
+    """The block-written bag equals the reference in every message and chunk.
+
+    Payload bytes, times, sequences, chunk boundaries and statistics, across simulation
+    chunks that split truth periods and MCAP chunks that split groups of messages.
+    """
+    config = SimulationConfig(wear=Wear.reaching('exponential', 0.05, 0.3, 8.0), seed=3)
+    monkeypatch.setattr(simulate_module, 'CHUNK', chunk)
+    count = simulate_module.write_simulation(tmp_path / 'blocks', config, 8.0, 1000.0,
+                                             start_time=12.5, truth_every=truth_every)
+    _reference_simulation(tmp_path / 'reference', config, count, 1000.0, 12_500_000_000,
+                          truth_every)
+    blocks, reference = bag_content(tmp_path / 'blocks'), bag_content(tmp_path / 'reference')
+    assert len(blocks[0]['chunks']) >= 2 and count == 8000
+    assert len(blocks[1]['/gear_phm/truth/friction']) == -(-count // truth_every)
+    assert blocks[0]['files'] == ['blocks_0.mcap', 'metadata.yaml']
+    blocks[0]['files'] = reference[0]['files']
+    meta = blocks[0]['metadata']['rosbag2_bagfile_information']
+    meta['files'][0]['path'] = meta['relative_file_paths'][0] = 'reference_0.mcap'
+    assert blocks == reference

@@ -140,6 +140,63 @@ class BatchWriter:
             self._add_records(records[begin:end], channels[begin:end], log[begin:end])
             begin = end
 
+    def add_groups(self, parts: Sequence[tuple[int, np.ndarray, np.ndarray, np.ndarray]]
+                   ) -> None:
+        """Append N groups of messages; group g is part 0's messages g, then part 1's, ...
+
+        A part is (channel id, log times (N, c) [ns] int64 >= 0, payloads (N, c, L) uint8,
+        sequences (N, c)): c messages of one payload size L per group (c may differ between
+        parts; (N,) and (N, L) mean c = 1). Publish times are the log times. The records are
+        those :meth:`add_message` writes for the same messages in the same order, chunks
+        ending where it ends them, packed with one structured array for all N groups.
+        """
+        shaped = []
+        for channel, log_times, payloads, sequences in parts:
+            payloads = np.asarray(payloads, dtype=np.uint8)
+            if payloads.ndim == 2:
+                payloads = payloads[:, None, :]
+            n, count, width = payloads.shape
+            log = np.asarray(log_times, dtype=np.int64).reshape(n, count)
+            if count:
+                shaped.append((channel, log, payloads, np.reshape(sequences, (n, count))))
+        if not shaped or not len(shaped[0][1]):
+            return
+        if min(int(log.min()) for _, log, _, _ in shaped) < 0:
+            raise ValueError('MCAP log times are unsigned: got a negative time')
+        dtype = np.dtype([(f'm{i}', _message_dtype(p.shape[2]), (p.shape[1],))
+                          for i, (_, _, p, _) in enumerate(shaped)])
+        groups = np.empty(len(shaped[0][1]), dtype=dtype)
+        for i, (channel, log, payloads, sequences) in enumerate(shaped):
+            records = groups[f'm{i}']
+            width = payloads.shape[2]
+            records['op'] = Opcode.MESSAGE
+            records['length'] = _MESSAGE_HEAD - 9 + width
+            records['channel'] = channel
+            records['sequence'] = sequences
+            records['log'] = log
+            records['publish'] = log
+            records['data'] = np.ascontiguousarray(payloads).view(f'V{width}')[..., 0]
+        # every message's channel, log time and byte range in the packed groups, in order
+        n = len(groups)
+        sizes = np.concatenate([np.full(p.shape[1], _MESSAGE_HEAD + p.shape[2])
+                                for _, _, p, _ in shaped])
+        ends = (np.arange(n)[:, None] * dtype.itemsize + np.cumsum(sizes)).ravel()
+        starts = ends - np.tile(sizes, n)
+        channels = np.tile(np.concatenate([np.full(p.shape[1], c) for c, _, p, _ in shaped]), n)
+        log_times = np.concatenate([lg for _, lg, _, _ in shaped], axis=1).ravel()
+        data = groups.view(np.uint8).ravel()
+        begin, total = 0, len(ends)
+        while begin < total:             # chunks end where mcap's Writer would end them
+            limit = int(starts[begin]) + self._chunk_size - self._size
+            end = min(total, max(begin, int(np.searchsorted(ends, limit, side='right'))) + 1)
+            first = int(starts[begin])
+            where = (self._size + starts[begin:end] - first).astype(np.uint64)
+            self._index.append((channels[begin:end], log_times[begin:end], where))
+            self._note(int(log_times[begin:end].min()), int(log_times[begin:end].max()),
+                       end - begin)
+            self._append(data[first:int(ends[end - 1])].tobytes())
+            begin = end
+
     def _add_records(self, records: np.ndarray, channels: np.ndarray, log: np.ndarray) -> None:
         n = len(records)
         offsets = self._size + np.arange(n, dtype=np.uint64) * np.uint64(records.itemsize)

@@ -231,6 +231,53 @@ class Rosbag2McapWriter:
             if extra is not None:
                 self.write_output(extra)
 
+    def write_groups(self, parts: Sequence[tuple[str, np.ndarray, np.ndarray]]) -> None:
+        """Append N groups of CDR payloads: group g is part 0's messages g, then part 1's, ...
+
+        A part is (declared topic, stamps (N, c) [ns], payloads (N, c, L) uint8): c messages
+        of one payload size per group, logged at their stamps ((N,) and (N, L) mean c = 1); a
+        topic may be in several parts. The same file as :meth:`write_raw` of every message in
+        that order; with ``batch`` packed at once (:meth:`BatchWriter.add_groups`).
+        """
+        shaped = []
+        for topic, stamps, payloads in parts:
+            payloads = np.asarray(payloads, dtype=np.uint8)
+            if payloads.ndim == 2:
+                payloads = payloads[:, None, :]
+            n, count, _ = payloads.shape
+            if count:
+                entry = self._topics.get(absolute_topic(topic))
+                if entry is None:
+                    raise KeyError(f'topic {topic!r} was not added')
+                stamps = np.asarray(stamps, dtype=np.int64).reshape(n, count)
+                shaped.append((entry, stamps, payloads))
+        if not shaped or not len(shaped[0][1]):
+            return
+        if not self._batch:
+            for g in range(len(shaped[0][1])):
+                for entry, stamps, payloads in shaped:
+                    for stamp, payload in zip(stamps[g].tolist(), payloads[g]):
+                        self.write_raw(entry.name, stamp, payload.tobytes())
+            return
+        n = len(shaped[0][1])
+        per_group = {id(entry): 0 for entry, _, _ in shaped}
+        for entry, _, payloads in shaped:
+            per_group[id(entry)] += payloads.shape[1]
+        before = dict.fromkeys(per_group, 0)
+        blocks = []
+        for entry, stamps, payloads in shaped:
+            count = payloads.shape[1]
+            sequence = (entry.count + before[id(entry)] + np.arange(count)
+                        + per_group[id(entry)] * np.arange(n)[:, None])
+            before[id(entry)] += count
+            blocks.append((entry.channel_id, stamps, payloads, sequence))
+        for entry, _, _ in shaped:
+            entry.count += n * per_group.pop(id(entry), 0)
+        self._writer.add_groups(blocks)
+        self._note_times(min(int(s.min()) for _, s, _ in shaped),
+                         max(int(s.max()) for _, s, _ in shaped))
+        self._maybe_flush()
+
     def _note_times(self, first_ns: int, last_ns: int) -> None:
         """Widen the bag's time range [ns] (metadata.yaml) to hold first..last."""
         self._start_ns = first_ns if self._start_ns is None else min(self._start_ns, first_ns)

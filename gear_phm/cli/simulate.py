@@ -12,13 +12,13 @@ import argparse
 from dataclasses import replace
 import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from gear_phm.bagio import BagError, Rosbag2McapWriter, TYPESTORE
+from gear_phm.bagio import BagError, Rosbag2McapWriter
+from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, ns_to_sec_nanosec,
+from gear_phm.interfaces import (joint_state_rows, JOINT_STATE_TYPE, JOINT_STATES,
                                  TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
@@ -110,31 +110,38 @@ def _check(args: argparse.Namespace) -> None:
                        f'got {args.motor_joint!r} and {args.load_joint!r}')
 
 
-def _header(stamp_ns: int) -> Any:
-    sec, nanosec = ns_to_sec_nanosec(stamp_ns)
-    return TYPESTORE.types['std_msgs/msg/Header'](
-        stamp=TYPESTORE.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
-        frame_id='')
-
-
 def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns: np.ndarray,
                  first_index: int, names: list[str], truth_every: int) -> None:
-    joint_state = TYPESTORE.types[JOINT_STATE_TYPE]
-    vector3_stamped = TYPESTORE.types[VECTOR3_STAMPED_TYPE]
-    vector3 = TYPESTORE.types['geometry_msgs/msg/Vector3']
-    position = np.column_stack((result.position_motor, result.position_load))
-    velocity = np.column_stack((result.velocity_motor, result.velocity_load))
-    effort = np.column_stack((result.effort_motor, result.effort_load))
-    for i, t_ns in enumerate(stamps_ns.tolist()):
-        header = _header(t_ns)
-        writer.write(JOINT_STATES, t_ns, joint_state(
-            header=header, name=names, position=position[i].copy(),
-            velocity=velocity[i].copy(), effort=effort[i].copy()))
-        if (first_index + i) % truth_every == 0:
-            writer.write(TRUTH_FRICTION, t_ns, vector3_stamped(header=header, vector=vector3(
-                x=float(result.u[i]), y=float(result.friction[i]), z=0.0)))
-            writer.write(TRUTH_EFFICIENCY, t_ns, vector3_stamped(header=header, vector=vector3(
-                x=float(result.eta_opposing[i]), y=float(result.eta_aiding[i]), z=0.0)))
+    """Write one chunk of samples, packed as CDR rows at once.
+
+    Per sample its JointState, then (every ``truth_every``-th sample of the run) its two truth
+    Vector3Stamped: the order the message-by-message writer had.
+    """
+    joints = joint_state_rows(
+        stamps_ns, names, np.column_stack((result.position_motor, result.position_load)),
+        np.column_stack((result.velocity_motor, result.velocity_load)),
+        np.column_stack((result.effort_motor, result.effort_load)))
+    m, k = len(stamps_ns), truth_every
+    head = min(m, -first_index % k)            # samples before the chunk's first truth sample
+    truth = np.arange(head, m, k)
+    zero = np.zeros(len(truth))
+    friction = vector3_stamped_rows(stamps_ns[truth], np.column_stack(
+        (result.u[truth], result.friction[truth], zero)))
+    efficiency = vector3_stamped_rows(stamps_ns[truth], np.column_stack(
+        (result.eta_opposing[truth], result.eta_aiding[truth], zero)))
+    if head:                                   # one group: a run of joint states
+        writer.write_groups([(JOINT_STATES, stamps_ns[None, :head], joints[None, :head])])
+    periods = (m - head) // k                  # groups of k samples, the first with truth
+    tail = head + periods * k
+    for begin, end, n in ((head, tail, periods), (tail, m, 1)):
+        if end > begin:
+            js_stamps = stamps_ns[begin:end].reshape(n, -1)
+            js = joints[begin:end].reshape(n, js_stamps.shape[1], -1)
+            t = slice(len(truth) - n, len(truth)) if begin == tail else slice(0, n)
+            writer.write_groups([(JOINT_STATES, js_stamps[:, :1], js[:, :1]),
+                                 (TRUTH_FRICTION, stamps_ns[truth[t]], friction[t]),
+                                 (TRUTH_EFFICIENCY, stamps_ns[truth[t]], efficiency[t]),
+                                 (JOINT_STATES, js_stamps[:, 1:], js[:, 1:])])
 
 
 def write_simulation(out: Path, config: SimulationConfig, duration: float, rate: float,
@@ -150,7 +157,8 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
     count = int(math.floor(duration * rate + 1e-9))
     start_ns = int(round(start_time * 1e9))
     simulator = Simulator(config)
-    with Rosbag2McapWriter(out, compression=compression, flush_period_s=None) as writer:
+    with Rosbag2McapWriter(out, compression=compression, flush_period_s=None,
+                           batch=True) as writer:
         writer.add_topic(JOINT_STATES, JOINT_STATE_TYPE)
         writer.add_topic(TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
         writer.add_topic(TRUTH_EFFICIENCY, VECTOR3_STAMPED_TYPE)
