@@ -184,7 +184,15 @@ def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
     return frame, struct.Struct(f'<4siII{len(frame)}s{padding}x3d').pack
 
 
-_ESTIMATE_FIELDS = {f.name: f.type in ('int', int) for f in fields(FrictionEstimate)}
+_ESTIMATE_FIELDS = frozenset(f.name for f in fields(FrictionEstimate))
+_COVARIANCE = ('p_uu', 'p_ur', 'p_rr')           # FrictionEstimate.covariance, in its order
+_ESTIMATE_INTS = frozenset(f.name for f in fields(FrictionEstimate) if f.type in ('int', int))
+#: (topic, required, the FrictionEstimate fields its x, y, z hold; None: derived, not read)
+_ESTIMATE_READS = tuple(
+    (topic, topic in REQUIRED_ESTIMATOR_TOPICS,
+     tuple(name if name in _ESTIMATE_FIELDS or name in _COVARIANCE else None
+           for name in names))
+    for topic, names in ESTIMATE_LAYOUT)
 
 
 def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEstimate:
@@ -194,19 +202,21 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
     fields of a missing topic keep the record's defaults: NaN, or zero counts (a missing
     operating time: an older estimator or recording). Non-finite counts read as zero.
     """
-    values: dict[str, float] = {}
-    for topic, names in ESTIMATE_LAYOUT:
-        vector = vectors[topic] if topic in REQUIRED_ESTIMATOR_TOPICS else vectors.get(topic)
-        if vector is not None:
-            values.update(zip(names, (float(vector.x), float(vector.y), float(vector.z))))
-    kwargs: dict[str, Any] = {
-        name: (int(value) if math.isfinite(value) else 0) if _ESTIMATE_FIELDS[name] else value
-        for name, value in values.items() if name in _ESTIMATE_FIELDS}
-    kwargs['covariance'] = (values['p_uu'], values['p_ur'], values['p_rr'])
+    kwargs: dict[str, Any] = {}
+    for topic, required, names in _ESTIMATE_READS:
+        vector = vectors[topic] if required else vectors.get(topic)
+        if vector is None:
+            continue
+        for name, value in zip(names, (vector.x, vector.y, vector.z)):
+            if name is not None:
+                value = float(value)
+                kwargs[name] = (int(value) if math.isfinite(value) else 0) \
+                    if name in _ESTIMATE_INTS else value
+    kwargs['covariance'] = tuple(kwargs.pop(name) for name in _COVARIANCE)
     z, z_variance = kwargs.get('measurement', math.nan), kwargs.get('measurement_variance', 0.0)
     if not (math.isfinite(z) and z_variance > 0.0):     # none (NaN), or an older estimator's 0
         kwargs['measurement'] = kwargs['measurement_variance'] = math.nan
-    return FrictionEstimate(stamp_ns=int(stamp_ns), **kwargs)
+    return FrictionEstimate(int(stamp_ns), **kwargs)
 
 
 def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,
