@@ -81,6 +81,8 @@ class Observer:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import Vector3Stamped
+
+        from gear_phm.interfaces import FRICTION
         self.rclpy = rclpy
         rclpy.init()
         self.node = rclpy.create_node('bench_observer')
@@ -88,8 +90,7 @@ class Observer:
         self.latencies: list[float] = []
         self.stream_end_ns: int | None = None   # wall time the flood publisher finished
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
-        self.node.create_subscription(Vector3Stamped, 'gear_phm/friction', self._on_estimate,
-                                      100)
+        self.node.create_subscription(Vector3Stamped, FRICTION, self._on_estimate, 100)
         from rclpy.experimental import EventsExecutor
         self.executor = EventsExecutor()
         self.executor.add_node(self.node)

@@ -48,7 +48,8 @@ def main() -> int:
 
     from gear_phm.bagio import BagReader
     from gear_phm.bagio.writer import TYPESTORE
-    from gear_phm.interfaces import JOINT_STATE_TYPE, decode_joint_state_buffer
+    from gear_phm.codec import decode_joint_state_buffer
+    from gear_phm.interfaces import JOINT_STATE_TYPE
 
     with tempfile.TemporaryDirectory() as tmp:
         bag = Path(tmp) / 'bag'

@@ -7,7 +7,6 @@ that raises them (as in rosbags) and keep their older bases (``ValueError`` wher
 - ``gear_phm.bagio.chunks.NotIndexed`` / ``IndexMismatch`` / ``CorruptChunk``: the fast MCAP
   reader cannot prove an answer, or a chunk is damaged;
 - ``gear_phm.bagio.recover.RecoverError``: a recording that cannot be recovered;
-- ``gear_phm.interfaces.BadMessage``: a message that cannot be used (a counter reason);
 - ``gear_phm.persistence.StateError`` / ``StateCorrupt`` / ``StateMismatch``: state files;
 - ``gear_phm.sources.SourceError``: a publisher source that cannot be built;
 - ``gear_phm.offline.AnalysisError`` / ``gear_phm.offline.fleet.FleetError``: offline input;

@@ -11,7 +11,7 @@ from mcap.reader import make_reader
 from mcap.writer import IndexType, Writer
 import pytest
 
-from gear_phm import interfaces
+from gear_phm import codec, interfaces
 from gear_phm.bagio import BagReader
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 
@@ -64,8 +64,8 @@ def estimate(bag: Path) -> tuple[dict, str]:
     with BagReader(bag) as reader:
         topic = reader.require_topic('joint_states', interfaces.JOINT_STATE_TYPE)
         for raw in reader.raw_batches([topic]):
-            batch = interfaces.decode_joint_state_buffer(raw.buffer, raw.offsets,
-                                                         raw.lengths, 'motor', 'load')
+            batch = codec.decode_joint_state_buffer(raw.buffer, raw.offsets, raw.lengths,
+                                                    'motor', 'load')
             pipeline.on_batch(batch.stamp_ns, batch.motor_velocity, batch.motor_effort,
                               batch.load_velocity, batch.load_effort)
         return pipeline.summary(), reader.reader_kind

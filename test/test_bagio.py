@@ -19,8 +19,8 @@ from rosbags.typesys import get_typestore, Stores
 import yaml
 
 from gear_phm.bagio import BagError, BagReader, recover, Rosbag2McapWriter, TYPESTORE
-from gear_phm.interfaces import (decode_joint_states, DiagnosticsOut, joint_state_to_sample,
-                                 StatusOut, Vector3Out)
+from gear_phm.codec import decode_joint_states
+from gear_phm.interfaces import DiagnosticsOut, stamp_to_ns, StatusOut, Vector3Out
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 
@@ -137,12 +137,11 @@ def test_reader_accepts_sqlite3_and_ros1(tmp_path: Path) -> None:
         with BagReader(path) as bag:
             topic = bag.require_topic('joint_states', JOINT_STATE)
             raws = [raw for _, _, raw in bag.raw_messages([topic])]
-            samples = [joint_state_to_sample(m, 'motor', 'load')
-                       for _, _, m in bag.messages([topic])]
+            msgs = [m for _, _, m in bag.messages([topic])]
         batch = decode_joint_states(raws, 'motor', 'load')
         assert len(batch) == 20
-        np.testing.assert_array_equal(batch.load_velocity, [s.load_velocity for s in samples])
-        np.testing.assert_array_equal(batch.stamp_ns, [s.stamp_ns for s in samples])
+        np.testing.assert_array_equal(batch.load_velocity, [m.velocity[1] for m in msgs])
+        np.testing.assert_array_equal(batch.stamp_ns, [stamp_to_ns(m.header.stamp) for m in msgs])
 
 
 @pytest.mark.parametrize('make, message', [

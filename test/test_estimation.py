@@ -10,6 +10,8 @@ import pytest
 from scipy.stats import chi2
 
 from gear_phm import interfaces
+from gear_phm.bagio import TYPESTORE
+from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
                                  FrictionFilter, to_measurement)
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear
@@ -33,13 +35,15 @@ def _feed(pipeline: EstimatorPipeline, run, start: int = 0, stop: int | None = N
                                      run.load_effort[s]))
 
 
-def _on_message(pipeline: EstimatorPipeline, msg) -> list:
-    """One JointState through the transport's decoding, then the pipeline (as the node)."""
-    sample = interfaces.sample_or_reason(msg, 'motor', 'load')
+def _on_message(pipeline: EstimatorPipeline, decoder: JointStateDecoder, raw: bytes) -> list:
+    """One serialized JointState through the node's decoder, then the pipeline (as the node)."""
+    sample = decoder.decode(raw)
     if isinstance(sample, str):
         pipeline.reject_message(sample)
         return []
-    return _topics(pipeline.on_samples([sample]))
+    stamp, *values = sample
+    return _topics(pipeline.on_batch(np.array([stamp], dtype=np.int64),
+                                     *(np.array([v]) for v in values)))
 
 
 def _track(config: EstimatorConfig, run) -> tuple[np.ndarray, ...]:
@@ -362,34 +366,41 @@ def test_one_output_group_per_stamp() -> None:
     assert len(stamps) > 100 and stamps == sorted(set(stamps))
 
 
-class _Msg:
-    """Duck-typed JointState."""
-
-    def __init__(self, stamp_ns: int, names, velocity, effort) -> None:
-        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-        stamp = type('S', (), {'sec': sec, 'nanosec': nanosec})()
-        self.header = type('H', (), {'stamp': stamp})()
-        self.name, self.position, self.velocity, self.effort = names, [], velocity, effort
+def _cdr(stamp_ns: int, names, velocity, effort) -> bytes:
+    """A serialized JointState (no positions)."""
+    types = TYPESTORE.types
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    msg = types['sensor_msgs/msg/JointState'](
+        header=types['std_msgs/msg/Header'](
+            stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=''),
+        name=list(names), position=np.zeros(0), velocity=np.array(velocity, dtype=float),
+        effort=np.array(effort, dtype=float))
+    return bytes(TYPESTORE.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
 
 
 def test_single_messages_count_bad_ones_and_match_batch_path() -> None:
     run = lever_plant(8, 12.0, 0.1)
     single = EstimatorPipeline(CONFIG)
+    decoder = JointStateDecoder('motor', 'load')
     out = []
     for i in range(run.t.size):
-        out += _on_message(single, _Msg(int(run.stamp_ns[i]), ['load', 'motor'],
-                                        [run.load_velocity[i], run.motor_velocity[i]],
-                                        [run.load_effort[i], run.motor_effort[i]]))
+        stamp = int(run.stamp_ns[i])
+        out += _on_message(single, decoder, _cdr(stamp, ['load', 'motor'],
+                                                 [run.load_velocity[i], run.motor_velocity[i]],
+                                                 [run.load_effort[i], run.motor_effort[i]]))
         if i % 1000 == 0:
-            _on_message(single, _Msg(int(run.stamp_ns[i]), ['a', 'b'], [1.0, 1.0], [1, 1]))
-            _on_message(single, _Msg(int(run.stamp_ns[i]), [], [], []))
-            _on_message(single, _Msg(int(run.stamp_ns[i]), ['motor', 'load'], [1.0], []))
-            _on_message(single, object())
+            good = _cdr(stamp, ['motor', 'load'], [1.0, 1.0], [1.0, 1.0])
+            _on_message(single, decoder, _cdr(stamp, ['a', 'b'], [1.0, 1.0], [1, 1]))
+            _on_message(single, decoder, _cdr(stamp, [], [], []))
+            _on_message(single, decoder, _cdr(stamp, ['motor', 'load'], [1.0], []))
+            _on_message(single, decoder, good[:-3])
+            _on_message(single, decoder, good[:1] + b'\x00' + good[2:])
     batch = EstimatorPipeline(CONFIG)
     expected = _feed(batch, run)
     assert [(o.topic, o.stamp_ns) for o in out] == [(o.topic, o.stamp_ns) for o in expected]
     assert single.counts['missing_joint'] == 24 and single.counts['short_arrays'] == 12
-    assert single.counts['bad_message'] == 12
+    assert single.counts['truncated'] == 12 and single.counts['bad_encoding'] == 12
+    assert single.samples_rejected == batch.samples_rejected + 60
 
 
 def test_config_validation_names_field_and_value() -> None:

@@ -1,4 +1,9 @@
-"""Vectorised JointState CDR decoding against rosbags' own deserializer, message by message."""
+"""The JointState codec against rosbags' own deserializer, message by message.
+
+Both entry points of :mod:`gear_phm.codec` are checked: the batch decoder (``gear-phm
+analyze``, replay) and the one-message decoder (the estimator node), which must agree on every
+payload, reasons included.
+"""
 from __future__ import annotations
 
 from hypothesis import given, settings
@@ -6,8 +11,8 @@ from hypothesis import strategies as st
 import numpy as np
 
 from gear_phm.bagio import TYPESTORE
-from gear_phm.interfaces import (BadMessage, decode_joint_state_buffer, decode_joint_states,
-                                 joint_state_to_sample)
+from gear_phm.codec import (decode_joint_state_buffer, decode_joint_states, JointStateDecoder,
+                            MAX_LAYOUTS)
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
@@ -43,30 +48,72 @@ def payloads(draw: st.DrawFn) -> bytes:
     return raw
 
 
-def reference(raws: list[bytes]) -> tuple[list, int]:
-    """Return (samples, rejected count) decoded one by one with rosbags."""
-    samples, rejected = [], 0
+COLUMNS = ('stamp_ns', 'motor_position', 'motor_velocity', 'motor_effort', 'load_position',
+           'load_velocity', 'load_effort')
+
+
+def reference_row(msg, motor: str = 'motor', load: str = 'load') -> tuple | None:
+    """Return the row of COLUMNS of a rosbags JointState, None if it lacks a joint's data.
+
+    Position may be empty (then 0.0); velocity and effort must reach both joints' indices.
+    """
+    names = list(msg.name)
+    if motor not in names or load not in names:
+        return None
+    m, j = names.index(motor), names.index(load)
+    if min(len(msg.velocity), len(msg.effort)) <= max(m, j):
+        return None
+    position = msg.position
+    return (msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
+            float(position[m]) if len(position) > m else 0.0, float(msg.velocity[m]),
+            float(msg.effort[m]), float(position[j]) if len(position) > j else 0.0,
+            float(msg.velocity[j]), float(msg.effort[j]))
+
+
+def reference(raws: list[bytes]) -> tuple[list[tuple], int]:
+    """Return (rows, rejected count) decoded one by one with rosbags."""
+    rows, rejected = [], 0
     for raw in raws:
         try:
             msg = TYPESTORE.deserialize_cdr(raw, JOINT_STATE)
             if raw[1] != 0x01:
                 raise ValueError('big-endian: gear_phm accepts little-endian CDR only')
-            samples.append(joint_state_to_sample(msg, 'motor', 'load'))
-        except (BadMessage, Exception):  # noqa: BLE001 rosbags raises many types
+            row = reference_row(msg)
+        except Exception:  # noqa: BLE001 rosbags raises many types
+            row = None
+        if row is None:
             rejected += 1
-    return samples, rejected
+        else:
+            rows.append(row)
+    return rows, rejected
 
 
 def assert_same(raws: list[bytes]) -> None:
-    samples, rejected = reference(raws)
+    rows, rejected = reference(raws)
     batch = decode_joint_states(raws, 'motor', 'load')
-    assert len(batch) == len(samples)
-    assert sum(batch.rejected.values()) == rejected
-    for column in ('stamp_ns', 'motor_position', 'motor_velocity', 'motor_effort',
-                   'load_position', 'load_velocity', 'load_effort'):
+    assert len(batch) == len(rows)
+    assert len(batch.rejected_at) == rejected
+    assert sorted(batch.message_index.tolist() + [i for i, _ in batch.rejected_at]) == \
+        list(range(len(raws)))
+    expected = np.array(rows, dtype=object).reshape(-1, len(COLUMNS))
+    for k, column in enumerate(COLUMNS):
         np.testing.assert_array_equal(getattr(batch, column),
-                                      np.array([getattr(s, column) for s in samples]),
+                                      expected[:, k].astype(getattr(batch, column).dtype),
                                       err_msg=column)
+    assert_live_decoder_agrees(raws, batch)
+
+
+def assert_live_decoder_agrees(raws: list[bytes], batch) -> None:
+    """Check the node's one-message decoder gives the batch's values and reasons."""
+    decoder = JointStateDecoder('motor', 'load')
+    results = [decoder.decode(raw) for raw in raws]
+    assert [(i, r) for i, r in enumerate(results) if isinstance(r, str)] == batch.rejected_at
+    kept = np.array([r for r in results if not isinstance(r, str)],
+                    dtype=object).reshape(-1, 5)
+    for k, column in enumerate(('stamp_ns', 'motor_velocity', 'motor_effort', 'load_velocity',
+                                'load_effort')):
+        np.testing.assert_array_equal(kept[:, k].astype(getattr(batch, column).dtype),
+                                      getattr(batch, column), err_msg=column)
 
 
 @settings(max_examples=300, deadline=None, derandomize=True)
@@ -78,7 +125,8 @@ def test_decoding_matches_rosbags_message_by_message(raws: list[bytes]) -> None:
 @settings(max_examples=20, deadline=None, derandomize=True)
 @given(st.lists(payloads(), min_size=60, max_size=120))
 def test_many_layouts_fall_back_to_one_by_one(raws: list[bytes]) -> None:
-    """More distinct layouts than the vectorised path groups (16) decode the same way."""
+    """More distinct layouts than the codec handles at once decode the same way."""
+    assert MAX_LAYOUTS == 16
     assert_same(raws)
 
 
@@ -99,6 +147,10 @@ def test_same_size_different_layout_is_not_merged() -> None:
     batch = decode_joint_states([a, b, a], 'motor', 'load')
     assert batch.motor_velocity.tolist() == [1.0, 2.0, 1.0]
     assert batch.load_effort.tolist() == [6.0, 5.0, 6.0]
+    decoder = JointStateDecoder('motor', 'load')
+    assert [decoder.decode(r) for r in (a, b, a)] == [(10**9 + 2, 1.0, 5.0, 2.0, 6.0),
+                                                      (10**9 + 2, 2.0, 6.0, 1.0, 5.0),
+                                                      (10**9 + 2, 1.0, 5.0, 2.0, 6.0)]
 
 
 def test_buffer_with_gaps_decodes_only_the_given_spans() -> None:
@@ -120,25 +172,3 @@ def _simple(i: int):
             stamp=types['builtin_interfaces/msg/Time'](sec=1, nanosec=i), frame_id=''),
         name=['motor', 'load'], position=np.zeros(2), velocity=np.array([9.0, float(i)]),
         effort=np.array([1.0, 2.0]))
-
-
-@settings(max_examples=60, deadline=None, derandomize=True)
-@given(st.lists(payloads(), max_size=30), st.data())
-def test_decode_once_then_cut_equals_decoding_each_part(raws: list[bytes],
-                                                        data: st.DataObject) -> None:
-    """``gear-phm analyze`` decodes a whole chunk once and cuts it at /diagnostics ticks.
-
-    Every cut must hold exactly the samples and rejection counts of decoding its messages
-    alone (bad messages included, so the estimator's drop counters tick at the same place).
-    """
-    whole = decode_joint_states(raws, 'motor', 'load')
-    cuts = sorted(data.draw(st.lists(st.integers(0, len(raws)), max_size=4)))
-    bounds = [0, *cuts, len(raws)]
-    for begin, end in zip(bounds[:-1], bounds[1:]):
-        part = whole.messages(begin, end)
-        alone = decode_joint_states(raws[begin:end], 'motor', 'load')
-        assert part.rejected == alone.rejected
-        assert part.message_index.tolist() == (alone.message_index + begin).tolist()
-        for name in ('stamp_ns', 'motor_velocity', 'motor_effort', 'load_velocity',
-                     'load_effort', 'motor_position', 'load_position'):
-            np.testing.assert_array_equal(getattr(part, name), getattr(alone, name))

@@ -15,8 +15,8 @@ import yaml
 from gear_phm.bagio import BagReader, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
-from gear_phm.interfaces import (decode_joint_states, joint_state_rows, stamp_to_ns,
-                                 Vector3Out)
+from gear_phm.codec import decode_joint_states
+from gear_phm.interfaces import joint_state_rows, stamp_to_ns, Vector3Out
 from gear_phm.models import eta_opposing, u_from_eta_opposing
 from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
 
@@ -327,7 +327,7 @@ def read_sample(name: str) -> tuple[dict, np.ndarray, np.ndarray]:
         efficiency = np.array([(m.vector.x, m.vector.y) for _, _, m
                                in reader.messages(['/gear_phm/truth/efficiency'])])
     batch = decode_joint_states(raws, 'motor', 'load')
-    assert len(batch) == len(raws) and not batch.rejected
+    assert len(batch) == len(raws) and not batch.rejected_at
     return batch, friction, efficiency
 
 

@@ -24,8 +24,8 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.interfaces import (HEALTH_EFFICIENCY, HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION,
-                                 VECTOR3_STAMPED_TYPE)
+from gear_phm.interfaces import (field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT, HEALTH_RUL,
+                                 stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (ALPHA, band_coverage, BAND_FROM, evaluate,
@@ -96,7 +96,7 @@ def _levels(bag: Path) -> tuple[np.ndarray, np.ndarray] | None:
         if reader.resolve_topic(HEALTH_EFFICIENCY) not in reader.topics:
             return None
     times, vectors = read_vector_topic(bag, HEALTH_EFFICIENCY)
-    return times, vectors[:, 2]
+    return times, vectors[:, field_index(HEALTH_LAYOUT, HEALTH_EFFICIENCY, 'level')]
 
 
 def truth_eol(truth: Path, u_eol: float) -> float:
@@ -136,19 +136,20 @@ def run(args: argparse.Namespace) -> int:
                              config.u_max)
     bag = _find_bag(args.run)
     times, values = read_vector_topic(bag, HEALTH_RUL)
+    median, p5, p95 = (values[:, field_index(HEALTH_LAYOUT, HEALTH_RUL, f'rul.{name}')]
+                       for name in ('median', 'p5', 'p95'))
     t_eol = truth_eol(args.truth, u_eol)
     before = times < t_eol
     if not before.any():
         raise CliError(f'no prediction before the true end of life at {t_eol:.6g} s')
     levels = _levels(bag)
     try:
-        metrics = evaluate(times[before], values[before, 0], t_eol, args.alpha, args.lambdas,
+        metrics = evaluate(times[before], median[before], t_eol, args.alpha, args.lambdas,
                            args.t_start)
         start = float(metrics['t_start_s'])
-        share, counted = band_coverage(times, values[:, 1], values[:, 2], t_eol,
-                                       args.band_from, start)
+        share, counted = band_coverage(times, p5, p95, t_eol, args.band_from, start)
         changes = () if levels is None else level_transitions(*levels, t_eol, start)
-        finite = finite_from(times[before], values[before, 0], t_eol, start)
+        finite = finite_from(times[before], median[before], t_eol, start)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     metrics['rul_finite_from'] = 'inf' if math.isinf(finite) else finite

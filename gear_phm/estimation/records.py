@@ -80,3 +80,18 @@ class FrictionEstimate:
     def u_sigma(self) -> float:
         """Return the standard deviation of u [-]."""
         return math.sqrt(max(self.covariance[0], 0.0))
+
+    @property
+    def p_uu(self) -> float:
+        """Variance of u [-] (``covariance[0]``)."""
+        return self.covariance[0]
+
+    @property
+    def p_ur(self) -> float:
+        """Covariance of u and its rate [1/s] (``covariance[1]``)."""
+        return self.covariance[1]
+
+    @property
+    def p_rr(self) -> float:
+        """Variance of the rate [1/s^2] (``covariance[2]``)."""
+        return self.covariance[2]

@@ -1,4 +1,4 @@
-"""Shared rclpy helpers: QoS, parameter declaration, /diagnostics, output publishing, main()."""
+"""Shared rclpy helpers: QoS, parameter declaration, /diagnostics, main()."""
 from __future__ import annotations
 
 from collections import Counter
@@ -126,25 +126,6 @@ def status_msg(status: StatusOut) -> DiagnosticStatus:
     return DiagnosticStatus(level=bytes([int(status.level)]), name=status.name,
                             message=status.message, hardware_id=status.hardware_id,
                             values=[KeyValue(key=k, value=v) for k, v in status.values])
-
-
-class OutputPublisher:
-    """Publishes output records, creating one reliable publisher per topic on first use."""
-
-    def __init__(self, node: Node, topics: Iterable[tuple[str, type]] = ()) -> None:
-        self._node = node
-        self._publishers: dict[str, Any] = {}
-        for topic, msg_type in topics:
-            self._publishers[topic] = node.create_publisher(msg_type, topic, OUTPUT_QOS)
-
-    def publish(self, outputs: Sequence[Vector3Out | DiagnosticsOut]) -> None:
-        for output in outputs:
-            publisher = self._publishers.get(output.topic)
-            msg = to_rclpy(output)
-            if publisher is None:
-                publisher = self._node.create_publisher(type(msg), output.topic, OUTPUT_QOS)
-                self._publishers[output.topic] = publisher
-            publisher.publish(msg)
 
 
 class DropCounter:

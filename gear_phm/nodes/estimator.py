@@ -10,7 +10,7 @@ A bad message is dropped and counted, never fatal. Parameters: config/estimator.
 
 The per-message path is as short as rclpy allows: JointState arrives serialized (``raw``
 subscription, no Python message object), its stamp, speeds and torques are read with one
-``struct`` call (:class:`~gear_phm.nodes.transport.JointStateDecoder`) and appended to a
+``struct`` call (:class:`~gear_phm.codec.JointStateDecoder`) and appended to a
 buffer. The buffer is processed as one vectorised batch when an output is due: its stamp
 crosses the publish_rate grid, or the sample closes an energy window (power-flow phase change,
 window length, gap); otherwise ``batch_period`` after its first sample, or at 200 samples.
@@ -31,12 +31,13 @@ from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 
 from gear_phm import interfaces
+from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.state import state_parameters, StateKeeper
-from gear_phm.nodes.transport import (EstimatePublisher, JointStateDecoder,
-                                      SampleLossPublisher, subscribe_joint_states_raw)
+from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
+                                      subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.status import WARN
 

@@ -2,7 +2,8 @@
 
 With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the bag side) this
 is the only place that knows which topic carries what. The estimator node takes JointState
-serialized (:func:`subscribe_joint_states_raw`, :class:`JointStateDecoder`), publishes each
+serialized (:func:`subscribe_joint_states_raw`; decoded by :class:`gear_phm.codec.
+JointStateDecoder`, the codec the bag side uses too), publishes each
 :class:`~gear_phm.estimation.FrictionEstimate` as six Vector3Stamped topics with one stamp
 (:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the
 diagnostics node puts the six back together into the same record
@@ -12,8 +13,6 @@ whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 from __future__ import annotations
 
 from collections.abc import Callable
-import operator
-import struct
 from typing import Any
 
 from geometry_msgs.msg import Vector3Stamped
@@ -34,68 +33,10 @@ RESTART_JUMP_NS = 10 * 10**9
 
 def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) -> Any:
     """Subscribe ``joint_states`` (sensor QoS) serialized: ``on_message`` gets the CDR bytes
-    of each message, with no Python message object built (decode batches with
-    :func:`gear_phm.interfaces.decode_joint_states`)."""
+    of each message, with no Python message object built (decode them with
+    :class:`gear_phm.codec.JointStateDecoder`)."""
     return node.create_subscription(JointState, interfaces.JOINT_STATES, on_message,
                                     SENSOR_QOS, raw=True)
-
-
-class _FastLayout:
-    """One JointState CDR layout: its constant bytes and a struct that reads the stamp, both
-    joints' velocity and effort and the two array lengths in one call."""
-
-    __slots__ = ('prefix_end', 'prefix', 'unpack', 'order', 'lengths')
-
-    def __init__(self, raw: bytes, layout: Any, mi: int, li: int) -> None:
-        self.prefix_end = layout.array_offsets[0]
-        self.prefix = raw[:4] + raw[12:self.prefix_end]
-        vel, eff = layout.array_offsets[1], layout.array_offsets[2]
-        fields = {'sec': (4, 'i'), 'nanosec': (8, 'I'),
-                  'vel_len': (layout.length_words[1], 'I'),
-                  'eff_len': (layout.length_words[2], 'I'), 'wm': (vel + 8 * mi, 'd'),
-                  'wl': (vel + 8 * li, 'd'), 'tm': (eff + 8 * mi, 'd'), 'tl': (eff + 8 * li, 'd')}
-        fmt, position, names = '<', 0, []
-        for name, (offset, code) in sorted(fields.items(), key=lambda kv: kv[1][0]):
-            fmt += 'x' * (offset - position) + code
-            position = offset + struct.calcsize('<' + code)
-            names.append(name)
-        self.unpack = struct.Struct(fmt).unpack_from
-        self.order = operator.itemgetter(*(names.index(n) for n in (
-            'sec', 'nanosec', 'wm', 'tm', 'wl', 'tl', 'vel_len', 'eff_len')))
-        self.lengths = layout.array_lengths[1:]
-
-    def matches(self, raw: bytes) -> bool:
-        return raw[12:self.prefix_end] == self.prefix[4:] and raw[:4] == self.prefix[:4]
-
-
-class JointStateDecoder:
-    """Serialized JointState -> (stamp [ns], motor speed, motor torque, load speed, load
-    torque), one message at a time in a few microseconds: the layout (frame_id, names, array
-    lengths) is parsed once and cached by size and frame_id length; a message is checked
-    against its layout's constant bytes and read with one ``struct`` call. Unusable messages
-    give the reason (``missing_joint``, ``short_arrays``, ``truncated``, ``bad_encoding``)."""
-
-    MAX_LAYOUTS = 16
-
-    def __init__(self, motor_joint: str, load_joint: str) -> None:
-        self.motor_joint, self.load_joint = motor_joint, load_joint
-        self._layouts: dict[int, _FastLayout] = {}
-
-    def decode(self, raw: bytes) -> tuple[int, float, float, float, float] | str:
-        key = (len(raw), raw[12:16])            # size and frame_id length
-        fast = self._layouts.get(key)
-        if fast is None or not fast.matches(raw):
-            parsed = interfaces._joint_layout(raw, self.motor_joint, self.load_joint)
-            if isinstance(parsed, str):
-                return parsed
-            if len(self._layouts) >= self.MAX_LAYOUTS:
-                self._layouts.clear()
-            fast = self._layouts[key] = _FastLayout(raw, *parsed)
-        sec, nanosec, wm, tm, wl, tl, vel_len, eff_len = fast.order(fast.unpack(raw))
-        if (vel_len, eff_len) != fast.lengths:      # same size, arrays split differently
-            del self._layouts[key]
-            return self.decode(raw)
-        return sec * 1_000_000_000 + nanosec, wm, tm, wl, tl
 
 
 class EstimatePublisher:
@@ -230,7 +171,7 @@ class EstimateAssembler:
         estimates: list[FrictionEstimate] = []
         for stamp_ns in sorted(s for s in self.pending if up_to is None or s <= up_to):
             group = self.pending.pop(stamp_ns)
-            if interfaces.FRICTION not in group or interfaces.FRICTION_COVARIANCE not in group:
+            if not interfaces.REQUIRED_ESTIMATOR_TOPICS.issubset(group):
                 self._drop('incomplete_update')
                 continue
             estimates.append(interfaces.estimate_from_vectors(stamp_ns, group))

@@ -7,7 +7,7 @@ It returns an :class:`Analysis` of numpy histories and, given ``out``, writes th
 the nodes publish as a rosbag2 MCAP directory, plus ``summary.json`` and ``analysis.png``.
 
 Data path (no Python work per message): the bag reader yields raw batches of JointState CDR
-(:meth:`gear_phm.bagio.BagReader.raw_batches`), :func:`gear_phm.interfaces.
+(:meth:`gear_phm.bagio.BagReader.raw_batches`), :func:`gear_phm.codec.
 decode_joint_state_buffer` turns each into columns, the pipeline returns
 :class:`~gear_phm.estimation.FrictionEstimate` records, the assessor a
 :class:`~gear_phm.prognostics.HealthState` per estimate, and :mod:`gear_phm.interfaces`
@@ -33,7 +33,7 @@ from typing import Any, Generic, TypeVar
 
 import numpy as np
 
-from gear_phm import interfaces
+from gear_phm import codec, interfaces
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
@@ -319,7 +319,7 @@ class _Run:
                 while next_tick <= int(times[-1]):
                     ticks.append(next_tick)
                     next_tick += self.diag_period_ns
-                decoded = interfaces.decode_joint_state_buffer(
+                decoded = codec.decode_joint_state_buffer(
                     raw.buffer, raw.offsets, raw.lengths, self.motor_joint, self.load_joint)
                 self._process(decoded, len(raw), ticks,
                               np.searchsorted(times, ticks, side='left').tolist(), writer)
@@ -332,7 +332,7 @@ class _Run:
             bar.close()
             return bag.reader_kind
 
-    def _process(self, decoded: interfaces.JointBatch, messages: int, ticks: list[int],
+    def _process(self, decoded: codec.JointBatch, messages: int, ticks: list[int],
                  cuts: list[int], writer: Any) -> None:
         """One decoded batch of ``messages`` messages: estimator, then diagnostics code.
 
@@ -341,7 +341,6 @@ class _Run:
         those messages only (marks of the pipeline, not cuts of the batch).
         """
         index = decoded.message_index
-        assert index is not None
         marks = np.searchsorted(index, cuts, side='left').tolist()
         rejected_at = [(int(np.searchsorted(index, position)), reason)
                        for position, reason in decoded.rejected_at]
@@ -426,25 +425,12 @@ def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[Healt
                    ) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return the Vector3Stamped outputs of a batch as ``(topic, stamps [ns], xyz)`` columns.
 
-    The estimator's and the diagnostics node's topics, in publishing order, with the values of
-    :func:`gear_phm.interfaces.estimate_outputs` and :func:`~gear_phm.interfaces.health_outputs`
-    (a test checks they agree), built without a record per message.
+    The estimator's and the diagnostics node's topics, in publishing order
+    (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`, :data:`~gear_phm.interfaces.HEALTH_LAYOUT`).
     """
-    stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64, count=len(estimates))
-    fields = np.array([(e.u, e.rate, e.u_sigma, *e.covariance, e.eta_opposing, e.eta_aiding,
-                        e.measured_efficiency, e.innovation, e.innovation_variance, e.nis,
-                        e.samples_used, e.samples_rejected, e.power_flow,
-                        e.operating_time, e.measurement, e.measurement_variance)
-                       for e in estimates], dtype=float).reshape(-1, 18)
-    columns = [(topic, stamps, fields[:, 3 * i:3 * i + 3])
-               for i, topic in enumerate(interfaces.ESTIMATOR_TOPICS)]
+    columns = interfaces.vector3_columns(estimates, interfaces.ESTIMATE_LAYOUT)
     if states:
-        health = np.array([(s.rul.median, s.rul.p5, s.rul.p95, s.eta_opposing, s.eta_aiding,
-                            s.level) for s in states], dtype=float)
-        health_stamps = np.fromiter((s.stamp_ns for s in states), dtype=np.int64,
-                                    count=len(states))
-        columns += [(interfaces.HEALTH_RUL, health_stamps, health[:, :3]),
-                    (interfaces.HEALTH_EFFICIENCY, health_stamps, health[:, 3:])]
+        columns += interfaces.vector3_columns(states, interfaces.HEALTH_LAYOUT)
     return columns
 
 

@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
-from gear_phm.interfaces import (decode_joint_states, JOINT_STATE_TYPE, JOINT_STATES,
-                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.codec import decode_joint_states
+from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
+                                 TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.sources import Channel, Item, one_line, PASS_END, Recorded, SourceError
 
 #: JointState messages decoded together while checking a bag (bounds the memory of the check).
