@@ -176,66 +176,6 @@ def vector3_stamped_cdr(output: Vector3Out) -> bytes:
                   float(output.y), float(output.z))
 
 
-def joint_state_rows(stamps_ns: np.ndarray, names: Sequence[str], position: np.ndarray,
-                     velocity: np.ndarray, effort: np.ndarray, frame_id: str = '') -> np.ndarray:
-    """Little-endian CDR payloads of N sensor_msgs/JointState, all with the joints ``names``.
-
-    ``position``, ``velocity``, ``effort``: (N, len(names)) [rad, rad/s, N m]. Returns an
-    (N, L) uint8 array, row i the bytes rosbags' ``serialize_cdr`` gives for message i (the
-    tests check it). Raises ValueError for a stamp outside builtin_interfaces/Time's seconds.
-    """
-    dtype, constants = _joint_state_layout(tuple(names), frame_id)
-    stamps = np.asarray(stamps_ns, dtype=np.int64)
-    sec, nanosec = np.divmod(stamps, 1_000_000_000)
-    if len(sec) and (sec.min() < -2**31 or sec.max() >= 2**31):
-        raise ValueError('a stamp is outside the int32 seconds of builtin_interfaces/Time')
-    rows = np.empty(len(stamps), dtype=dtype)
-    for name, value in constants.items():
-        rows[name] = np.void(value)
-    rows['sec'] = sec
-    rows['nanosec'] = nanosec
-    rows['position'] = position
-    rows['velocity'] = velocity
-    rows['effort'] = effort
-    return rows.view(np.uint8).reshape(len(stamps), dtype.itemsize)
-
-
-@functools.lru_cache(maxsize=16)
-def _joint_state_layout(names: tuple[str, ...],
-                        frame_id: str) -> tuple[np.dtype, dict[str, bytes]]:
-    """(row dtype, constant bytes per field) of JointState CDR with these joints and frame.
-
-    CDR aligns each value to its size, counted from the end of the 4-byte encapsulation
-    header; only the stamp and the three float64 arrays vary between messages.
-    """
-    fields: list[tuple[Any, ...]] = [('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4')]
-    constants = {'encapsulation': b'\x00\x01\x00\x00'}
-    pending = bytearray()
-
-    def align(size: int) -> None:
-        pending.extend(b'\0' * (-(8 + len(pending)) % size))
-
-    def string(text: str) -> None:
-        data = text.encode() + b'\0'
-        align(4)
-        pending.extend(struct.pack('<I', len(data)) + data)
-
-    string(frame_id)
-    align(4)
-    pending.extend(struct.pack('<I', len(names)))
-    for name in names:
-        string(name)
-    for array in ('position', 'velocity', 'effort'):
-        align(4)
-        pending.extend(struct.pack('<I', len(names)))
-        if names:
-            align(8)
-        constants[f'before_{array}'] = bytes(pending)
-        fields += [(f'before_{array}', f'V{len(pending)}'), (array, '<f8', (len(names),))]
-        pending = bytearray()
-    return np.dtype(fields), constants
-
-
 @functools.lru_cache(maxsize=64)
 def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
     """(frame_id with its NUL, struct packer) of the Vector3Stamped layout for ``frame_id``."""

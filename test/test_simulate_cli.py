@@ -15,8 +15,8 @@ import yaml
 from gear_phm.bagio import BagReader, Rosbag2McapWriter, TYPESTORE
 from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
-from gear_phm.codec import decode_joint_states
-from gear_phm.interfaces import joint_state_rows, stamp_to_ns, Vector3Out
+from gear_phm.codec import decode_joint_states, joint_state_rows
+from gear_phm.interfaces import stamp_to_ns, Vector3Out
 from gear_phm.models import eta_opposing, u_from_eta_opposing
 from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
 

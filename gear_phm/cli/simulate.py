@@ -18,8 +18,9 @@ import numpy as np
 from gear_phm.bagio import BagError, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
-from gear_phm.interfaces import (joint_state_rows, JOINT_STATE_TYPE, JOINT_STATES,
-                                 TRUTH_EFFICIENCY, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.codec import joint_state_rows
+from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION,
+                                 VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
