@@ -43,11 +43,13 @@ RECORD_HEAD = struct.Struct('<BQ')
 #: A Message record up to its payload: opcode, length, channel id, sequence, log time and
 #: publish time [ns]; as a struct (one record) and as a numpy dtype (many).
 MESSAGE_HEAD = struct.Struct('<BQHIQQ')
-MESSAGE_HEAD_DTYPE = np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
-                               ('sequence', '<u4'), ('log_time', '<u8'),
-                               ('publish_time', '<u8')])
+_MESSAGE_HEAD_FIELDS = [('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
+                        ('sequence', '<u4'), ('log_time', '<u8'), ('publish_time', '<u8')]
+MESSAGE_HEAD_DTYPE = np.dtype(_MESSAGE_HEAD_FIELDS)
 #: Bytes of a Message record's body before its payload.
 MESSAGE_FIELDS = MESSAGE_HEAD.size - RECORD_HEAD.size
+#: The fields of :data:`MESSAGE_HEAD_DTYPE` that readers check, up to the log time.
+_HEAD_TO_LOG_TIME = np.dtype(_MESSAGE_HEAD_FIELDS[:-1])
 #: A MessageIndex record up to its entries: opcode, length, channel id, entry bytes; each
 #: entry is (log time [ns], record offset in the chunk), two u64.
 MESSAGE_INDEX_HEAD = struct.Struct('<BQHI')
@@ -71,21 +73,22 @@ class NotMcap(FormatError):
 
 def message_dtype(width: int) -> np.dtype:
     """Return the numpy dtype of Message records with ``width``-byte payloads."""
-    return np.dtype(MESSAGE_HEAD_DTYPE.descr + [('data', f'V{width}')])
+    return np.dtype([*_MESSAGE_HEAD_FIELDS, ('data', f'V{width}')])
 
 
 def message_heads(data: np.ndarray, offsets: np.ndarray) -> Any:
-    """Return the heads (:data:`MESSAGE_HEAD_DTYPE`) of the records at ``offsets`` in ``data``.
+    """Return the heads of the Message records at ``offsets`` in ``data`` (a uint8 array).
 
-    ``data`` is a uint8 array; one row copy per record, no Python work per record.
-    Raises FormatError when a head would run past the end of ``data``.
+    The fields of :data:`MESSAGE_HEAD_DTYPE` up to the log time: op, length, channel,
+    sequence, log_time. One copy of those bytes per record, no Python work per record.
+    Raises FormatError when a record's head (to its payload) would run past ``data``.
     """
     if offsets.size and (offsets.min() < 0
                          or offsets.max() + MESSAGE_HEAD.size > data.size):
         msg = 'a message record offset is out of bounds'
         raise FormatError(msg)
-    rows = sliding_window_view(data, MESSAGE_HEAD.size)[offsets]
-    return rows.view(MESSAGE_HEAD_DTYPE)[:, 0]
+    rows = sliding_window_view(data, _HEAD_TO_LOG_TIME.itemsize)[offsets]
+    return rows.view(_HEAD_TO_LOG_TIME)[:, 0]
 
 
 def message_index(buffer: bytes, at: int) -> tuple[int, np.ndarray]:
