@@ -11,7 +11,8 @@
   record whose checksum fails.
 """
 from gear_phm.bagio.reader import BagError, BagReader
-from gear_phm.bagio.recover import recover, RecoverError, Recovery
+from gear_phm.bagio.recover import recover, Recovery
+from gear_phm.bagio.recover_scan import RecoverError
 from gear_phm.bagio.writer import Rosbag2McapWriter, to_rosbags, TYPESTORE
 
 __all__ = ['TYPESTORE', 'BagError', 'BagReader', 'RecoverError', 'Recovery',

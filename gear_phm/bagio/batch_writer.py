@@ -21,22 +21,17 @@ return the same messages and summary from both files.
 from __future__ import annotations
 
 from collections.abc import Sequence
-import struct
 from typing import Any, BinaryIO
 import zlib
 
-from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Schema,
                           Statistics, SummaryOffset)
 from mcap.writer import CompressionType, LIBRARY_IDENTIFIER
 import numpy as np
 
-MAGIC = b'\x89MCAP0\r\n'
-#: opcode, record length, channel id, sequence, log time, publish time.
-_MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
-_MESSAGE = struct.Struct('<BQHIQQ')
-_MESSAGE_INDEX_HEAD = struct.Struct('<BQHI')
+from gear_phm.bagio.mcapformat import (compress, encode, MAGIC, message_dtype, MESSAGE_FIELDS,
+                                       MESSAGE_HEAD, MESSAGE_INDEX_HEAD, RECORD_HEAD)
 
 
 class BatchWriter:
@@ -74,7 +69,7 @@ class BatchWriter:
     def start(self, profile: str = '', library: str = LIBRARY_IDENTIFIER) -> None:
         """Write the magic and the Header record."""
         self._write(MAGIC)
-        self._write(_record(Header(profile=profile, library=library)))
+        self._write(encode(Header(profile=profile, library=library)))
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         """Add a Schema (into the open chunk, as mcap's Writer does); returns its id."""
@@ -82,7 +77,7 @@ class BatchWriter:
         schema = Schema(id=schema_id, data=data, encoding=encoding, name=name)
         self._schemas[schema_id] = schema
         self._stats.schema_count += 1
-        self._append(_record(schema))
+        self._append(encode(schema))
         return schema_id
 
     def register_channel(self, topic: str, message_encoding: str, schema_id: int,
@@ -93,7 +88,7 @@ class BatchWriter:
                           schema_id=schema_id, metadata=dict(metadata or {}))
         self._channels[channel_id] = channel
         self._stats.channel_count += 1
-        self._append(_record(channel))
+        self._append(encode(channel))
         return channel_id
 
     def add_message(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
@@ -101,8 +96,8 @@ class BatchWriter:
         """Append one message (any payload size)."""
         if log_time < 0:
             raise ValueError('MCAP log times are unsigned: got a negative time')
-        record = _MESSAGE.pack(Opcode.MESSAGE, _MESSAGE_HEAD - 9 + len(data), channel_id,
-                               sequence, log_time, publish_time) + data
+        record = MESSAGE_HEAD.pack(Opcode.MESSAGE, MESSAGE_FIELDS + len(data), channel_id,
+                                   sequence, log_time, publish_time) + data
         self._index.append((np.array([channel_id]), np.array([log_time], dtype=np.int64),
                             np.array([self._size], dtype=np.uint64)))
         self._note(log_time, log_time, 1)
@@ -123,13 +118,13 @@ class BatchWriter:
         log = np.asarray(log_times, dtype=np.int64)
         if log.min() < 0:
             raise ValueError('MCAP log times are unsigned: got a negative time')
-        records = np.empty(n, dtype=_message_dtype(width))
+        records = np.empty(n, dtype=message_dtype(width))
         records['op'] = Opcode.MESSAGE
-        records['length'] = _MESSAGE_HEAD - 9 + width
+        records['length'] = MESSAGE_FIELDS + width
         records['channel'] = channel_ids
         records['sequence'] = 0 if sequences is None else sequences
-        records['log'] = log
-        records['publish'] = log if publish_times is None else publish_times
+        records['log_time'] = log
+        records['publish_time'] = log if publish_times is None else publish_times
         records['data'] = np.ascontiguousarray(payloads, dtype=np.uint8).view(f'V{width}')[:, 0]
         channels = np.asarray(channel_ids)
         item = records.itemsize
@@ -226,10 +221,10 @@ class BatchWriter:
         if self._messages == 0:
             return
         data = b''.join(self._parts)
-        compression, packed = _compress(self._compression, data)
-        chunk = _record(Chunk(compression=compression, data=packed,
-                              message_start_time=self._start, message_end_time=self._end,
-                              uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data)))
+        compression, packed = compress(self._compression, data)
+        chunk = encode(Chunk(compression=compression, data=packed,
+                             message_start_time=self._start, message_end_time=self._end,
+                             uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data)))
         chunk_start = self._written
         self._write(chunk)
         index_start = self._written
@@ -247,8 +242,9 @@ class BatchWriter:
             order = np.argsort(times, kind='stable')
             pairs = np.column_stack((times[order], where[order])).astype('<u8').tobytes()
             offsets[channel] = index_start + sum(len(i) for i in indexes)
-            indexes.append(_MESSAGE_INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 2 + 4 + len(pairs),
-                                                    channel, len(pairs)) + pairs)
+            indexes.append(MESSAGE_INDEX_HEAD.pack(
+                Opcode.MESSAGE_INDEX, MESSAGE_INDEX_HEAD.size - RECORD_HEAD.size + len(pairs),
+                channel, len(pairs)) + pairs)
         index_bytes = b''.join(indexes)
         self._write(index_bytes)
         self._chunk_indexes.append(ChunkIndex(
@@ -269,7 +265,7 @@ class BatchWriter:
     def finish(self) -> None:
         """Write the last chunk, DataEnd, the summary, the footer and the closing magic."""
         self._finish_chunk()
-        self._write(_record(DataEnd(data_section_crc=self._data_crc)))
+        self._write(encode(DataEnd(data_section_crc=self._data_crc)))
         summary_start = self._written
         groups: list[tuple[int, Sequence[Any]]] = [
             (Opcode.SCHEMA, list(self._schemas.values())),
@@ -283,42 +279,22 @@ class BatchWriter:
         for opcode, records in groups:
             group_start = len(summary)
             for record in records:
-                summary += _record(record)
+                summary += encode(record)
             offsets.append(SummaryOffset(group_opcode=opcode,
                                          group_start=summary_start + group_start,
                                          group_length=len(summary) - group_start))
         summary_offset_start = summary_start + len(summary)
         for offset in offsets:
-            summary += _record(offset)
-        crc = zlib.crc32(struct.pack('<BQQQ', Opcode.FOOTER, 20, summary_start,
-                                     summary_offset_start), zlib.crc32(bytes(summary)))
+            summary += encode(offset)
+        # the summary CRC covers the footer up to its CRC field
+        footer = encode(Footer(summary_start=summary_start,
+                               summary_offset_start=summary_offset_start, summary_crc=0))
+        crc = zlib.crc32(footer[:-4], zlib.crc32(bytes(summary)))
         self._stream.write(bytes(summary))
-        self._stream.write(_record(Footer(summary_start=summary_start,
-                                          summary_offset_start=summary_offset_start,
-                                          summary_crc=crc)))
+        self._stream.write(encode(Footer(summary_start=summary_start,
+                                         summary_offset_start=summary_offset_start,
+                                         summary_crc=crc)))
         self._stream.write(MAGIC)
-
-
-def _record(record: Any) -> bytes:
-    builder = RecordBuilder()
-    record.write(builder)
-    return bytes(builder.end())  # type: ignore[no-untyped-call]  # mcap, unannotated
-
-
-def _message_dtype(width: int) -> np.dtype:
-    return np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
-                     ('sequence', '<u4'), ('log', '<u8'), ('publish', '<u8'),
-                     ('data', f'V{width}')])
-
-
-def _compress(kind: CompressionType, data: bytes) -> tuple[str, bytes]:
-    if kind == CompressionType.ZSTD:
-        import zstandard
-        return 'zstd', zstandard.compress(data)
-    if kind == CompressionType.LZ4:
-        import lz4.frame
-        return 'lz4', lz4.frame.compress(data)
-    return '', data
 
 
 def vector3_stamped_rows(stamps_ns: np.ndarray, xyz: np.ndarray,

@@ -26,25 +26,19 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO
-import zlib
+from typing import BinaryIO
 
+from mcap.opcode import Opcode
+from mcap.records import Channel, Chunk
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
+from gear_phm.bagio.mcapformat import (COMPRESSIONS, decompress, FOOTER_BYTES, FormatError, MAGIC,
+                                       MESSAGE_FIELDS, MESSAGE_HEAD, message_heads,
+                                       message_index, NotMcap, parse_record, read_footer,
+                                       RECORD_HEAD, records, SUMMARY_OPCODES)
 from gear_phm.errors import GearPhmError
 
-_MAGIC = b'\x89MCAP0\r\n'
-_HEADER_OP, _FOOTER_OP, _SCHEMA_OP, _CHANNEL_OP = 0x01, 0x02, 0x03, 0x04
-_MESSAGE_OP, _CHUNK_OP, _MESSAGE_INDEX_OP = 0x05, 0x06, 0x07
-_SUMMARY_OPS = {0x08, 0x0A, 0x0B, 0x0D, 0x0E}     # chunk/attachment/metadata index, stats, offset
-_COMPRESSIONS = ('', 'zstd', 'lz4')
-_MESSAGE_HEADER = 22               # channel id u16, sequence u32, log time u64, publish u64
-_FOOTER_SIZE = 1 + 8 + 20          # op, length, summary start, summary offset start, crc
 _KEY_SHIFT = 40                    # sort key: chunk number << 40 | record offset in the chunk
-# op u8, record length u64, channel id u16, sequence u32, log time u64: a message record's head
-_RECORD_HEAD = np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
-                         ('sequence', '<u4'), ('log_time', '<u8')])
 
 
 class NotIndexed(GearPhmError):
@@ -154,40 +148,22 @@ class _Chunk:
         return f'{self.path.name}: chunk at byte {self.start_offset}'
 
 
-def _decompress(data: bytes, compression: str, size: int) -> bytes:
-    if compression == '':
-        return data
-    if compression == 'zstd':
-        import zstandard
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    if compression == 'lz4':
-        import lz4.frame
-        decompressed: bytes = lz4.frame.decompress(data)
-        return decompressed
-    raise CorruptChunk(f'chunk compression {compression!r} is not supported')
-
-
-def _u(data: bytes | memoryview, at: int, size: int) -> int:
-    return int.from_bytes(data[at:at + size], 'little')
-
-
-def _string(data: bytes | memoryview, at: int) -> tuple[str, int]:
-    """(UTF-8 string with u32 length prefix at ``at``, offset after it)."""
-    size = _u(data, at, 4)
-    return bytes(data[at + 4:at + 4 + size]).decode('utf-8', 'replace'), at + 4 + size
-
-
 def _walk(data: bytes, start: int, end: int, where: str) -> Iterator[tuple[int, int, int]]:
-    """(op, record offset, body length) of the records in ``data[start:end]``."""
-    at = start
-    while at < end:
-        if at + 9 > end:
-            raise CorruptChunk(f'{where}: a record overruns the chunk')
-        length = _u(data, at + 1, 8)
-        if at + 9 + length > end:
-            raise CorruptChunk(f'{where}: a record overruns the chunk')
-        yield data[at], at, length
-        at += 9 + length
+    """(op, record offset, body length) of the records in ``data[start:end]``; CorruptChunk
+    when one overruns ``end``."""
+    try:
+        yield from records(data, start, end)
+    except FormatError as exc:
+        raise CorruptChunk(f'{where}: {exc}') from None
+
+
+def _channel_topic(body: bytes) -> str | None:
+    """The topic of the Channel record ``body``, None when it does not parse."""
+    try:
+        channel = parse_record(Opcode.CHANNEL, body)
+    except FormatError:
+        return None
+    return channel.topic if isinstance(channel, Channel) else None
 
 
 class McapChunkReader:
@@ -239,18 +215,17 @@ class McapChunkReader:
         from mcap.exceptions import McapError
         from mcap.reader import make_reader
 
-        size = stream.seek(0, 2)
-        stream.seek(0)
-        if size < 2 * len(_MAGIC) + _FOOTER_SIZE or stream.read(8) != _MAGIC:
-            raise NotIndexed(f'{path}: not an MCAP file')
-        stream.seek(size - _FOOTER_SIZE - len(_MAGIC))
-        footer = stream.read(_FOOTER_SIZE + len(_MAGIC))
-        if footer[-8:] != _MAGIC or footer[0] != _FOOTER_OP or _u(footer, 1, 8) != 20:
+        try:
+            footer = read_footer(stream)
+        except NotMcap:
+            raise NotIndexed(f'{path}: not an MCAP file') from None
+        if footer is None:
             raise NotIndexed(f'{path}: no MCAP footer (truncated?)')
-        summary_start = _u(footer, 9, 8)
+        summary_start = footer.summary_start
         if summary_start == 0:
             raise NotIndexed(f'{path}: no summary section')
-        if not 8 < summary_start <= size - _FOOTER_SIZE - len(_MAGIC):
+        size = stream.seek(0, 2)
+        if not len(MAGIC) < summary_start <= size - FOOTER_BYTES - len(MAGIC):
             raise IndexMismatch(f'{path}: summary offset {summary_start} is outside the file')
         try:
             stream.seek(0)
@@ -264,7 +239,7 @@ class McapChunkReader:
         topics = {cid: channel.topic for cid, channel in summary.channels.items()}
         chunks = []
         for index in sorted(summary.chunk_indexes, key=lambda i: i.chunk_start_offset):
-            if index.compression not in _COMPRESSIONS:
+            if index.compression not in COMPRESSIONS:
                 raise NotIndexed(f'{path}: chunk compression {index.compression!r}')
             chunks.append(_Chunk(
                 stream, path, 0, index.chunk_start_offset, index.chunk_length,
@@ -317,28 +292,30 @@ class McapChunkReader:
                 raise IndexMismatch(f'{path}: chunk indexes overlap or point into records')
             while at < end:
                 stream.seek(at)
-                head = stream.read(9)
-                if len(head) < 9 or at + 9 + _u(head, 1, 8) > end:
+                head = stream.read(RECORD_HEAD.size)
+                if len(head) < RECORD_HEAD.size \
+                        or at + RECORD_HEAD.size + RECORD_HEAD.unpack(head)[1] > end:
                     raise IndexMismatch(f'{path}: the record at byte {at} overruns an indexed '
                                         f'chunk or the summary')
-                op, length = head[0], _u(head, 1, 8)
-                if op in (_MESSAGE_OP, _CHUNK_OP, _MESSAGE_INDEX_OP) or op in _SUMMARY_OPS \
-                        or op == _FOOTER_OP or (op == _HEADER_OP and not first):
+                op, length = RECORD_HEAD.unpack(head)
+                if op in (Opcode.MESSAGE, Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.FOOTER) \
+                        or op in SUMMARY_OPCODES or (op == Opcode.HEADER and not first):
                     raise IndexMismatch(f'{path}: a record of type {op:#04x} at byte {at} is '
                                         f'outside the indexed chunks')
-                if op == _CHANNEL_OP:
-                    body = stream.read(min(length, 1 << 16))
-                    cid = _u(body, 0, 2)
-                    if cid not in topics or _string(body, 4)[0] != topics[cid]:
+                if op == Opcode.CHANNEL:
+                    body = stream.read(length)
+                    cid = int.from_bytes(body[:2], 'little')
+                    if cid not in topics or _channel_topic(body) != topics[cid]:
                         raise IndexMismatch(f'{path}: channel {cid} of the data section is '
                                             f'not in the summary')
                 first = False
-                at += 9 + length
+                at += RECORD_HEAD.size + length
             if chunk is not None:
                 stream.seek(chunk.start_offset)
-                head = stream.read(9)
-                if len(head) < 9 or head[0] != _CHUNK_OP or chunk.length < 41 \
-                        or 9 + _u(head, 1, 8) != chunk.length:
+                head = stream.read(RECORD_HEAD.size)
+                if len(head) < RECORD_HEAD.size or head[0] != Opcode.CHUNK \
+                        or chunk.length < 41 \
+                        or RECORD_HEAD.size + RECORD_HEAD.unpack(head)[1] != chunk.length:
                     raise IndexMismatch(f'{chunk.where}: no chunk record of the indexed '
                                         f'length there')
                 at = chunk.start_offset + chunk.length + chunk.index_length
@@ -355,20 +332,22 @@ class McapChunkReader:
             raise IndexMismatch(f'{chunk.where}: message indexes past the end of the file')
         found: dict[int, int] = {}
         for op, at, length in _walk(region, 0, len(region), chunk.where):
-            if op != _MESSAGE_INDEX_OP or length < 6:
+            if op != Opcode.MESSAGE_INDEX or length < 6:
                 raise IndexMismatch(f'{chunk.where}: a record of type {op:#04x} among its '
                                     f'message indexes')
-            cid, size = _u(region, at + 9, 2), _u(region, at + 11, 4)
-            if size % 16 or 6 + size > length or cid in found:
+            try:
+                cid, entries = message_index(region, at)
+            except FormatError:
+                raise IndexMismatch(f'{chunk.where}: malformed message index') from None
+            if cid in found:
                 raise IndexMismatch(f'{chunk.where}: malformed message index')
             found[cid] = start + at
-            if size:
-                entries = np.frombuffer(region, dtype='<u8', count=size // 8, offset=at + 15)
-                times = entries[0::2]
+            if len(entries):
+                times = entries[:, 0]
                 if int(times.min()) < chunk.start_ns or int(times.max()) > chunk.end_ns:
                     raise IndexMismatch(f'{chunk.where}: message index times outside the '
                                         f"chunk's time range")
-                chunk.counts[cid] = size // 16
+                chunk.counts[cid] = len(entries)
         if found != chunk.index_offsets:
             raise IndexMismatch(f'{chunk.where}: the message index records differ from the '
                                 f'chunk index')
@@ -414,15 +393,12 @@ class McapChunkReader:
         """The messages of ``channels`` in one chunk, per topic, sorted by (log time, file
         order). The message indexes are checked against the records they point at, and the
         records must tile the chunk; messages the index missed are read from the chunk."""
-        block, data = self._decompressed(chunk)
-        raw = np.frombuffer(data, dtype=np.uint8)
+        indexes, data = self._decompressed(chunk)
         parts_cid, parts_time, parts_offset = [], [], []
-        base = chunk.start_offset
+        base = chunk.start_offset + chunk.length
         for cid, offset in chunk.index_offsets.items():
-            at = offset - base
-            count = _u(block, at + 11, 4) // 16
-            entries = np.frombuffer(block, dtype='<u8', count=2 * count,
-                                    offset=at + 15).reshape(count, 2)
+            _, entries = message_index(indexes, offset - base)
+            count = len(entries)
             parts_cid.append(np.full(count, cid, dtype=np.int64))
             parts_time.append(entries[:, 0].astype(np.int64))
             parts_offset.append(entries[:, 1].astype(np.int64))
@@ -433,16 +409,15 @@ class McapChunkReader:
         else:
             cids = times = records = np.zeros(0, dtype=np.int64)
         if records.size:
-            if records.min() < 0 or records.max() + 9 + _MESSAGE_HEADER > len(data):
-                raise IndexMismatch(f'{chunk.where}: message index out of bounds')
-            # one row copy per message from a sliding window over the chunk's bytes
-            rows = sliding_window_view(raw, _RECORD_HEAD.itemsize)[records]
-            head: Any = rows.view(_RECORD_HEAD)[:, 0]
+            try:
+                head = message_heads(np.frombuffer(data, dtype=np.uint8), records)
+            except FormatError:
+                raise IndexMismatch(f'{chunk.where}: message index out of bounds') from None
             lengths = head['length'].astype(np.int64)
-            if ((head['op'] != _MESSAGE_OP).any() or (head['channel'] != cids).any()
+            if ((head['op'] != Opcode.MESSAGE).any() or (head['channel'] != cids).any()
                     or (head['log_time'].astype(np.int64) != times).any()
-                    or (lengths < _MESSAGE_HEADER).any()
-                    or (records + 9 + lengths > len(data)).any()):
+                    or (lengths < MESSAGE_FIELDS).any()
+                    or (records + RECORD_HEAD.size + lengths > len(data)).any()):
                 raise IndexMismatch(f'{chunk.where}: message index does not match the '
                                     f'messages')
         else:
@@ -466,9 +441,9 @@ class McapChunkReader:
             mine = np.arange(cids.size) if ours.all() else np.flatnonzero(ours)
             if mine.size == 0:
                 continue
-            offsets = records[mine] + 9 + _MESSAGE_HEADER
+            offsets = records[mine] + MESSAGE_HEAD.size
             batch = RawBatch(topic, times[mine], data, offsets,
-                             lengths[mine] - _MESSAGE_HEADER)
+                             lengths[mine] - MESSAGE_FIELDS)
             parts[topic] = _Part(batch, (chunk.number << _KEY_SHIFT) + records[mine]).in_order()
         return parts
 
@@ -482,7 +457,7 @@ class McapChunkReader:
             order = np.argsort(records, kind='stable') if (np.diff(records) < 0).any() \
                 else np.arange(records.size)
             starts = records[order]
-            ends = starts + 9 + lengths[order]
+            ends = starts + RECORD_HEAD.size + lengths[order]
             if (ends[:-1] > starts[1:]).any():
                 raise IndexMismatch(f'{chunk.where}: message index entries overlap')
             gap = np.flatnonzero(ends[:-1] < starts[1:])
@@ -495,55 +470,54 @@ class McapChunkReader:
         extra = []
         for begin, end in gaps:
             for op, at, length in _walk(data, begin, end, chunk.where):
-                if op == _CHANNEL_OP:
-                    cid = _u(data, at + 9, 2)
+                if op == Opcode.CHANNEL:
+                    body = data[at + RECORD_HEAD.size:at + RECORD_HEAD.size + length]
+                    cid = int.from_bytes(body[:2], 'little')
                     topic = chunk.topics.get(cid)
-                    if topic is None or _string(data, at + 13)[0] != topic:
+                    if topic is None or _channel_topic(body) != topic:
                         raise NotIndexed(f'{chunk.where}: channel {cid} is not in the '
                                          f'summary')
-                elif op == _MESSAGE_OP:
-                    if length < _MESSAGE_HEADER:
+                elif op == Opcode.MESSAGE:
+                    if length < MESSAGE_FIELDS:
                         raise CorruptChunk(f'{chunk.where}: a message record is too short')
-                    cid = _u(data, at + 9, 2)
+                    _, _, cid, _, log_time, _ = MESSAGE_HEAD.unpack_from(data, at)
                     if cid not in chunk.topics:
                         raise NotIndexed(f'{chunk.where}: channel {cid} is not in the summary')
-                    extra.append((cid, _u(data, at + 15, 8), at, length))
-                elif op != _SCHEMA_OP and op < 0x80:
+                    extra.append((cid, log_time, at, length))
+                elif op != Opcode.SCHEMA and op < 0x80:
                     raise CorruptChunk(f'{chunk.where}: a record of type {op:#04x} inside it')
         return extra
 
     def _decompressed(self, chunk: _Chunk) -> tuple[bytes, bytes]:
-        """(chunk record + its message indexes as read, decompressed records)."""
+        """(its message index records as read, the chunk's decompressed records)."""
         stream = chunk.stream
         stream.seek(chunk.start_offset)
-        block = stream.read(chunk.length + chunk.index_length)
-        if len(block) < chunk.length + chunk.index_length or block[0] != _CHUNK_OP:
+        head = stream.read(RECORD_HEAD.size)
+        if len(head) < RECORD_HEAD.size or head[0] != Opcode.CHUNK:
             raise CorruptChunk(f'{chunk.where} is truncated or not a chunk record')
-        # chunk: op, u64 len, u64 start, u64 end, u64 uncompressed size, u32 crc,
-        # string compression, u64 records length, records
-        if 9 + _u(block, 1, 8) != chunk.length:
+        _, length = RECORD_HEAD.unpack(head)
+        if RECORD_HEAD.size + length != chunk.length:
             raise IndexMismatch(f'{chunk.where}: its length differs from the chunk index')
-        crc = _u(block, 33, 4)
-        name_length = _u(block, 37, 4)
-        body = 41 + name_length + 8
-        size = _u(block, body - 8, 8)
-        if body + size > chunk.length:
-            raise CorruptChunk(f'{chunk.where}: records overrun the chunk')
-        if (_u(block, 9, 8), _u(block, 17, 8), _u(block, 25, 8), size,
-                bytes(block[41:41 + name_length]).decode('utf-8', 'replace')) != (
+        body = stream.read(length)
+        indexes = stream.read(chunk.index_length)
+        if len(body) < length or len(indexes) < chunk.index_length:
+            raise CorruptChunk(f'{chunk.where} is truncated')
+        try:
+            record = parse_record(Opcode.CHUNK, body)
+        except FormatError as exc:
+            raise CorruptChunk(f'{chunk.where}: {exc}') from None
+        assert isinstance(record, Chunk)
+        del body
+        if (record.message_start_time, record.message_end_time, record.uncompressed_size,
+                len(record.data), record.compression) != (
                 chunk.start_ns, chunk.end_ns, chunk.uncompressed_size, chunk.compressed_size,
                 chunk.compression):
             raise IndexMismatch(f'{chunk.where}: its header differs from the chunk index')
         try:
-            data = _decompress(block[body:body + size], chunk.compression,
-                               chunk.uncompressed_size)
-        except CorruptChunk:
-            raise
-        except Exception as exc:  # zstd/lz4 raise their own types on damaged input
-            raise CorruptChunk(f'{chunk.where}: cannot decompress ({exc})') from exc
-        if len(data) != chunk.uncompressed_size or (crc and zlib.crc32(data) != crc):
-            raise CorruptChunk(f'{chunk.where}: checksum or size mismatch')
-        return block, data
+            data = decompress(record)
+        except FormatError as exc:
+            raise CorruptChunk(f'{chunk.where}: {exc}') from None
+        return indexes, data
 
 
 def scan_batches(paths: Iterable[str | Path], topics: Iterable[str],

@@ -14,6 +14,7 @@ from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.bagio.chunks import CorruptChunk, McapBatchReader, RawBatch
+from gear_phm.bagio.recover_scan import unfinished
 from gear_phm.errors import GearPhmError
 
 
@@ -42,8 +43,7 @@ def _one_line(exc: BaseException) -> str:
 
 def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
     """A BagError with the recover advice if one of ``files`` (MCAP) really lacks its
-    footer or summary (:func:`gear_phm.bagio.recover.unfinished`), else None."""
-    from gear_phm.bagio.recover import unfinished
+    footer or summary (:func:`gear_phm.bagio.recover_scan.unfinished`), else None."""
     for file in sorted(files):
         reason = unfinished(file) if file.suffix == '.mcap' else None
         if reason:

@@ -10,7 +10,6 @@ serializer.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
 import os
 from pathlib import Path
 import struct
@@ -18,41 +17,26 @@ import time
 from types import TracebackType
 from typing import Any
 
-from mcap.writer import CompressionType, LIBRARY_IDENTIFIER, Writer
+from mcap.writer import LIBRARY_IDENTIFIER, Writer
 import numpy as np
 from rosbags.typesys import get_typestore, Stores
-import yaml
 
 from gear_phm.bagio.batch_writer import BatchWriter, vector3_stamped_rows
+from gear_phm.bagio.mcapformat import COMPRESSIONS
+from gear_phm.bagio.metadata import qos_list, TopicInfo, write_metadata
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_sec_nanosec,
                                  vector3_stamped_cdr, VECTOR3_STAMPED_TYPE, Vector3Out)
 
 #: rosbags typestore for ROS 2 Jazzy message types.
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
-ROSBAG2_VERSION = 9
 #: The MCAP header's library field of the files written here.
 LIBRARY = f'gear_phm; {LIBRARY_IDENTIFIER}'
-_COMPRESSION = {None: CompressionType.NONE, '': CompressionType.NONE,
-                'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4}
 
 
 def absolute_topic(topic: str) -> str:
     """'/name' for 'name' (bags store fully qualified topic names)."""
     return topic if topic.startswith('/') else '/' + topic
-
-
-@dataclass
-class TopicInfo:
-    """One topic of a rosbag2 bag as metadata.yaml lists it."""
-
-    name: str
-    msgtype: str
-    channel_id: int
-    type_hash: str
-    count: int = 0
-    #: offered QoS profiles as rosbag2 version 9 lists them (list of dicts).
-    qos: list[Any] = field(default_factory=list)
 
 
 class Rosbag2McapWriter:
@@ -73,7 +57,7 @@ class Rosbag2McapWriter:
                  flush_period_s: float | None = 0.5, fsync: bool = False,
                  chunk_size: int = 1 << 20, batch: bool = False) -> None:
         self.directory = Path(directory)
-        if compression not in _COMPRESSION:
+        if compression is not None and compression not in COMPRESSIONS:
             raise ValueError(f'compression must be one of None, zstd, lz4, got {compression!r}')
         if flush_period_s is not None and flush_period_s <= 0:
             raise ValueError(f'flush_period_s must be > 0 or None, got {flush_period_s!r}')
@@ -83,7 +67,7 @@ class Rosbag2McapWriter:
         self.mcap_path = self.directory / f'{self.directory.name}_0.mcap'
         self._file = open(self.mcap_path, 'wb')  # noqa: SIM115 (closed in close())
         self._writer: Any = (BatchWriter if batch else Writer)(
-            self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression])
+            self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression or ''])
         self._batch = batch
         self._writer.start(profile='ros2', library=LIBRARY)
         self._topics: dict[str, TopicInfo] = {}
@@ -326,70 +310,6 @@ class Rosbag2McapWriter:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  traceback: TracebackType | None) -> None:
         self.close()
-
-
-_QOS_KEYS = frozenset(('history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan',
-                       'liveliness', 'liveliness_lease_duration',
-                       'avoid_ros_namespace_conventions'))
-
-
-def qos_list(offered_qos_profiles: str) -> list[Any]:
-    """rosbag2's QoS YAML text (MCAP channel metadata) as the list that metadata.yaml version
-    9 holds; [] when empty, not YAML, or not a list of complete profiles."""
-    if not offered_qos_profiles:
-        return []
-    try:
-        value = yaml.safe_load(offered_qos_profiles)
-    except yaml.YAMLError:
-        return []
-    if isinstance(value, list) and all(isinstance(item, dict) and _QOS_KEYS <= set(item)
-                                       for item in value):
-        return value
-    return []
-
-
-def write_metadata(directory: Path, files: Sequence[tuple[str, int, int, int]],
-                   topics: Sequence[TopicInfo], custom_data: dict[str, str] | None = None
-                   ) -> None:
-    """Write a rosbag2 version 9 ``metadata.yaml`` (atomically: temporary file, rename).
-
-    ``files``: (name, first log time [ns], last log time [ns], message count) per file.
-    """
-    timed = [(start, end) for _, start, end, count in files if count]
-    start_ns = min((start for start, _ in timed), default=0)
-    end_ns = max((end for _, end in timed), default=0)
-    info = {
-        'version': ROSBAG2_VERSION,
-        'storage_identifier': 'mcap',
-        'duration': {'nanoseconds': max(0, end_ns - start_ns)},
-        'starting_time': {'nanoseconds_since_epoch': start_ns},
-        'message_count': sum(t.count for t in topics),
-        'topics_with_message_count': [
-            {'topic_metadata': {'name': t.name, 'type': t.msgtype,
-                                'serialization_format': 'cdr', 'offered_qos_profiles': t.qos,
-                                'type_description_hash': t.type_hash},
-             'message_count': t.count}
-            for t in topics],
-        'compression_format': '',
-        'compression_mode': '',
-        'relative_file_paths': [name for name, *_ in files],
-        'files': [{'path': name, 'starting_time': {'nanoseconds_since_epoch': start},
-                   'duration': {'nanoseconds': max(0, end - start)}, 'message_count': count}
-                  for name, start, end, count in files],
-        'custom_data': dict(custom_data or {}),
-        'ros_distro': 'jazzy',
-    }
-    text = yaml.safe_dump({'rosbag2_bagfile_information': info}, sort_keys=False)
-    tmp = directory / 'metadata.yaml.tmp'
-    tmp.write_text(text, encoding='utf-8')
-    os.replace(tmp, directory / 'metadata.yaml')
-
-
-def _rebuild_metadata(directory: Path, sources: list[Path]) -> None:
-    """Write ``metadata.yaml`` for complete MCAP ``sources`` in ``directory`` (for tests and
-    tools that write MCAP with another library)."""
-    from gear_phm.bagio.recover import metadata_from_files
-    metadata_from_files(directory, sources)
 
 
 # --- gear_phm output records -> rosbags messages -------------------------------------------
