@@ -158,22 +158,22 @@ class BatchWriter:
             return
         if min(int(log.min()) for _, log, _, _ in shaped) < 0:
             raise ValueError('MCAP log times are unsigned: got a negative time')
-        dtype = np.dtype([(f'm{i}', _message_dtype(p.shape[2]), (p.shape[1],))
+        dtype = np.dtype([(f'm{i}', message_dtype(p.shape[2]), (p.shape[1],))
                           for i, (_, _, p, _) in enumerate(shaped)])
         groups = np.empty(len(shaped[0][1]), dtype=dtype)
         for i, (channel, log, payloads, sequences) in enumerate(shaped):
             records = groups[f'm{i}']
             width = payloads.shape[2]
             records['op'] = Opcode.MESSAGE
-            records['length'] = _MESSAGE_HEAD - 9 + width
+            records['length'] = MESSAGE_FIELDS + width
             records['channel'] = channel
             records['sequence'] = sequences
-            records['log'] = log
-            records['publish'] = log
+            records['log_time'] = log
+            records['publish_time'] = log
             records['data'] = np.ascontiguousarray(payloads).view(f'V{width}')[..., 0]
         # every message's channel, log time and byte range in the packed groups, in order
         n = len(groups)
-        sizes = np.concatenate([np.full(p.shape[1], _MESSAGE_HEAD + p.shape[2])
+        sizes = np.concatenate([np.full(p.shape[1], MESSAGE_HEAD.size + p.shape[2])
                                 for _, _, p, _ in shaped])
         ends = (np.arange(n)[:, None] * dtype.itemsize + np.cumsum(sizes)).ravel()
         starts = ends - np.tile(sizes, n)
