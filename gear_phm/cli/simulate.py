@@ -1,5 +1,10 @@
 """``gear-phm simulate --out DIR``: simulate a wearing transmission into a rosbag2 MCAP bag.
 
+``--random-life SEED`` draws the whole life (plant, duty cycle, noise, wear law, onset,
+end-of-life threshold, record length) from the prior of :mod:`gear_phm.simulation.lives`
+(docs/lives.md), writes the bag and ``life.json`` (what was drawn and the true end of life)
+in ``--out``, and prints that JSON.
+
 Topics: ``/joint_states`` (sensor_msgs/JointState, joints ``motor`` and ``load``),
 ``/gear_phm/truth/friction`` and ``/gear_phm/truth/efficiency`` (geometry_msgs/Vector3Stamped,
 layouts in docs/architecture.md). Stamps and log times are ``start_time + k / rate``, so the
@@ -10,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+import json
 import math
 from pathlib import Path
 
@@ -24,6 +30,7 @@ from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENC
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
+from gear_phm.simulation.lives import random_life
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
 #: The default (motor, load) joint names.
@@ -31,12 +38,17 @@ JOINT_NAMES = (str(MOTOR_JOINT.default), str(LOAD_JOINT.default))
 
 #: Samples simulated per chunk (bounds memory for long runs).
 CHUNK = 20_000
+#: The random life's record, next to the bag's files in --out.
+LIFE_FILE = 'life.json'
+#: Default of --duration (the random life draws its own).
+DURATION = 120.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', type=Path, required=True,
                         help='output rosbag2 directory (must not exist or be empty)')
-    parser.add_argument('--duration', type=float, default=120.0, help='length [s] (120)')
+    parser.add_argument('--duration', type=float, default=DURATION,
+                        help=f'length [s] ({DURATION:g})')
     parser.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (100)')
     parser.add_argument('--start-time', type=float, default=0.0,
                         help='stamp of the first sample [s since epoch] (0)')
@@ -50,6 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the truth topics every N-th sample (1)')
     parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
                         help='MCAP chunk compression (zstd)')
+    parser.add_argument('--random-life', type=int, default=None, metavar='SEED',
+                        help='draw a whole life from the documented prior (docs/lives.md): '
+                             'plant, ratio, duty cycle, noise, wear law, onset, running-in, '
+                             'stochastic wear, eta_opposing_min and a length of 300-30000 s; '
+                             'writes life.json in --out and prints it. Takes --rate, '
+                             '--start-time, joint names, --truth-every, --compression only')
     fleet = parser.add_argument_group(
         'fleet: --out becomes a tree of unit folders, each with --recordings bags of '
         '--duration seconds of operation separated by --gap seconds of idle time')
@@ -194,7 +212,9 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
             start = args.start_time + k * args.duration + float(np.sum(gaps[:k])) \
                 if args.gap_spread else args.start_time + k * (args.duration + args.gap)
             starts.append(start)
-            recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k)
+            # the unit's stochastic wear path runs on across its recordings
+            recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k,
+                                wear_seed=config.seed * 10_000 + unit * 100)
             total += write_simulation(
                 folder / f'rec_{k:03d}', recording, args.duration, args.rate, start,
                 (args.motor_joint, args.load_joint), args.truth_every,
@@ -214,11 +234,39 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
     return total
 
 
+def _write_random_life(out: Path, args: argparse.Namespace) -> int:
+    """Draw life ``--random-life``, write its bag and life.json into ``out``, print the JSON."""
+    given = [f'--{name.replace("_", "-")}' for name, default in
+             [(spec.name, spec.default) for spec in PARAMETERS]
+             + [('duration', DURATION), ('friction_final', None), ('fleet', 0)]
+             if getattr(args, name) != default]
+    if given:
+        raise CliError(f'--random-life draws every simulation parameter; drop '
+                       f'{", ".join(given)}')
+    if args.random_life < 0:
+        raise CliError(f'--random-life must be an integer >= 0, got {args.random_life}')
+    try:
+        life = random_life(args.random_life, args.rate)
+        write_simulation(out, life.config(), life.duration, args.rate, args.start_time,
+                         (args.motor_joint, args.load_joint), args.truth_every,
+                         None if args.compression == 'none' else args.compression)
+        text = json.dumps(life.to_json(), indent=2)
+        (out / LIFE_FILE).write_text(text + '\n', encoding='utf-8')
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    except (OSError, BagError) as exc:
+        raise CliError(f'cannot write {out}: {exc}') from None
+    print(text)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
     out: Path = args.out
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise CliError(f'--out {out} exists and is not an empty directory')
+    if args.random_life is not None:
+        return _write_random_life(out, args)
     if args.fleet:
         if args.fleet < 0 or args.recordings < 1 or not args.gap >= 0 \
                 or not args.unit_spread >= 0 or not args.gap_spread >= 0:

@@ -14,7 +14,7 @@ from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
 from gear_phm.simulation.sensors import Channel, Sensors
 from gear_phm.simulation.simulator import SimulationConfig
-from gear_phm.simulation.wear import Wear, WEAR_KINDS
+from gear_phm.simulation.wear import PROCESSES, Wear, WEAR_KINDS
 
 _PLANT, _DUTY, _WEAR = Plant(), DutyCycle(), Wear()
 _SENSORS = Sensors()
@@ -50,6 +50,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'spur plant: pinion bearing friction radius', 'm', 0.0),
     ParamSpec('bearing_radius_2', _PLANT.bearing_radius_2,
               'spur plant: wheel bearing friction radius', 'm', 0.0),
+    ParamSpec('direction_offset', _PLANT.direction_offset,
+              'lever plant: model mismatch, eta_I is the lever model\'s at u + direction_offset '
+              '(eta_D at u)', '-', -1.0, 1.0),
     ParamSpec('travel', _DUTY.travel, 'duty cycle: load stroke', 'rad', 1e-9),
     ParamSpec('extend_time', _DUTY.extend_time, 'duty cycle: extension stroke time', 's', 1e-6),
     ParamSpec('retract_time', _DUTY.retract_time, 'duty cycle: retraction stroke time', 's',
@@ -62,13 +65,38 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('wear', _WEAR.kind, 'wear trajectory', choices=WEAR_KINDS),
     ParamSpec('friction_initial', _WEAR.initial,
               'friction value at t = 0: lever u, or tooth coefficient f (spur)', '-', 0.0),
-    ParamSpec('wear_rate', _WEAR.rate, 'linear: friction increase per second; exponential: '
-              'relative growth rate; power: friction increase at t = 1 s (coefficient of '
-              't^wear_exponent)', '1/s', 0.0),
+    ParamSpec('wear_rate', _WEAR.rate, 'linear (and mixed): friction increase per second; '
+              'exponential: relative growth rate; power: friction increase at t = 1 s '
+              '(coefficient of t^wear_exponent)', '1/s', 0.0),
     ParamSpec('wear_exponent', _WEAR.exponent, 'power wear: exponent of t in '
               'friction_initial + wear_rate t^wear_exponent', '-', 1e-3, 100.0),
     ParamSpec('t_fault', _WEAR.t_fault, 'step wear: fault time after the start', 's', 0.0),
     ParamSpec('fault_step', _WEAR.step, 'step wear: friction increase at t_fault', '-', 0.0),
+    ParamSpec('wear_exp_amplitude', _WEAR.exp_amplitude, 'mixed wear: amplitude A of the '
+              'exponential term A (exp(wear_exp_rate tau) - 1)', '-', 0.0),
+    ParamSpec('wear_exp_rate', _WEAR.exp_rate, 'mixed wear: relative growth rate of the '
+              'exponential term', '1/s', 0.0),
+    ParamSpec('wear_power_coefficient', _WEAR.power_coefficient, 'mixed wear: coefficient of '
+              'the power term tau^wear_exponent (the linear term is wear_rate tau)', '-', 0.0),
+    ParamSpec('friction_base', _WEAR.base, 'friction that never wears, added to the wear law '
+              '(offset laws, e.g. friction_base + friction_initial exp(wear_rate tau))', '-',
+              0.0),
+    ParamSpec('wear_onset', _WEAR.onset, 'healthy plateau: the wear clock tau starts at this '
+              'time (tau = t - wear_onset after it, 0 before)', 's', 0.0),
+    ParamSpec('running_in', _WEAR.running_in, 'running-in: excess friction at t = 0, decaying '
+              'as exp(-t / running_in_time)', '-', 0.0),
+    ParamSpec('running_in_time', _WEAR.running_in_time, 'running-in: decay time constant',
+              's', 1e-6),
+    ParamSpec('regime_time', _WEAR.regime_time, 'regime change: from this time the wear clock '
+              'runs regime_factor times faster', 's', 0.0),
+    ParamSpec('regime_factor', _WEAR.regime_factor, 'regime change: wear-rate factor after '
+              'regime_time (1: no change)', '-', 1e-6),
+    ParamSpec('wear_process', _WEAR.process, 'stochastic wear around the mean law: gamma '
+              '(monotone) or wiener (with drift) increments', choices=PROCESSES),
+    ParamSpec('wear_process_scale', _WEAR.process_scale, 'stochastic wear: variance of an '
+              'increment per unit of its mean (Var X(t) = scale x mean wear)', '-', 0.0),
+    ParamSpec('wear_process_step', _WEAR.process_step, 'stochastic wear: grid step of the '
+              'path (interpolated linearly in between)', 's', 0.01),
     *_sensor_specs(),
 )
 
@@ -84,12 +112,19 @@ def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
                   air_load_stiffness=v['air_load_stiffness'], efficiency_model=v['plant'],
                   pinion_teeth=v['pinion_teeth'], module=v['module'],
                   bearing_radius_1=v['bearing_radius_1'],
-                  bearing_radius_2=v['bearing_radius_2'])
+                  bearing_radius_2=v['bearing_radius_2'],
+                  direction_offset=v['direction_offset'])
     duty = DutyCycle(travel=v['travel'], extend_time=v['extend_time'],
                      retract_time=v['retract_time'], accel_time=v['accel_time'],
                      dwell_extended=v['dwell_extended'], dwell_retracted=v['dwell_retracted'])
     wear = Wear(kind=v['wear'], initial=v['friction_initial'], rate=v['wear_rate'],
-                t_fault=v['t_fault'], step=v['fault_step'], exponent=v['wear_exponent'])
+                t_fault=v['t_fault'], step=v['fault_step'], exponent=v['wear_exponent'],
+                exp_amplitude=v['wear_exp_amplitude'], exp_rate=v['wear_exp_rate'],
+                power_coefficient=v['wear_power_coefficient'], base=v['friction_base'],
+                onset=v['wear_onset'], running_in=v['running_in'],
+                running_in_time=v['running_in_time'], regime_time=v['regime_time'],
+                regime_factor=v['regime_factor'], process=v['wear_process'],
+                process_scale=v['wear_process_scale'], process_step=v['wear_process_step'])
     sensors = Sensors(*(Channel(sigma=_named(v, f'noise_{c}'), bias=_named(v, f'bias_{c}'))
                         for c in ('velocity_motor', 'velocity_load', 'effort_motor',
                                   'effort_load')))

@@ -23,7 +23,8 @@ So ``P_m = effort_motor w_m`` and ``P_l = -effort_load w_l`` as in docs/architec
 Efficiency source (``efficiency_model``):
 
 - ``lever``: the friction value is the lever parameter u; eta_D = eta_opposing(u, R),
-  eta_I = eta_aiding(u, R).
+  eta_I = eta_aiding(u + direction_offset, R): with a ``direction_offset`` != 0 the two
+  efficiencies do not come from one u (model mismatch, as in a real gearbox).
 - ``spur``: the friction value is the tooth-tooth Coulomb coefficient f of one spur stage
   (pinion ``pinion_teeth``, wheel ``R * pinion_teeth``, other geometry fixed); the true u is
   the lever u with the same eta_D, ``u_from_eta_opposing(eta_D, R)``.
@@ -49,7 +50,8 @@ class Plant:
 
     motor_inertia J_m and load_inertia J_l [kg m^2]; air_load_preload T0 [N m] and
     air_load_stiffness k [N m/rad]; spur geometry: pinion_teeth [-], module [m],
-    pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur').
+    pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur');
+    direction_offset [-]: lever plant only, eta_I is the lever model's at u + direction_offset.
     """
 
     ratio: float = float(RATIO.default)
@@ -63,6 +65,7 @@ class Plant:
     pressure_angle: float = float(np.deg2rad(20.0))
     bearing_radius_1: float = 0.0
     bearing_radius_2: float = 0.0
+    direction_offset: float = 0.0
 
     def __post_init__(self) -> None:
         positive('ratio', self.ratio)
@@ -71,6 +74,11 @@ class Plant:
         non_negative('air_load_preload', self.air_load_preload)
         real('air_load_stiffness', self.air_load_stiffness)
         one_of('efficiency_model', self.efficiency_model, EFFICIENCY_MODELS)
+        offset = real('direction_offset', self.direction_offset)
+        if offset != 0.0 and self.efficiency_model != 'lever':
+            raise ValueError(f'direction_offset applies to the lever plant only (the spur '
+                             f'plant has its own mismatch), got {offset!r} with '
+                             f'{self.efficiency_model}')
         if self.efficiency_model == 'spur':
             self.spur_gear(0.0)  # geometry errors surface now, naming the field
 
@@ -88,7 +96,8 @@ class Plant:
         if self.efficiency_model == 'lever':
             u = friction
             eta_d = np.asarray(eta_opposing(u, self.ratio))
-            eta_i = np.asarray(eta_aiding(u, self.ratio))
+            shifted = u + self.direction_offset if self.direction_offset else u
+            eta_i = np.asarray(eta_aiding(shifted, self.ratio))
         else:
             eta_d, eta_i = (np.asarray(e) for e in self.spur_gear(friction).efficiencies())
             u = np.asarray(u_from_eta_opposing(eta_d, self.ratio))

@@ -9,18 +9,23 @@ from numpy.typing import ArrayLike
 from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import Plant
 from gear_phm.simulation.sensors import Sensors
-from gear_phm.simulation.wear import Wear
+from gear_phm.simulation.wear import Wear, WearPath
 
 
 @dataclass(frozen=True)
 class SimulationConfig:
-    """Everything that defines a run; ``seed`` seeds the sensor noise (numpy PCG64)."""
+    """Everything that defines a run; ``seed`` seeds the sensor noise (numpy PCG64).
+
+    ``wear_seed`` seeds the stochastic wear path (None: ``seed``); a fleet's recordings of one
+    unit share it, so the unit's wear continues from one recording to the next.
+    """
 
     plant: Plant = field(default_factory=Plant)
     duty_cycle: DutyCycle = field(default_factory=DutyCycle)
     wear: Wear = field(default_factory=Wear)
     sensors: Sensors = field(default_factory=Sensors)
     seed: int = 0
+    wear_seed: int | None = None
 
     def __post_init__(self) -> None:
         for name, kind in (('plant', Plant), ('duty_cycle', DutyCycle), ('wear', Wear),
@@ -31,6 +36,12 @@ class SimulationConfig:
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) \
                 or self.seed < 0:
             raise ValueError(f'seed must be an integer >= 0, got {self.seed!r}')
+        if self.wear_seed is not None:
+            self.wear.path(self.wear_seed)          # ValueError on a bad seed, now
+
+    def wear_path(self) -> WearPath:
+        """The run's friction trajectory (its stochastic wear path, seeded)."""
+        return self.wear.path(self.seed if self.wear_seed is None else self.wear_seed)
 
 
 @dataclass(frozen=True)
@@ -65,7 +76,7 @@ class SimulationResult:
 
 
 class Simulator:
-    """Stateful only in its noise generator.
+    """Stateful only in its noise generator (and the cache of its wear path).
 
     ``sample`` over consecutive chunks of t gives the same result as one call over the
     concatenated t.
@@ -76,6 +87,7 @@ class Simulator:
             raise ValueError(f'config must be a SimulationConfig, got {config!r}')
         self.config = config
         self._rng = np.random.default_rng(int(config.seed))
+        self._wear = config.wear_path()
 
     def sample(self, t: ArrayLike) -> SimulationResult:
         """Simulate at the 1-D array of times t [s] (finite, any order)."""
@@ -88,7 +100,7 @@ class Simulator:
         plant = cfg.plant
         ratio = float(plant.ratio)
         position_load, velocity_load, acceleration_load = cfg.duty_cycle.load_motion(t)
-        friction = cfg.wear.value(t)
+        friction = self._wear.value(t)
         u, eta_d, eta_i = plant.efficiencies(friction)
         tau_out = plant.output_torque(position_load, acceleration_load)
         tau_in, phase = plant.input_torque(tau_out, velocity_load, eta_d, eta_i)
