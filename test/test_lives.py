@@ -1,6 +1,9 @@
-"""Lives that look like real ones (issue 23): onset, running-in, offset and mixed laws, regime
-change, gamma/Wiener wear paths, the lever plant's direction mismatch, and the random-life
-generator of ``gear-phm simulate --random-life``."""
+"""Lives that look like real ones (issue 23).
+
+Onset, running-in, offset and mixed laws, regime change, gamma/Wiener wear paths, the lever
+plant's direction mismatch, and the random-life generator of ``gear-phm simulate
+--random-life``.
+"""
 from __future__ import annotations
 
 from collections import Counter
@@ -78,6 +81,8 @@ def test_stochastic_path_is_the_same_for_a_seed_whatever_the_block_size(process:
     assert np.array_equal(backwards[::-1], whole)
     assert not np.array_equal(whole, simulate(SimulationConfig(wear=stochastic(process),
                                                                seed=12), t).friction)
+    shared = SimulationConfig(wear=stochastic(process), seed=99, wear_seed=11)  # a fleet unit
+    assert np.array_equal(simulate(shared, t).friction, whole)
     assert np.all(whole[t <= 20.0] == 0.05)                       # no noise on the plateau
     assert np.abs(whole - config.wear.value(t)).max() > 1e-4      # noise after the onset
 
@@ -171,7 +176,7 @@ def test_random_life_draws_cover_every_family_and_feature() -> None:
 
 
 def short_lives(wear: int, healthy: int) -> list[int]:
-    """The first ``wear`` wear lives and ``healthy`` healthy lives of at most 2000 s."""
+    """Return the first ``wear`` wear lives and ``healthy`` healthy lives of at most 2000 s."""
     lives = [(s, random_life(s, 20.0)) for s in range(100)]
     short = [(s, life) for s, life in lives if life.duration <= 2000.0]
     return ([s for s, life in short if life.end_of_life is not None][:wear]

@@ -1,4 +1,4 @@
-"""Random lives: a whole gearbox life drawn from a broad prior (``gear-phm simulate --random-life``).
+"""Random lives: whole gearbox lives drawn from a broad prior (``simulate --random-life``).
 
 :func:`random_life` draws, from ``numpy.random.default_rng([seed, LIFE_STREAM])``, the plant
 (lever or spur), ratio, duty cycle, load, sensor noise, healthy friction, end-of-life threshold
@@ -62,7 +62,7 @@ class Life:
     attempts: int
 
     def config(self) -> SimulationConfig:
-        """The simulation config of the drawn parameters."""
+        """Return the simulation config of the drawn parameters."""
         return config_from_parameters(self.parameters)
 
     def to_json(self) -> dict[str, Any]:
@@ -156,8 +156,10 @@ def random_life(seed: int, rate: float = 100.0) -> Life:
         p['seed'] = int(seed) * SEED_TRIES
         return Life(int(seed), family, tuple(features), p, duration, float(rate), eta0,
                     eta_min, u_eol, None, None, 1)
-    f_eol = u_eol if p['plant'] == 'lever' else _friction_for(p, eta_min, f0,
-                                                                 SPUR_FRICTION_MAX)
+    if p['plant'] == 'lever':
+        f_eol = u_eol
+    else:
+        f_eol = _friction_for(p, eta_min, f0, SPUR_FRICTION_MAX)
     budget = f_eol - f0
     onset = 0.0
     if rng.uniform() < 0.7:

@@ -51,7 +51,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('bearing_radius_2', _PLANT.bearing_radius_2,
               'spur plant: wheel bearing friction radius', 'm', 0.0),
     ParamSpec('direction_offset', _PLANT.direction_offset,
-              'lever plant: model mismatch, eta_I is the lever model\'s at u + direction_offset '
+              "lever plant: model mismatch, eta_I is the lever model's at u + direction_offset "
               '(eta_D at u)', '-', -1.0, 1.0),
     ParamSpec('travel', _DUTY.travel, 'duty cycle: load stroke', 'rad', 1e-9),
     ParamSpec('extend_time', _DUTY.extend_time, 'duty cycle: extension stroke time', 's', 1e-6),

@@ -40,7 +40,7 @@ class SimulationConfig:
             self.wear.path(self.wear_seed)          # ValueError on a bad seed, now
 
     def wear_path(self) -> WearPath:
-        """The run's friction trajectory (its stochastic wear path, seeded)."""
+        """Return the run's friction trajectory (its stochastic wear path, seeded)."""
         return self.wear.path(self.seed if self.wear_seed is None else self.wear_seed)
 
 

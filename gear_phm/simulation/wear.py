@@ -165,10 +165,11 @@ class Wear:
 
     def wear_part(self, t: ArrayLike) -> np.ndarray:
         """Mean wear W(t) = L(tau(t)) - L(0) [-], 0 until onset, never decreasing."""
-        return self.law(self.clock(t)) - self.law(0.0)
+        part: np.ndarray = self.law(self.clock(t)) - self.law(0.0)
+        return part
 
     def path(self, seed: int) -> WearPath:
-        """The friction trajectory of a run seeded with ``seed`` (its stochastic path)."""
+        """Return the friction trajectory of a run seeded with ``seed`` (its stochastic path)."""
         return WearPath(self, seed)
 
     def _offsets(self, t: np.ndarray, friction: np.ndarray) -> np.ndarray:
