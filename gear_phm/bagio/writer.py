@@ -327,35 +327,39 @@ def diagnostic_array_cdr(output: DiagnosticsOut) -> bytes:
 
     Offsets count from the end of the 4-byte encapsulation header, as CDR alignment does.
     Every string starts 4-aligned, so a string followed by another string or a uint32 takes
-    its length, UTF-8, NUL and padding to 4 (:func:`_cdr_string`, cached: keys, names and
-    most values recur); only the last string of a status, followed by the next status's
-    level byte or the end, goes without its padding.
+    its length, UTF-8, NUL and padding to 4 (:func:`_cdr_text`; the constant ones, names and
+    keys, cached); only the last string of a status, followed by the next status's level
+    byte or the end, goes without its padding.
     """
     sec, nanosec = divmod(int(output.stamp_ns), 1_000_000_000)
     parts = [_ARRAY_HEAD, _STAMP.pack(sec, nanosec), _EMPTY_FRAME,
              _UINT32.pack(len(output.statuses))]
     size = 16                                   # header and frame_id, from the CDR origin
     for status in output.statuses:
-        parts.append(_LEVEL_HEADS[int(status.level)][size % 4])
-        head = [_cdr_string(status.name)[0], _cdr_string(status.message)[0],
-                _cdr_string(status.hardware_id)[0], _UINT32.pack(len(status.values))]
-        texts = [_cdr_string(text) for pair in status.values for text in pair]
-        if texts:
-            last, pad = texts.pop()
-            head += [data for data, _ in texts]
-            head.append(last[:len(last) - pad])
-        parts += head
-        size += len(parts[-len(head) - 1]) + sum(map(len, head))
+        level = _LEVEL_HEADS[int(status.level)][size % 4]
+        body = [_cdr_constant(status.name), _cdr_text(status.message),
+                _cdr_constant(status.hardware_id), _UINT32.pack(len(status.values))]
+        for key, value in status.values:
+            body.append(_cdr_constant(key))
+            body.append(_cdr_text(value))
+        if status.values:                       # no padding after the status's last string
+            data = status.values[-1][1].encode()
+            body[-1] = _UINT32.pack(len(data) + 1) + data + b'\x00'
+        parts.append(level)
+        parts += body
+        size += len(level) + sum(map(len, body))
     return b''.join(parts)
 
 
-@functools.lru_cache(maxsize=4096)
-def _cdr_string(text: str) -> tuple[bytes, int]:
+def _cdr_text(text: str) -> bytes:
     """A CDR string that starts 4-aligned (uint32 length with the NUL, UTF-8, NUL), padded
-    to a multiple of 4 bytes, and the number of padding bytes."""
+    to a multiple of 4 bytes."""
     data = text.encode()
-    pad = -(len(data) + 1) % 4
-    return _UINT32.pack(len(data) + 1) + data + _NULS[pad + 1], pad
+    count = len(data) + 1
+    return _UINT32.pack(count) + data + _NULS[1 + (-count % 4)]
+
+
+_cdr_constant = functools.lru_cache(maxsize=1024)(_cdr_text)
 
 
 _UINT32 = struct.Struct('<I')
