@@ -104,8 +104,11 @@ def efficiencies(u: float, ratio: float) -> tuple[float, float]:
 
 
 def efficiencies_array(u: np.ndarray, ratio: float) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`efficiencies` of an array of u [-]: the same values, element by element (the
-    same float operations), NaN where a formula is undefined or u is not finite."""
+    """Return :func:`efficiencies` of an array of u [-].
+
+    The same values, element by element (the same float operations); NaN where a formula is
+    undefined or u is not finite.
+    """
     u = np.asarray(u, dtype=float)
     finite_u = np.isfinite(u)
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
@@ -116,8 +119,10 @@ def efficiencies_array(u: np.ndarray, ratio: float) -> tuple[np.ndarray, np.ndar
 
 def readings_array(eta_d: np.ndarray, eta_i: np.ndarray, ratio: float
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`readings` of arrays of eta_D and eta_I [-]: the same values, element by element,
-    NaN where one is undefined or not finite."""
+    """Return :func:`readings` of arrays of eta_D and eta_I [-].
+
+    The same values, element by element; NaN where one is undefined or not finite.
+    """
     eta_d = np.asarray(eta_d, dtype=float)
     eta_i = np.asarray(eta_i, dtype=float)
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
