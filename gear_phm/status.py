@@ -33,6 +33,11 @@ class StatusOut:
 
 def format_value(value: float | int | str) -> str:
     """Format a KeyValue text: decimal strings, ``inf``/``-inf``/``nan`` for non-finite floats."""
+    kind = type(value)
+    if kind is float:                   # the common case: repr gives 'inf', '-inf', 'nan' too
+        return repr(value)
+    if kind is int:
+        return str(value)
     if isinstance(value, str):
         return value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool):

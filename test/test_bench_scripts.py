@@ -28,6 +28,11 @@ def test_bench_offline_analyze_tiny() -> None:
     assert '`gear-phm analyze` end to end' in out
 
 
+def test_bench_analyze_e2e_tiny() -> None:
+    out = run('analyze_e2e.py', '--samples', '2000', '--rates', '100', '--repeat', '1')
+    assert '| 2,000 samples, 100 Hz |' in out and 'ratio analyze / rosbags (wall)' in out
+
+
 def test_bench_memory_logic_tiny() -> None:
     out = run('memory.py', '--mode', 'logic', '--samples', '36000')
     assert '36,000 (1 h)' in out and '6,000 (10 min)' in out

@@ -103,6 +103,36 @@ def efficiencies(u: float, ratio: float) -> tuple[float, float]:
     return eta_d, eta_i
 
 
+def efficiencies_array(u: np.ndarray, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return :func:`efficiencies` of an array of u [-].
+
+    The same values, element by element (the same float operations); NaN where a formula is
+    undefined or u is not finite.
+    """
+    u = np.asarray(u, dtype=float)
+    finite_u = np.isfinite(u)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        eta_d = _where_valid(finite_u & (u > -1.0), *_eta_d_terms(u, ratio))
+        eta_i = _where_valid(finite_u & (u > -ratio), *_eta_i_terms(u, ratio))
+    return np.asarray(eta_d, dtype=float), np.asarray(eta_i, dtype=float)
+
+
+def readings_array(eta_d: np.ndarray, eta_i: np.ndarray, ratio: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Return :func:`readings` of arrays of eta_D and eta_I [-].
+
+    The same values, element by element; NaN where one is undefined or not finite.
+    """
+    eta_d = np.asarray(eta_d, dtype=float)
+    eta_i = np.asarray(eta_i, dtype=float)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        numerator, denominator = _u_d_terms(eta_d, ratio)
+        u_d = _where_valid(np.isfinite(eta_d) & (denominator > 0.0), numerator, denominator)
+        numerator, denominator = _u_i_terms(eta_i, ratio)
+        u_i = _where_valid(np.isfinite(eta_i) & (denominator > 0.0), numerator, denominator)
+    return np.asarray(u_d, dtype=float), np.asarray(u_i, dtype=float)
+
+
 def _u_d_terms(eta: Any, ratio: Any) -> tuple[Any, Any]:
     """Numerator and denominator of eq 13 (floats or arrays)."""
     return ratio * (1.0 - eta), ratio * eta + 1.0

@@ -350,13 +350,12 @@ class _Run:
         latest = [self.assessor.latest]         # the newest health state after i estimates
         states: list[HealthState] = []
         first_state = [0]                       # states[first_state[i]:] came after i
-        for estimate in estimates:
+        for estimate, state in zip(estimates, self.assessor.on_estimates(estimates)):
             self.estimates.append(estimate)
-            state = self.assessor.on_estimate(estimate)
             if state is not None:
                 self.states.append(state)
                 states.append(state)
-            latest.append(self.assessor.latest)
+            latest.append(state if state is not None else latest[-1])
             first_state.append(len(states))
         received = [self.samples + cut for cut in cuts]
         self.samples += messages

@@ -16,12 +16,15 @@ elapsed (stamp) time at the utilisation seen so far: rul_operating / utilisation
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 import math
 from typing import Any
 
+import numpy as np
+
 from gear_phm.estimation.records import FrictionEstimate
-from gear_phm.models.lever import efficiencies, readings
+from gear_phm.models.lever import efficiencies, efficiencies_array, readings, readings_array
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
@@ -133,22 +136,58 @@ class HealthAssessor:
 
     def on_estimate(self, estimate: FrictionEstimate) -> HealthState | None:
         """Process one update; None (counted in ``rejected``) if it is unusable."""
-        p_uu = estimate.covariance[0]
-        if not (math.isfinite(estimate.u) and math.isfinite(estimate.rate)
-                and all(math.isfinite(p) for p in estimate.covariance)):
-            self.rejected['non_finite_estimate'] = self.rejected.get('non_finite_estimate',
-                                                                     0) + 1
-            return None
+        return self.on_estimates([estimate])[0]
+
+    def on_estimates(self, estimates: Sequence[FrictionEstimate]
+                     ) -> list[HealthState | None]:
+        """:meth:`on_estimate` of each update in order, the same states.
+
+        The per-update quantities that depend on the update alone (u's sigma, eq 13's
+        readings of the reported efficiencies, the ratio check) are computed for the whole
+        sequence at once, with numpy's element-wise operations (the same float operations);
+        the history, the fit, the NIS window and the level latches then follow the updates
+        one by one.
+        """
+        n = len(estimates)
+        if n == 0:
+            return []
+        ratio = self.config.ratio
+        columns = np.array([(e.u, e.rate, *e.covariance, e.eta_opposing, e.eta_aiding)
+                            for e in estimates], dtype=float).reshape(n, 7)
+        usable = np.isfinite(columns[:, :5]).all(axis=1).tolist()
+        sigmas = np.sqrt(np.maximum(columns[:, 2], 0.0)).tolist()
+        u_d, u_i = readings_array(columns[:, 5], columns[:, 6], ratio)
+        centre = 0.5 * (u_d + u_i)
+        with np.errstate(invalid='ignore'):
+            expected = efficiencies_array(columns[:, 0], ratio)[0]
+            reported = np.where(np.isfinite(centre), efficiencies_array(centre, ratio)[0],
+                                columns[:, 5])
+            suspect = (np.abs(expected - reported) > RATIO_TOLERANCE).tolist()
+        readings_of = list(zip(u_d.tolist(), u_i.tolist()))
+        return [self._assess(estimate, sigmas[i], readings_of[i], suspect[i])
+                if usable[i] else self._reject('non_finite_estimate')
+                for i, estimate in enumerate(estimates)]
+
+    def _reject(self, reason: str) -> None:
+        """Count an unusable update."""
+        self.rejected[reason] = self.rejected.get(reason, 0) + 1
+
+    def _assess(self, estimate: FrictionEstimate, u_sigma: float,
+                read: tuple[float, float], suspect: bool) -> HealthState:
+        """One finite update (:meth:`on_estimates`): ``u_sigma`` [-], ``read`` eq 13's
+        readings (u_D, u_I) [-] of its efficiencies, ``suspect``: its efficiencies may not
+        match this assessor's ratio (:meth:`_ratio_mismatch` decides)."""
         if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
             self.predictor.reset()                         # replay restarted
             self.divergence.reset()
             self.levels.reset()
             self.utilisation.reset()
-        u_sigma = math.sqrt(max(p_uu, 0.0))
         if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
             estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
+            read = readings(eta_d, eta_i, self.config.ratio)
+            suspect = True
         if math.isfinite(estimate.operating_time) and self.latest is not None \
                 and not math.isfinite(self.latest.operating_time):
             # the stream gained operating time (its first updates came without: the topic
@@ -161,7 +200,7 @@ class HealthAssessor:
             self.utilisation.reset()
         operating = self._operating_time(estimate)
         # end of life on the reading its criterion is about (eta_D: the opposing windows')
-        u_d, u_i = readings(estimate.eta_opposing, estimate.eta_aiding, self.config.ratio)
+        u_d, u_i = read
         reading = self._reading_offset(estimate.u, u_d, u_i)
         self.predictor.u_eol = self.u_eol - reading
         if math.isfinite(estimate.measurement) and estimate.measurement_variance > 0.0:
@@ -170,7 +209,7 @@ class HealthAssessor:
                                independent=True)
         elif not self.predictor.history.independent:
             # a stream without measurements (an older estimator or recording): posteriors
-            self.predictor.add(operating, estimate.u, p_uu)
+            self.predictor.add(operating, estimate.u, estimate.covariance[0])
         self.utilisation.add(estimate.t, operating)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
@@ -187,7 +226,7 @@ class HealthAssessor:
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
-        mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i))
+        mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i)) if suspect else ''
         if mismatch:
             level, message = ERROR, mismatch
         self.latest = HealthState(estimate.stamp_ns, level, message, estimate.u, u_sigma,

@@ -187,8 +187,7 @@ class RulEstimate:
             if value == 0.0 or math.isnan(value):
                 return value
             return value / utilisation if utilisation > 0.0 else math.inf
-        return replace(self, median=scaled(self.median), p5=scaled(self.p5),
-                       p95=scaled(self.p95))
+        return RulEstimate(scaled(self.median), scaled(self.p5), scaled(self.p95), self.model)
 
 
 class Utilisation:
