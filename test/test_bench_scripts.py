@@ -47,10 +47,13 @@ def number(cell: str) -> float:
 
 
 def assert_ratio(ratio: str, value: float, base: float, digits: int = 2) -> None:
-    """``ratio`` is value / base to the printed ``digits`` (and the inputs' own rounding)."""
+    """``ratio`` is value / base to the printed ``digits`` (and the inputs' own rounding).
+
+    Both are finite and positive; the printed ratio may round to 0 (a 2 000 x slower row).
+    """
     assert base > 0 and value > 0, (value, base)
-    assert number(ratio) > 0
-    assert number(ratio) == pytest.approx(value / base, rel=0.02, abs=10 ** -digits)
+    assert number(ratio) >= 0
+    assert number(ratio) == pytest.approx(value / base, rel=0.02, abs=0.6 * 10 ** -digits)
 
 
 def test_bench_models_tiny() -> None:
