@@ -1,6 +1,12 @@
-"""Each benchmark script runs on a tiny input (the benchmarks themselves are not tests)."""
+"""Each benchmark script runs on a tiny input (the benchmarks themselves are not tests).
+
+The tables they print are read back: counts as the input implies, rates and times finite and
+positive, and every ratio the quotient of its row's value and the baseline's, to the printed
+rounding.
+"""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 import subprocess
 import sys
@@ -17,15 +23,62 @@ def run(script: str, *args: str, timeout: float = 240.0) -> str:
     return result.stdout
 
 
+def table(out: str, first_column: str) -> list[dict[str, str]]:
+    """Return the rows of the printed markdown table whose first heading is ``first_column``."""
+    lines = out.splitlines()
+    for start, line in enumerate(lines):
+        cells = [c.strip() for c in line.strip().strip('|').split('|')]
+        if line.startswith('| ') and cells[0] == first_column:
+            rows = []
+            for row in lines[start + 2:]:
+                if not row.startswith('|'):
+                    break
+                rows.append(dict(zip(cells, (c.strip() for c in row.strip().strip('|')
+                                             .split('|')))))
+            return rows
+    raise AssertionError(f'no table headed {first_column!r} in:\n{out}')
+
+
+def number(cell: str) -> float:
+    """Return the finite value of a table cell; thousands separators and units stripped."""
+    value = float(cell.replace(',', '').split()[0].rstrip('%'))
+    assert math.isfinite(value), cell
+    return value
+
+
+def assert_ratio(ratio: str, value: float, base: float, digits: int = 2) -> None:
+    """``ratio`` is value / base to the printed ``digits`` (and the inputs' own rounding).
+
+    Both are finite and positive; the printed ratio may round to 0 (a 2 000 x slower row).
+    """
+    assert base > 0 and value > 0, (value, base)
+    assert number(ratio) >= 0
+    assert number(ratio) == pytest.approx(value / base, rel=0.02, abs=0.6 * 10 ** -digits)
+
+
 def test_bench_models_tiny() -> None:
     out = run('bench_models.py', '--size', '1000', '--repeat', '1')
     assert '| `eta_opposing(u, R)` |' in out and 'ratio to bare numpy' in out
+    rows = table(out, 'function')
+    assert len(rows) == 7 and rows[0]['function'].endswith('(baseline)')
+    base = number(rows[0]['evaluations/s'])
+    for row in rows:
+        assert_ratio(row['ratio to bare numpy eq 10'], number(row['evaluations/s']), base)
+    assert number(rows[0]['ratio to bare numpy eq 10']) == 1.0
 
 
 def test_bench_offline_analyze_tiny() -> None:
     out = run('offline_analyze.py', '--samples', '3000', '--repeat', '1')
     assert 'rosbags read + deserialize_cdr (baseline)' in out
     assert '`gear-phm analyze` end to end' in out
+    rows = table(out, 'stage')
+    assert len(rows) == 5
+    [rosbags] = [number(r['samples/s']) for r in rows if r['stage'].endswith('(baseline)')]
+    [raw] = [number(r['samples/s']) for r in rows if r['stage'].startswith('mcap raw')]
+    for row in rows:
+        assert_ratio(row['ratio to rosbags decode'], number(row['samples/s']), rosbags)
+        assert_ratio(row['ratio to mcap raw'], number(row['samples/s']), raw)
+    assert '3,000 JointState samples' in out
 
 
 def test_bench_analyze_e2e_tiny() -> None:
@@ -36,6 +89,15 @@ def test_bench_analyze_e2e_tiny() -> None:
 def test_bench_memory_logic_tiny() -> None:
     out = run('memory.py', '--mode', 'logic', '--samples', '36000')
     assert '36,000 (1 h)' in out and '6,000 (10 min)' in out
+    rows = {row['samples (1 kHz)']: row for row in table(out, 'samples (1 kHz)')}
+    assert list(rows) == ['0 (start)', '6,000 (10 min)', '36,000 (1 h)', 'run time']
+    rss = [number(rows[k]['RSS [MiB]']) for k in ('0 (start)', '6,000 (10 min)', '36,000 (1 h)')]
+    assert all(value > 0 for value in rss)
+    # growth in % of the 10-min RSS, to the printed 0.1 MiB and 0.1 %
+    growth = number(rows['36,000 (1 h)']['growth vs 10-min mark'])
+    assert growth == pytest.approx(100 * (rss[2] - rss[1]) / rss[1], abs=0.1 + 10 / rss[1])
+    assert number(rows['run time']['RSS [MiB]']) > 0
+    assert number(rows['run time']['growth vs 10-min mark']) > 0        # samples/s
 
 
 @pytest.mark.integration
@@ -45,6 +107,20 @@ def test_bench_live_pipeline_tiny() -> None:
               '--cpu-rates', '200', '--idle', '1')
     assert '| estimator | 200 |' in out and 'p99 [ms]' in out
     assert 'estimator [us/msg]' in out and 'estimator [% of a core]' in out
+    trials = table(out[out.index('Trials:'):], 'target')
+    assert {r['target'] for r in trials} == {'bare subscriber (baseline)', 'estimator'}
+    for row in trials:
+        sent, received, lost = (int(row[k]) for k in ('sent', 'received', 'lost'))
+        assert row['rate [Hz]'] == '200' and sent == 200          # 1 s at 200 Hz
+        assert 0 < received <= sent and lost == sent - received
+    cpu = table(out, 'rate [Hz]')[0]              # the CPU table; latency comes after it
+    assert_ratio(cpu['ratio'], number(cpu['estimator [us/msg]']), number(cpu['bare [us/msg]']))
+    [idle] = table(out, 'run')
+    assert all(number(idle[k]) >= 0 for k in ('bare [% of a core]', 'estimator [% of a core]'))
+    latency = table(out[out.index('Live latency'):], 'rate [Hz]')
+    assert len(latency) == 1 and int(latency[0]['estimates']) > 0
+    p50, p99, worst = (number(latency[0][k]) for k in ('p50 [ms]', 'p99 [ms]', 'max [ms]'))
+    assert 0 < p50 <= p99 <= worst
 
 
 @pytest.mark.integration
@@ -52,12 +128,29 @@ def test_bench_monitor_vs_processes_tiny() -> None:
     out = run('monitor_vs_processes.py', '--bag', str(BENCH.parent / 'bags' / 'healthy'),
               '--rate-factor', '40')
     assert '| three processes (baseline) |' in out and '`gear-phm monitor`' in out
+    base, monitor = table(out, 'mode')
+    assert base['mode'] == 'three processes (baseline)'
+    for row in (base, monitor):
+        assert number(row['wall [s]']) > 0
+        assert_ratio(row['CPU ratio'], number(row['CPU [s]']), number(base['CPU [s]']))
+        assert_ratio(row['RSS ratio'], number(row['peak RSS, all processes [MiB]']),
+                     number(base['peak RSS, all processes [MiB]']))
+        assert 0.03 < number(row['last u reported']) < 0.08      # healthy: u = 0.05
 
 
 def test_bench_fleet_scale_tiny() -> None:
     out = run('fleet_scale.py', '--units', '2', '--recordings', '2', '--duration', '5',
               '--repeat', '1')
     assert '| 2 |' in out and 'core-hours' in out and '| yes |' in out
+    one, two = table(out, 'workers')
+    assert (one['workers'], two['workers'], two['tables identical']) == ('1', '2', 'yes')
+    for row in (one, two):
+        wall = number(row['wall [s]'])
+        assert_ratio(row['speed-up'], number(one['wall [s]']), wall)
+        # 2 units x 2 recordings x 5 s at 100 Hz = 2 000 samples; 4 recordings
+        assert number(row['samples/s']) == pytest.approx(2000 / wall, rel=0.01, abs=1)
+        assert number(row['recordings/s']) == pytest.approx(4 / wall, abs=0.05)
+    assert '(2,000 samples)' in out
 
 
 def test_bench_idle_gaps_small() -> None:

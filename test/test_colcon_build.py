@@ -10,6 +10,8 @@ import time
 
 import pytest
 
+from helpers.shared import build_once
+
 REPO = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
 EXECUTABLES = ('publisher', 'estimator', 'diagnostics', 'gear-phm')
@@ -26,12 +28,16 @@ def _not_sources(directory: str, names: list[str]) -> set[str]:
 
 
 @pytest.fixture(scope='module')
-def workspace(tmp_path_factory) -> Path:
+def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Copy of the repo in <ws>/src/gear_phm, built with colcon from the venv.
 
-    A copy, so egg-info never lands in the repo.
+    A copy, so egg-info never lands in the repo. Built once per test run
+    (helpers.shared.build_once), however many workers ask.
     """
-    root = tmp_path_factory.mktemp('colcon_ws')
+    return build_once(tmp_path_factory, 'colcon_ws', _build)
+
+
+def _build(root: Path) -> None:
     shutil.copytree(REPO, root / 'src' / 'gear_phm', ignore=_not_sources)
     env = dict(os.environ, PATH=f'{VENV_BIN}{os.pathsep}{os.environ.get("PATH", "")}')
     started = time.monotonic()
@@ -44,7 +50,6 @@ def workspace(tmp_path_factory) -> Path:
     print(f'colcon build took {elapsed:.1f} s')
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'Summary: 1 package finished' in result.stdout
-    return root
 
 
 def _site_packages(install: Path) -> Path:

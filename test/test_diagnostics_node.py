@@ -6,11 +6,8 @@ recording after kill -9.
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 import signal
-import subprocess
-import sys
 import time
 
 import pytest
@@ -24,13 +21,13 @@ from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 
 from gear_phm.bagio import BagReader, recover  # noqa: E402
-from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
-                                 LEGACY_ESTIMATOR_TOPICS, OPERATING_TIME, stamp_to_ns)
-from gear_phm.nodes.common import OUTPUT_QOS, stamp  # noqa: E402
-from node_processes import stop  # noqa: E402, I100, I201
+from gear_phm.interfaces import (DIAGNOSTICS, HEALTH_RUL, LEGACY_ESTIMATOR_TOPICS,  # noqa: E402
+                                 OPERATING_TIME, stamp_to_ns)
+from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
+from helpers.diagnostics import Feeder, start, wait_for  # noqa: E402
+from helpers.processes import stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
-EXE = Path(sys.executable).parent / 'diagnostics'
 KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
         'power_flow', 'samples_used', 'samples_rejected',
         'samples_missing', 'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
@@ -44,57 +41,6 @@ def ros():
     yield node
     node.destroy_node()
     rclpy.try_shutdown()
-
-
-def start(*params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
-    args = [str(EXE), '--ros-args', '-p', 'stale_timeout:=0.5', '-p', 'rate:=20.0',
-            '-p', 'warn_horizon:=600.0', '-p', 'transmission_name:=left_aileron',
-            '-p', 'hardware_id:=gb-7']
-    for param in params:
-        args += ['-p', param]
-    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-
-
-def wait_for(node: Node, condition, deadline_s: float, what: str) -> None:
-    end = time.monotonic() + deadline_s
-    while time.monotonic() < end:
-        rclpy.spin_once(node, timeout_sec=0.02)
-        if condition():
-            return
-    raise AssertionError(f'timed out waiting for {what}')
-
-
-class Feeder:
-    """Publishes the estimator topics of linear wear u = 0.05 + 1.5e-4 t.
-
-    The operating time is ``utilisation`` t.
-    """
-
-    def __init__(self, node: Node, utilisation: float = 0.5) -> None:
-        self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS)
-                     for t in ESTIMATOR_TOPICS]
-        self.utilisation = utilisation
-        self.step = 0
-
-    def matched(self) -> bool:
-        return all(p.get_subscription_count() > 0 for p in self.pubs)
-
-    def publish(self, dt: float = 10.0) -> int:
-        t = self.step * dt
-        self.step += 1
-        u = 0.05 + 1.5e-4 * t
-        eta_d, eta_i = (3.0 - u) / (3.0 * (1.0 + u)), 3.0 * (1.0 - u) / (3.0 + u)
-        vectors = [(u, 1.5e-4, 1e-3), (1e-6, 0.0, 1e-12), (eta_d, eta_i, eta_d),
-                   (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0),
-                   (t * self.utilisation, 0.0, 0.0)]
-        stamp_ns = int(t * 1e9)
-        for pub, (x, y, z) in zip(self.pubs, vectors):
-            msg = Vector3Stamped()
-            msg.header.stamp = stamp(stamp_ns)
-            msg.vector.x, msg.vector.y, msg.vector.z = x, y, z
-            pub.publish(msg)
-        return stamp_ns
 
 
 def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path) -> None:

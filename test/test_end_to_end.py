@@ -30,7 +30,7 @@ from rclpy.node import Node  # noqa: E402
 from gear_phm.bagio import BagReader  # noqa: E402
 from gear_phm.interfaces import DIAGNOSTICS, ESTIMATOR_TOPICS  # noqa: E402
 from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
-from node_processes import spawn, stop  # noqa: E402, I100, I201
+from helpers.processes import spawn, stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'wearing'

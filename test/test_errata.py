@@ -17,7 +17,7 @@ import pytest
 from gear_phm.models import (eta_aiding, eta_aiding_from_opposing, eta_opposing,
                              eta_opposing_from_aiding, SpurGear)
 import gear_phm.models.lever as lever_module
-from test_models_spur_gear import geometries, mesh_work_efficiencies
+from helpers.spur_gear import geometries, mesh_work_efficiencies
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)
 FIND_SETTINGS = settings(max_examples=500, database=None, derandomize=True)

@@ -16,7 +16,7 @@ from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, Es
                                  FrictionFilter, to_measurement)
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear
 from gear_phm.status import WARN
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
          'load_speed_noise': 0.01}

@@ -1,6 +1,6 @@
 """Consistency of the adaptive estimator (issue 12): NIS and NEES, the mismatch variance.
 
-Lever-model plant (test_estimation_plant.py, wearing with its operating time, the filter's
+Lever-model plant (helpers/plant.py, wearing with its operating time, the filter's
 time axis), defaults only. Lives of 300 s, 3000 s and
 30 000 s (u 0.05 -> 0.30) are compressed into 300 s runs: the 300 s life is run whole, the
 longer ones from mid-life at their own wear rate. Bounds are two-sided 95 % chi-square bounds:
@@ -19,7 +19,7 @@ from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.models import SpurGear
 from gear_phm.models.lever import u_from_eta_aiding, u_from_eta_opposing
 from gear_phm.models.power_flow import OPPOSING
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
          'load_speed_noise': 0.01}

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 VENV_BIN = Path(sys.executable).parent
 pytestmark = pytest.mark.integration

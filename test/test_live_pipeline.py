@@ -13,118 +13,17 @@ import time
 import pytest
 
 rclpy = pytest.importorskip('rclpy')
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
-from geometry_msgs.msg import Vector3Stamped  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
-
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402
-from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL,  # noqa: E402
+from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY,  # noqa: E402
                                  SAMPLE_LOSS, stamp_to_ns)
-from node_processes import spawn, stop  # noqa: E402, I100, I201
-from test_estimation_plant import lever_plant  # noqa: E402, I201
+from helpers.live import Driver, joint_state, publish_paced  # noqa: E402
+from helpers.plant import lever_plant  # noqa: E402
+from helpers.processes import spawn, stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'healthy'
-RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
          'motor_inertia:=0.01')
-
-
-class Driver:
-    """Test-side node: JointState publisher, estimator/diagnostics status and output log."""
-
-    def __init__(self, name: str) -> None:
-        rclpy.init()
-        self.node = Node(name)
-        self.statuses: dict[str, list[dict[str, str]]] = {}
-        # diagnostics node: (monotonic arrival, level, message)
-        self.levels: list[tuple[float, bytes, str]] = []
-        self.stamps: dict[str, list[int]] = {}
-        self.messages: dict[str, list[Vector3Stamped]] = {}
-        self.arrived: dict[str, float] = {}          # topic -> monotonic time of the newest
-        self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, RELIABLE)
-        for topic in (*ESTIMATOR_TOPICS, SAMPLE_LOSS, HEALTH_RUL, HEALTH_EFFICIENCY):
-            self.stamps[topic] = []
-            self.messages[topic] = []
-            self.node.create_subscription(
-                Vector3Stamped, topic,
-                lambda m, topic=topic: (self.stamps[topic].append(stamp_to_ns(m.header.stamp)),
-                                        self.messages[topic].append(m),
-                                        self.arrived.__setitem__(topic, time.monotonic())),
-                RELIABLE)
-        self.pub = self.node.create_publisher(JointState, 'joint_states',
-                                              qos_profile_sensor_data)
-
-    def _on_diag(self, msg: DiagnosticArray) -> None:
-        for status in msg.status:
-            values = {kv.key: kv.value for kv in status.values}
-            values['_level'] = status.level
-            values['_message'] = status.message
-            values['_stamp_ns'] = str(stamp_to_ns(msg.header.stamp))   # the node's clock
-            self.statuses.setdefault(status.name.split(':')[0], []).append(values)
-            if status.name.startswith('gear_phm: '):
-                self.levels.append((time.monotonic(), status.level, status.message))
-
-    def latest(self, prefix: str) -> dict[str, str]:
-        return self.statuses.get(prefix, [{}])[-1]
-
-    def spin(self, seconds: float = 0.0) -> None:
-        end = time.monotonic() + seconds
-        while True:
-            rclpy.spin_once(self.node, timeout_sec=0.01)
-            if time.monotonic() >= end:
-                return
-
-    def wait(self, condition, deadline: float, what: str) -> None:
-        end = time.monotonic() + deadline
-        while time.monotonic() < end:
-            if condition():
-                return
-            self.spin(0.02)
-        raise AssertionError(f'timed out waiting for {what}')
-
-    def settle(self, prefix: str) -> dict[str, str]:
-        """The node's status once its received count was the same in three statuses, all
-        published after this call (node clock, same machine): statuses still queued from the
-        input phase, which a busy node can send with an unchanging count, do not count."""
-        since = time.time_ns()
-
-        def still() -> bool:
-            recent = [s for s in self.statuses.get(prefix, [])
-                      if int(s.get('_stamp_ns', 0)) >= since][-3:]
-            counts = [s.get('messages_received') for s in recent]
-            return len(counts) == 3 and len(set(counts)) == 1
-        self.wait(still, 60.0, f'{prefix} to settle')
-        return self.latest(prefix)
-
-    def close(self) -> None:
-        self.node.destroy_node()
-        rclpy.try_shutdown()
-
-
-def joint_state(stamp_ns: int, w_m: float, tau_m: float, w_l: float,
-                tau_l: float) -> JointState:
-    msg = JointState(name=['motor', 'load'])
-    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 10 ** 9)
-    msg.velocity = [float(w_m), float(w_l)]
-    msg.effort = [float(tau_m), float(tau_l)]
-    return msg
-
-
-def publish_paced(driver: Driver, messages: list[JointState], rate: float,
-                  spin_every: int = 500) -> None:
-    """Publish at ``rate`` [Hz] of wall time (busy-wait pacing), spinning every
-    ``spin_every`` messages."""
-    start = time.perf_counter()
-    for i, msg in enumerate(messages):
-        target = start + i / rate
-        while time.perf_counter() < target:
-            pass
-        driver.pub.publish(msg)
-        if i % spin_every == spin_every - 1:
-            rclpy.spin_once(driver.node, timeout_sec=0.0)
 
 
 def _counts(status: dict[str, str]) -> tuple[int, int, int]:

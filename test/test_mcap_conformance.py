@@ -11,9 +11,7 @@ from pathlib import Path
 import pytest
 
 from gear_phm.bagio.chunks import McapBatchReader, McapChunkReader, NotIndexed
-
-SUITE = Path(__file__).resolve().parents[1].parent / 'shared' / 'mcap-conformance'
-FILES = sorted(SUITE.glob('*/*.mcap'))
+from helpers import conformance
 
 
 def expected_messages(path: Path) -> dict[str, list[tuple[int, bytes]]]:
@@ -48,12 +46,14 @@ def collect(batches) -> dict[str, list[tuple[int, bytes]]]:
 
 
 def test_the_suite_is_there() -> None:
-    assert len(FILES) == 416, f'expected the 416 conformance files in {SUITE}'
-    assert all(path.with_suffix('.json').exists() for path in FILES)
+    conformance.require()
+    assert len(conformance.files()) == conformance.COUNT
+    assert all(path.with_suffix('.json').exists() for path in conformance.files())
 
 
-@pytest.mark.parametrize('path', FILES, ids=[path.stem for path in FILES])
-def test_conformance_file(path: Path) -> None:
+@pytest.mark.parametrize('path', conformance.params())
+def test_conformance_file(path: Path | None) -> None:
+    path = conformance.require(path)
     expected = expected_messages(path)
     topics = topics_of(path)
     reader = McapBatchReader([path])

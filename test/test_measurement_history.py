@@ -13,7 +13,7 @@ from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.prognostics import HealthAssessor
 from gear_phm.prognostics.config import HealthConfig
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 CONFIG = EstimatorConfig(ratio=3.0, motor_torque_noise=0.05, load_torque_noise=0.05,
                          motor_inertia=0.01)

@@ -16,7 +16,7 @@ from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.persistence import (decode_float, encode_float, load_state, save_state, SCHEMA,
                                   StateCorrupt, StateMismatch)
 from gear_phm.prognostics import HealthAssessor, HealthConfig
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 IDENTITY = {'ratio': 3.0, 'motor_joint': 'motor', 'load_joint': 'load'}
 CONFIG = EstimatorConfig(ratio=3.0, motor_torque_noise=0.05, load_torque_noise=0.05,

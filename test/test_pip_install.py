@@ -14,6 +14,8 @@ import sys
 
 import pytest
 
+from helpers.shared import build_once
+
 REPO = Path(__file__).resolve().parents[1]
 BAG = REPO / 'bags' / 'wearing'
 NOT_SOURCES = {'.venv', '.git', 'build', 'install', 'log', 'bags', 'out', '.hypothesis',
@@ -34,8 +36,14 @@ def _ignore(directory: str, names: list[str]) -> set[str]:
 
 @pytest.fixture(scope='module')
 def fresh_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Venv (without system site-packages) holding gear_phm from `pip install <copy>`."""
-    root = tmp_path_factory.mktemp('pip_install')
+    """Venv (without system site-packages) holding gear_phm from `pip install <copy>`.
+
+    Made once per test run (helpers.shared.build_once), however many workers ask.
+    """
+    return build_once(tmp_path_factory, 'pip_install', _make_venv) / 'venv'
+
+
+def _make_venv(root: Path) -> None:
     source = root / 'gear_phm_src'           # a copy: pip's in-tree build writes build/
     shutil.copytree(REPO, source, ignore=_ignore)
     venv = root / 'venv'
@@ -47,7 +55,6 @@ def fresh_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
          str(source)],
         capture_output=True, text=True, env=env, timeout=900)
     assert result.returncode == 0, result.stdout + result.stderr
-    return venv
 
 
 def test_fresh_venv_has_no_ros(fresh_venv: Path) -> None:

@@ -37,10 +37,10 @@ def test_diagnostics_node_reports_a_ratio_mismatch_with_the_estimator() -> None:
     rclpy = pytest.importorskip('rclpy')
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.node import Node
-    from test_diagnostics_node import Feeder, start, wait_for
 
     from gear_phm.interfaces import DIAGNOSTICS
     from gear_phm.nodes.common import OUTPUT_QOS
+    from helpers.diagnostics import Feeder, start, wait_for
     rclpy.init()
     node = Node('ratio_check_test')
     proc = start('ratio:=30.0', 'eta_opposing_min:=0.5', 'eta_warn:=0.6')  # Feeder uses R = 3

@@ -20,13 +20,10 @@ import pytest
 from gear_phm.bagio import BagError, BagReader, recover, RecoverError, Rosbag2McapWriter
 from gear_phm.bagio.recover import RECOVER_METADATA, scan
 from gear_phm.interfaces import Vector3Out
+from helpers import conformance
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
-CONFORMANCE = Path(__file__).resolve().parents[1].parent / 'shared' / 'mcap-conformance'
-CONFORMANCE_FILES = sorted(CONFORMANCE.glob('*/*.mcap'))
-SCHEMALESS = CONFORMANCE / 'OneSchemalessMessage' / 'OneSchemalessMessage-ch-chx-mx-st-sum.mcap'
-needs_conformance = pytest.mark.skipif(not CONFORMANCE_FILES,
-                                       reason=f'no MCAP conformance files in {CONFORMANCE}')
+SCHEMALESS = ('OneSchemalessMessage', 'OneSchemalessMessage-ch-chx-mx-st-sum.mcap')
 
 
 def cli(*args: str) -> subprocess.CompletedProcess:
@@ -204,10 +201,10 @@ def cut_at_data_end(mcap_file: Path, out: Path) -> int:
     return position
 
 
-@needs_conformance
-@pytest.mark.parametrize('mcap_file', CONFORMANCE_FILES, ids=lambda p: p.stem)
+@pytest.mark.parametrize('mcap_file', conformance.params())
 def test_conformance_file_is_intact_and_its_cut_copy_recovers_every_record(
-        mcap_file: Path, tmp_path: Path) -> None:
+        mcap_file: Path | None, tmp_path: Path) -> None:
+    mcap_file = conformance.require(mcap_file)
     assert scan(mcap_file).intact                       # valid: nothing to rewrite
     untouched = recover(mcap_file, tmp_path / 'never.mcap')
     assert untouched.nothing_to_do and not (tmp_path / 'never.mcap').exists()
@@ -220,13 +217,13 @@ def test_conformance_file_is_intact_and_its_cut_copy_recovers_every_record(
     assert read_records(result.output) == expected_records(mcap_file)
 
 
-@needs_conformance
 def test_schemaless_and_attachment_files(tmp_path: Path) -> None:
     """The two cases by name: through the CLI, a schemaless channel (no traceback, nothing
     rewritten in place) and an attachment come out as the JSON lists them."""
+    suite = conformance.require()
     for name in ('OneSchemalessMessage/OneSchemalessMessage-ch-chx-mx-st-sum',
                  'OneAttachment/OneAttachment-ax-st-sum'):
-        source = CONFORMANCE / f'{name}.mcap'
+        source = suite / f'{name}.mcap'
         cut = tmp_path / source.name
         cut_at_data_end(source, cut)
         before = cut.read_bytes()
@@ -236,15 +233,15 @@ def test_schemaless_and_attachment_files(tmp_path: Path) -> None:
         assert cut.read_bytes() == before
         assert read_records(tmp_path / 'out.mcap') == expected_records(source)
         (tmp_path / 'out.mcap').unlink()
-    messages, _, _ = expected_records(SCHEMALESS)
+    messages, _, _ = expected_records(suite.joinpath(*SCHEMALESS))
     assert messages[0][2] is None                       # it really has no schema
 
 
-@needs_conformance
 def test_non_ros_mcap_cannot_become_a_rosbag2_directory(tmp_path: Path) -> None:
+    schemaless = conformance.require().joinpath(*SCHEMALESS)
     bag = tmp_path / 'bag'
     bag.mkdir()
-    cut_at_data_end(SCHEMALESS, bag / 'bag_0.mcap')
+    cut_at_data_end(schemaless, bag / 'bag_0.mcap')
     before = listing(bag)
     done = cli('recover', str(bag))
     assert done.returncode == 2 and done.stdout == ''

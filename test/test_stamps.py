@@ -11,7 +11,7 @@ import pytest
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.estimation.stamps import BLOCK, StampScreen
 from gear_phm.status import OK, WARN
-from test_estimation_plant import lever_plant
+from helpers.plant import lever_plant
 
 CONFIG = EstimatorConfig(ratio=3.0, motor_torque_noise=0.05, load_torque_noise=0.05,
                          motor_inertia=0.01)

@@ -21,10 +21,10 @@ from sensor_msgs.msg import JointState  # noqa: E402, I100
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100, I201
 from gear_phm.interfaces import HEALTH_RUL, OPERATING_TIME  # noqa: E402
 from gear_phm.persistence import save_state, SCHEMA  # noqa: E402
-from test_estimation_plant import lever_plant  # noqa: E402
-from test_live_pipeline import Driver, joint_state, publish_paced  # noqa: E402, I100, I201
-import node_processes  # noqa: E402, I100
-from node_processes import stop  # noqa: E402
+from helpers import processes  # noqa: E402
+from helpers.live import Driver, joint_state, publish_paced  # noqa: E402
+from helpers.plant import lever_plant  # noqa: E402
+from helpers.processes import stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
@@ -37,7 +37,7 @@ DURATION = 240.0
 PACE = 1000.0
 #: UDPv4 only for every node process: one of them is killed with SIGKILL (conftest).
 NODE_ENV = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
-spawn = functools.partial(node_processes.spawn, env=NODE_ENV)
+spawn = functools.partial(processes.spawn, env=NODE_ENV)
 ESTIMATOR, DIAGNOSTICS = 'gear_phm estimator', 'gear_phm'
 
 

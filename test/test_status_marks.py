@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
-from test_estimation_plant import lever_plant  # noqa: I100
+from helpers.plant import lever_plant  # noqa: I100
 
 CONFIG = EstimatorConfig(ratio=3.0, motor_torque_noise=0.05, load_torque_noise=0.05,
                          motor_inertia=0.01)

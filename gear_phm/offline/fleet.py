@@ -194,7 +194,8 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
         scratch = tempfile.TemporaryDirectory(prefix='gear-phm-dask-')   # not in the cwd
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                processes=True, dashboard_address=None, silence_logs=40,
-                               local_directory=scratch.name)
+                               local_directory=scratch.name,    # no fixed port (8787):
+                               scheduler_kwargs={'dashboard_address': ':0'})
         client = Client(cluster)
     try:
         futures = [client.submit(analyze_unit, unit, options, unit_out, pure=False,
