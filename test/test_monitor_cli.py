@@ -21,7 +21,7 @@ def test_monitor_replays_estimates_and_records_in_one_process(tmp_path: Path) ->
     result = subprocess.run(
         [str(GEAR_PHM), 'monitor', *CONFIGS, '--linger', '5.0', '--ros-args',
          '-p', 'publisher:mode:=replay', '-p', f'publisher:bag_path:={REPO / "bags/healthy"}',
-         '-p', 'publisher:rate_factor:=20.0', '-p', f'diagnostics:record_path:={record}',
+         '-p', 'publisher:rate_factor:=10.0', '-p', f'diagnostics:record_path:={record}',
          '-p', 'diagnostics:transmission_name:=flap'],
         capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr

@@ -19,7 +19,8 @@ from gear_phm.codec import decode_joint_states, joint_state_rows
 from gear_phm.interfaces import stamp_to_ns, Vector3Out
 from gear_phm.models import eta_opposing, u_from_eta_opposing
 from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
-from helpers.bags import ALL_SAMPLES_MAX_BYTES, bag_differences, SAMPLE_MAX_BYTES, SAMPLES
+from helpers.bags import (ALL_SAMPLES_MAX_BYTES, bag_content, bag_differences, SAMPLE_MAX_BYTES,
+                          SAMPLES)
 
 REPO = Path(__file__).resolve().parents[1]
 BAGS = REPO / 'bags'

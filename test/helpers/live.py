@@ -120,3 +120,39 @@ def publish_paced(driver: Driver, messages: list[JointState], rate: float,
         driver.pub.publish(msg)
         if i % spin_every == spin_every - 1:
             rclpy.spin_once(driver.node, timeout_sec=0.0)
+
+
+def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int:
+    """Messages the estimator node reports received in its newest /diagnostics status."""
+    return int(driver.latest(prefix).get('messages_received', 0))
+
+
+def publish_acked(driver: Driver, messages: list[JointState], rate: float, window: int = 50,
+                  stall: float = 60.0) -> None:
+    """Publish at up to ``rate`` [Hz], never more than ``window`` messages ahead of the estimator.
+
+    The estimator's input queue holds 100 messages (best effort): a loaded machine that runs
+    the node behind the publisher would drop the excess. The estimator acknowledges in its
+    /diagnostics status (``messages_received``, every ``diagnostics_period``), so at most
+    ``window`` messages are in flight and none is lost, whatever the load; only the pace drops.
+    Raises AssertionError when no acknowledgement comes for ``stall`` seconds.
+    """
+    base = messages_received(driver)
+    start = time.perf_counter()
+    for i, msg in enumerate(messages):
+        last_progress, acked = time.monotonic(), messages_received(driver) - base
+        while i - acked >= window:
+            rclpy.spin_once(driver.node, timeout_sec=0.005)
+            now_acked = messages_received(driver) - base
+            if now_acked > acked:
+                last_progress, acked = time.monotonic(), now_acked
+            elif time.monotonic() - last_progress > stall:
+                text = f'the estimator acknowledged {acked} of {i} messages for {stall} s'
+                raise AssertionError(text)
+        target = start + i / rate
+        while (left := target - time.perf_counter()) > 0:
+            if left > 3e-4:
+                time.sleep(left - 2e-4)
+        driver.pub.publish(msg)
+        if i % 10 == 9:
+            rclpy.spin_once(driver.node, timeout_sec=0.0)
