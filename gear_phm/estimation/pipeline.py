@@ -25,7 +25,7 @@ from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
-from gear_phm.models.lever import efficiencies
+from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.status import format_value, OK, StatusOut, WARN
@@ -450,10 +450,12 @@ class EstimatorPipeline:
         marked: list[tuple[int, StatusSnapshot]] = []
         pending = list(marks)
 
-        def take(before: int) -> None:
-            """Snapshot the marks at or before sample ``before`` (its events not yet run)."""
+        def take(before: int, run: np.ndarray | None = None) -> None:
+            """Snapshot the marks at or before sample ``before`` (its events not yet run);
+            ``run``: publish positions about to be output (those before a mark count)."""
             while pending and pending[0][1] <= before:
                 mark, k = pending.pop(0)
+                count = len(outputs) + (0 if run is None else int(np.searchsorted(run, k)))
                 suffix = {key: int(np.count_nonzero(mask[k:])) for key, mask in masks.items()}
                 suffix.update({
                     'samples_seen': n - k,
@@ -461,29 +463,24 @@ class EstimatorPipeline:
                     'samples_rejected': int(rejected_cum[-1] - rejected_cum[k - 1]),
                     'timeout': int(np.count_nonzero(gap_at >= k)),
                     'short_window': int(np.count_nonzero(short_at >= k))})
-                values = self._snapshot(mark, len(outputs), int(stamps[k - 1]), suffix)
+                values = self._snapshot(mark, count, int(stamps[k - 1]), suffix)
                 values.values['operating_time_s'] = float(self._operating_at[k - 1])
                 values.values['timed_out'] = False
                 marked.append((k, values))
 
-        w_i = 0
-        for k in publish.tolist():
-            while w_i < len(windows) and windows[w_i].close_index <= k:
-                c_k = windows[w_i].close_index
-                take(c_k)
-                outputs += self._apply_window(windows[w_i], int(code[c_k]),
-                                              int(used_cum[c_k]), int(rejected_cum[c_k]))
-                w_i += 1
-            take(k)
-            self._last_code = int(code[k])
-            x, p = self.filter.predicted(float(self._operating_at[k]))
-            outputs.append(self._estimate(int(stamps[k]), x, p, int(used_cum[k]),
-                                          int(rejected_cum[k]), float(self._operating_at[k])))
-        for window in windows[w_i:]:
-            k = min(window.close_index, n - 1)
-            take(window.close_index)
-            outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
-                                          int(rejected_cum[k]))
+        # each window's update, after the publishes before it (predictions of one posterior)
+        closes = np.array([window.close_index for window in windows] + [n + 1], dtype=np.int64)
+        runs = np.split(publish, np.searchsorted(publish, closes[:-1], side='left'))
+        for window, run, close in zip(windows + [None], runs, closes.tolist()):
+            if run.size:
+                take(int(run[-1]), run)
+                outputs += self._predictions(run, stamps, code, used_cum, rejected_cum)
+                self._last_code = int(code[run[-1]])
+            if window is not None:
+                k = min(close, n - 1)
+                take(close)
+                outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
+                                              int(rejected_cum[k]))
         take(n)
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
@@ -582,6 +579,34 @@ class EstimatorPipeline:
                                used, rejected, operating,
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration))]
+
+    def _predictions(self, run: np.ndarray, stamps: np.ndarray, code: np.ndarray,
+                     used_cum: np.ndarray, rejected_cum: np.ndarray
+                     ) -> list[FrictionEstimate]:
+        """The published estimates at samples ``run`` (positions in the batch) between two
+        filter updates: the posterior predicted to each one's operating time, all at once.
+
+        The same values as :meth:`_estimate` of :meth:`FrictionFilter.predicted` at each.
+        """
+        operating = self._operating_at[run]
+        x, p = self.filter.predicted_many(operating)
+        u = x[:, 0]
+        eta_d = efficiencies_array(u + self.filter.direction_bias(0), self.config.ratio)[0]
+        eta_i = efficiencies_array(u + self.filter.direction_bias(1), self.config.ratio)[1]
+        last = self.filter.last
+        fixed = (self._last_eta, last.innovation, last.innovation_variance, last.nis)
+        mismatch = (self.filter.mismatch_variance(0), self.filter.mismatch_variance(1))
+        q = self.filter.process_noise
+        nan = math.nan
+        return [FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed,
+                                 used, rejected, flow, process_noise=q,
+                                 mismatch_variance=mismatch, operating_time=at,
+                                 measurement=nan, measurement_variance=nan)
+                for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, at
+                in zip(stamps[run].tolist(), u.tolist(), x[:, 1].tolist(),
+                       p[:, 0, 0].tolist(), p[:, 0, 1].tolist(), p[:, 1, 1].tolist(),
+                       eta_d.tolist(), eta_i.tolist(), used_cum[run].tolist(),
+                       rejected_cum[run].tolist(), code[run].tolist(), operating.tolist())]
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.
