@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+import itertools
 import math
 from typing import Any
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.kalman import Adaptation, FrictionFilter
+from gear_phm.estimation.kalman import Adaptation, FrictionFilter, predicted_stacked
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
@@ -69,6 +70,22 @@ class StatusSnapshot:
         values['counts'] = counts
         values['samples_rejected'] -= len(reasons)
         return replace(self, values=values)
+
+
+@dataclass(frozen=True)
+class _PredictionBase:
+    """A filter state the published estimates until the next update are predicted from:
+    x, P, time t [s] (inf: none yet), q [1/s^3], each direction's bias, the newest window's
+    efficiency and the last update's innovation, its variance and NIS, the mismatch
+    variances."""
+
+    x: np.ndarray
+    p: np.ndarray
+    t: float
+    q: float
+    bias: tuple[float, float]
+    fixed: tuple[float, float, float, float]
+    mismatch: tuple[float, float]
 
 
 class EstimatorPipeline:
@@ -471,10 +488,12 @@ class EstimatorPipeline:
         # each window's update, after the publishes before it (predictions of one posterior)
         closes = np.array([window.close_index for window in windows] + [n + 1], dtype=np.int64)
         runs = np.split(publish, np.searchsorted(publish, closes[:-1], side='left'))
+        runs_at: list[tuple[int, np.ndarray, _PredictionBase]] = []
         for window, run, close in zip(windows + [None], runs, closes.tolist()):
             if run.size:
                 take(int(run[-1]), run)
-                outputs += self._predictions(run, stamps, code, used_cum, rejected_cum)
+                runs_at.append((len(outputs), run, self._prediction_base()))
+                outputs += [None] * run.size        # type: ignore[list-item]
                 self._last_code = int(code[run[-1]])
             if window is not None:
                 k = min(close, n - 1)
@@ -482,6 +501,8 @@ class EstimatorPipeline:
                 outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
                                               int(rejected_cum[k]))
         take(n)
+        if runs_at:
+            self._predictions(outputs, runs_at, stamps, code, used_cum, rejected_cum)
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
@@ -580,33 +601,56 @@ class EstimatorPipeline:
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration))]
 
-    def _predictions(self, run: np.ndarray, stamps: np.ndarray, code: np.ndarray,
-                     used_cum: np.ndarray, rejected_cum: np.ndarray
-                     ) -> list[FrictionEstimate]:
-        """The published estimates at samples ``run`` (positions in the batch) between two
-        filter updates: the posterior predicted to each one's operating time, all at once.
+    def _prediction_base(self) -> _PredictionBase:
+        """What the estimates published before the next filter update are predicted from."""
+        f = self.filter
+        last = f.last
+        return _PredictionBase(
+            f.kf.x[:, 0].copy(), f.kf.P.copy(), math.inf if f.t is None else f.t,
+            f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
+            (self._last_eta, last.innovation, last.innovation_variance, last.nis),
+            (f.mismatch_variance(0), f.mismatch_variance(1)))
 
-        The same values as :meth:`_estimate` of :meth:`FrictionFilter.predicted` at each.
+    def _predictions(self, outputs: list[FrictionEstimate],
+                     runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
+                     stamps: np.ndarray, code: np.ndarray, used_cum: np.ndarray,
+                     rejected_cum: np.ndarray) -> None:
+        """Fill in the published estimates of a batch, all at once.
+
+        ``runs_at``: (position in ``outputs``, the samples published, the filter state they
+        are predicted from) of each run between two filter updates. Each estimate is the
+        posterior predicted to its sample's operating time: the same values as
+        :meth:`_estimate` of :meth:`FrictionFilter.predicted` at each.
         """
-        operating = self._operating_at[run]
-        x, p = self.filter.predicted_many(operating)
+        sizes = [run.size for _, run, _ in runs_at]
+        bases = [base for _, _, base in runs_at]
+        index = np.concatenate([run for _, run, _ in runs_at])
+        operating = self._operating_at[index]
+
+        def per_row(values: list[Any]) -> np.ndarray:
+            return np.repeat(np.array(values, dtype=float), sizes, axis=0)
+
+        x, p = predicted_stacked(per_row([b.x for b in bases]), per_row([b.p for b in bases]),
+                                 per_row([b.t for b in bases]), per_row([b.q for b in bases]),
+                                 operating)
         u = x[:, 0]
-        eta_d = efficiencies_array(u + self.filter.direction_bias(0), self.config.ratio)[0]
-        eta_i = efficiencies_array(u + self.filter.direction_bias(1), self.config.ratio)[1]
-        last = self.filter.last
-        fixed = (self._last_eta, last.innovation, last.innovation_variance, last.nis)
-        mismatch = (self.filter.mismatch_variance(0), self.filter.mismatch_variance(1))
-        q = self.filter.process_noise
+        bias = per_row([b.bias for b in bases])
+        eta_d = efficiencies_array(u + bias[:, 0], self.config.ratio)[0]
+        eta_i = efficiencies_array(u + bias[:, 1], self.config.ratio)[1]
         nan = math.nan
-        return [FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed,
-                                 used, rejected, flow, process_noise=q,
-                                 mismatch_variance=mismatch, operating_time=at,
-                                 measurement=nan, measurement_variance=nan)
-                for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, at
-                in zip(stamps[run].tolist(), u.tolist(), x[:, 1].tolist(),
-                       p[:, 0, 0].tolist(), p[:, 0, 1].tolist(), p[:, 1, 1].tolist(),
-                       eta_d.tolist(), eta_i.tolist(), used_cum[run].tolist(),
-                       rejected_cum[run].tolist(), code[run].tolist(), operating.tolist())]
+        rows = zip(stamps[index].tolist(), u.tolist(), x[:, 1].tolist(), p[:, 0, 0].tolist(),
+                   p[:, 0, 1].tolist(), p[:, 1, 1].tolist(), eta_d.tolist(), eta_i.tolist(),
+                   used_cum[index].tolist(), rejected_cum[index].tolist(),
+                   code[index].tolist(), operating.tolist())
+        for (at, _, base), size in zip(runs_at, sizes):
+            fixed, q, mismatch = base.fixed, base.q, base.mismatch
+            outputs[at:at + size] = [
+                FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
+                                 rejected, flow, process_noise=q, mismatch_variance=mismatch,
+                                 operating_time=time, measurement=nan,
+                                 measurement_variance=nan)
+                for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
+                in itertools.islice(rows, size)]
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.
