@@ -465,21 +465,16 @@ class EstimatorPipeline:
             publish = np.empty(0, dtype=np.int64)
         outputs: list[FrictionEstimate] = []
         marked: list[tuple[int, StatusSnapshot]] = []
-        pending = list(marks)
+        pending = [(mark, k, suffix) for (mark, k), suffix
+                   in zip(marks, self._suffixes([k for _, k in marks], masks, used_cum,
+                                                rejected_cum, gap_at, short_at))]
 
         def take(before: int, run: np.ndarray | None = None) -> None:
             """Snapshot the marks at or before sample ``before`` (its events not yet run);
             ``run``: publish positions about to be output (those before a mark count)."""
             while pending and pending[0][1] <= before:
-                mark, k = pending.pop(0)
+                mark, k, suffix = pending.pop(0)
                 count = len(outputs) + (0 if run is None else int(np.searchsorted(run, k)))
-                suffix = {key: int(np.count_nonzero(mask[k:])) for key, mask in masks.items()}
-                suffix.update({
-                    'samples_seen': n - k,
-                    'samples_used': int(used_cum[-1] - used_cum[k - 1]),
-                    'samples_rejected': int(rejected_cum[-1] - rejected_cum[k - 1]),
-                    'timeout': int(np.count_nonzero(gap_at >= k)),
-                    'short_window': int(np.count_nonzero(short_at >= k))})
                 values = self._snapshot(mark, count, int(stamps[k - 1]), suffix)
                 values.values['operating_time_s'] = float(self._operating_at[k - 1])
                 values.values['timed_out'] = False
@@ -512,6 +507,28 @@ class EstimatorPipeline:
             marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
                       for k, snap in marked]
         return kept, marked
+
+    @staticmethod
+    def _suffixes(ks: list[int], masks: dict[str, np.ndarray], used_cum: np.ndarray,
+                  rejected_cum: np.ndarray, gap_at: np.ndarray, short_at: np.ndarray
+                  ) -> list[dict[str, int]]:
+        """The counters of the samples from each ``ks`` (0 < k < n) on, all marks at once.
+
+        ``masks``: per-sample rejections by reason; ``used_cum``, ``rejected_cum``: the
+        cumulative counts; ``gap_at``, ``short_at``: the samples with a timeout, a short window.
+        """
+        if not ks:
+            return []
+        at = np.array(ks, dtype=np.int64)
+        n = used_cum.size
+        columns = {key: mask.sum() - np.cumsum(mask)[at - 1] for key, mask in masks.items()}
+        columns.update({
+            'samples_seen': n - at, 'samples_used': used_cum[-1] - used_cum[at - 1],
+            'samples_rejected': rejected_cum[-1] - rejected_cum[at - 1],
+            'timeout': np.count_nonzero(gap_at[None, :] >= at[:, None], axis=1),
+            'short_window': np.count_nonzero(short_at[None, :] >= at[:, None], axis=1)})
+        lists = {key: column.tolist() for key, column in columns.items()}
+        return [{key: values[i] for key, values in lists.items()} for i in range(at.size)]
 
     def _one_per_stamp(self, outputs: list[FrictionEstimate]
                        ) -> tuple[list[FrictionEstimate], list[bool]]:
