@@ -186,6 +186,23 @@ def test_filter_predict_covariance_grows_with_process_noise() -> None:
     assert np.allclose(kf.P, p) and np.allclose(kf.x, x)
 
 
+def test_predicted_many_is_bit_identical_to_predicted_one_by_one() -> None:
+    rng = np.random.default_rng(7)
+    for q in (0.0, 1e-12, 3e-7):
+        kf = FrictionFilter(0.1, 0.01, 1e-3, q, 10.83, 3)
+        times = np.concatenate(([-3.0, 20.0], rng.uniform(-5.0, 500.0, size=38)))
+        x, p = kf.predicted_many(times)             # before any update: the prior
+        assert np.array_equal(x, np.tile(kf.x, (40, 1)))
+        kf.update(0.12, 1e-5, 20.0)
+        kf.kf.x[1, 0] = 1e-5                        # a rate, so that dt matters
+        x, p = kf.predicted_many(times)
+        assert x.shape == (40, 2) and p.shape == (40, 2, 2)
+        for k, t in enumerate(times):               # also at or before the filter's time
+            x_k, p_k = kf.predicted(float(t))
+            assert np.array_equal(x[k], x_k) and np.array_equal(p[k], p_k)
+        assert x[times > 20.0, 0].min() > kf.x[0] and np.array_equal(x[1], kf.x)
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.floats(1e-6, 1e3), st.floats(1e-15, 1e2))
 def test_process_covariance_is_filterpys_continuous_white_noise(dt: float, q: float) -> None:

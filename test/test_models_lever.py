@@ -247,3 +247,24 @@ def test_float_readings_are_eq_13_both_ways(ratio: float) -> None:
         assert (u_d, u_i) == pytest.approx((u, u), abs=1e-12)
     u_d, u_i = readings(-1.0 / ratio - 0.1, math.nan, ratio)     # no u reaches them
     assert math.isnan(u_d) and math.isnan(u_i)
+
+
+@pytest.mark.parametrize('ratio', [0.5, 3.0, 30.0])
+def test_reading_with_slope_is_bit_identical_to_the_numpy_functions(ratio: float) -> None:
+    """The estimator's per-window path gives the numpy functions' values to the last bit.
+
+    Also at an eta where base * base and numpy's scalar base ** 2 differ (0.93..., R = 3).
+    """
+    from gear_phm.models.lever import reading_with_slope
+    rng = np.random.default_rng(5)
+    etas = [0.9307554281028677, -1.0 / ratio - 0.1, -ratio - 0.1, *rng.uniform(-2, 1.5, 400)]
+    for eta in etas:
+        for aiding, u_of, slope_of in ((False, u_from_eta_opposing, d_u_d_eta_opposing),
+                                       (True, u_from_eta_aiding, d_u_d_eta_aiding)):
+            u, slope = reading_with_slope(float(eta), ratio, aiding)
+            np.testing.assert_array_equal([u, slope],
+                                          [float(u_of(eta, ratio)), float(slope_of(eta, ratio))])
+    u, slope = reading_with_slope(-ratio - 0.1, ratio, aiding=True)    # no u reaches it
+    assert math.isnan(u) and math.isnan(slope)
+    with pytest.raises(ValueError, match='eta must be finite'):
+        reading_with_slope(math.inf, ratio, aiding=False)

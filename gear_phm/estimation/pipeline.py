@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+import itertools
 import math
 from typing import Any
 
@@ -20,12 +21,12 @@ import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.kalman import Adaptation, FrictionFilter
+from gear_phm.estimation.kalman import Adaptation, FrictionFilter, predicted_stacked
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
-from gear_phm.models.lever import efficiencies
+from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.status import format_value, OK, StatusOut, WARN
@@ -69,6 +70,22 @@ class StatusSnapshot:
         values['counts'] = counts
         values['samples_rejected'] -= len(reasons)
         return replace(self, values=values)
+
+
+@dataclass(frozen=True)
+class _PredictionBase:
+    """A filter state the published estimates until the next update are predicted from:
+    x, P, time t [s] (inf: none yet), q [1/s^3], each direction's bias, the newest window's
+    efficiency and the last update's innovation, its variance and NIS, the mismatch
+    variances."""
+
+    x: np.ndarray
+    p: np.ndarray
+    t: float
+    q: float
+    bias: tuple[float, float]
+    fixed: tuple[float, float, float, float]
+    mismatch: tuple[float, float]
 
 
 class EstimatorPipeline:
@@ -448,43 +465,39 @@ class EstimatorPipeline:
             publish = np.empty(0, dtype=np.int64)
         outputs: list[FrictionEstimate] = []
         marked: list[tuple[int, StatusSnapshot]] = []
-        pending = list(marks)
+        pending = [(mark, k, suffix) for (mark, k), suffix
+                   in zip(marks, self._suffixes([k for _, k in marks], masks, used_cum,
+                                                rejected_cum, gap_at, short_at))]
 
-        def take(before: int) -> None:
-            """Snapshot the marks at or before sample ``before`` (its events not yet run)."""
+        def take(before: int, run: np.ndarray | None = None) -> None:
+            """Snapshot the marks at or before sample ``before`` (its events not yet run);
+            ``run``: publish positions about to be output (those before a mark count)."""
             while pending and pending[0][1] <= before:
-                mark, k = pending.pop(0)
-                suffix = {key: int(np.count_nonzero(mask[k:])) for key, mask in masks.items()}
-                suffix.update({
-                    'samples_seen': n - k,
-                    'samples_used': int(used_cum[-1] - used_cum[k - 1]),
-                    'samples_rejected': int(rejected_cum[-1] - rejected_cum[k - 1]),
-                    'timeout': int(np.count_nonzero(gap_at >= k)),
-                    'short_window': int(np.count_nonzero(short_at >= k))})
-                values = self._snapshot(mark, len(outputs), int(stamps[k - 1]), suffix)
+                mark, k, suffix = pending.pop(0)
+                count = len(outputs) + (0 if run is None else int(np.searchsorted(run, k)))
+                values = self._snapshot(mark, count, int(stamps[k - 1]), suffix)
                 values.values['operating_time_s'] = float(self._operating_at[k - 1])
                 values.values['timed_out'] = False
                 marked.append((k, values))
 
-        w_i = 0
-        for k in publish.tolist():
-            while w_i < len(windows) and windows[w_i].close_index <= k:
-                c_k = windows[w_i].close_index
-                take(c_k)
-                outputs += self._apply_window(windows[w_i], int(code[c_k]),
-                                              int(used_cum[c_k]), int(rejected_cum[c_k]))
-                w_i += 1
-            take(k)
-            self._last_code = int(code[k])
-            x, p = self.filter.predicted(float(self._operating_at[k]))
-            outputs.append(self._estimate(int(stamps[k]), x, p, int(used_cum[k]),
-                                          int(rejected_cum[k]), float(self._operating_at[k])))
-        for window in windows[w_i:]:
-            k = min(window.close_index, n - 1)
-            take(window.close_index)
-            outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
-                                          int(rejected_cum[k]))
+        # each window's update, after the publishes before it (predictions of one posterior)
+        closes = np.array([window.close_index for window in windows] + [n + 1], dtype=np.int64)
+        runs = np.split(publish, np.searchsorted(publish, closes[:-1], side='left'))
+        runs_at: list[tuple[int, np.ndarray, _PredictionBase]] = []
+        for window, run, close in zip(windows + [None], runs, closes.tolist()):
+            if run.size:
+                take(int(run[-1]), run)
+                runs_at.append((len(outputs), run, self._prediction_base()))
+                outputs += [None] * run.size        # type: ignore[list-item]
+                self._last_code = int(code[run[-1]])
+            if window is not None:
+                k = min(close, n - 1)
+                take(close)
+                outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
+                                              int(rejected_cum[k]))
         take(n)
+        if runs_at:
+            self._predictions(outputs, runs_at, stamps, code, used_cum, rejected_cum)
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
             self._last_code = int(code[last_timely[-1]])
@@ -494,6 +507,28 @@ class EstimatorPipeline:
             marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
                       for k, snap in marked]
         return kept, marked
+
+    @staticmethod
+    def _suffixes(ks: list[int], masks: dict[str, np.ndarray], used_cum: np.ndarray,
+                  rejected_cum: np.ndarray, gap_at: np.ndarray, short_at: np.ndarray
+                  ) -> list[dict[str, int]]:
+        """The counters of the samples from each ``ks`` (0 < k < n) on, all marks at once.
+
+        ``masks``: per-sample rejections by reason; ``used_cum``, ``rejected_cum``: the
+        cumulative counts; ``gap_at``, ``short_at``: the samples with a timeout, a short window.
+        """
+        if not ks:
+            return []
+        at = np.array(ks, dtype=np.int64)
+        n = used_cum.size
+        columns = {key: mask.sum() - np.cumsum(mask)[at - 1] for key, mask in masks.items()}
+        columns.update({
+            'samples_seen': n - at, 'samples_used': used_cum[-1] - used_cum[at - 1],
+            'samples_rejected': rejected_cum[-1] - rejected_cum[at - 1],
+            'timeout': np.count_nonzero(gap_at[None, :] >= at[:, None], axis=1),
+            'short_window': np.count_nonzero(short_at[None, :] >= at[:, None], axis=1)})
+        lists = {key: column.tolist() for key, column in columns.items()}
+        return [{key: values[i] for key, values in lists.items()} for i in range(at.size)]
 
     def _one_per_stamp(self, outputs: list[FrictionEstimate]
                        ) -> tuple[list[FrictionEstimate], list[bool]]:
@@ -582,6 +617,57 @@ class EstimatorPipeline:
                                used, rejected, operating,
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration))]
+
+    def _prediction_base(self) -> _PredictionBase:
+        """What the estimates published before the next filter update are predicted from."""
+        f = self.filter
+        last = f.last
+        return _PredictionBase(
+            f.kf.x[:, 0].copy(), f.kf.P.copy(), math.inf if f.t is None else f.t,
+            f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
+            (self._last_eta, last.innovation, last.innovation_variance, last.nis),
+            (f.mismatch_variance(0), f.mismatch_variance(1)))
+
+    def _predictions(self, outputs: list[FrictionEstimate],
+                     runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
+                     stamps: np.ndarray, code: np.ndarray, used_cum: np.ndarray,
+                     rejected_cum: np.ndarray) -> None:
+        """Fill in the published estimates of a batch, all at once.
+
+        ``runs_at``: (position in ``outputs``, the samples published, the filter state they
+        are predicted from) of each run between two filter updates. Each estimate is the
+        posterior predicted to its sample's operating time: the same values as
+        :meth:`_estimate` of :meth:`FrictionFilter.predicted` at each.
+        """
+        sizes = [run.size for _, run, _ in runs_at]
+        bases = [base for _, _, base in runs_at]
+        index = np.concatenate([run for _, run, _ in runs_at])
+        operating = self._operating_at[index]
+
+        def per_row(values: list[Any]) -> np.ndarray:
+            return np.repeat(np.array(values, dtype=float), sizes, axis=0)
+
+        x, p = predicted_stacked(per_row([b.x for b in bases]), per_row([b.p for b in bases]),
+                                 per_row([b.t for b in bases]), per_row([b.q for b in bases]),
+                                 operating)
+        u = x[:, 0]
+        bias = per_row([b.bias for b in bases])
+        eta_d = efficiencies_array(u + bias[:, 0], self.config.ratio)[0]
+        eta_i = efficiencies_array(u + bias[:, 1], self.config.ratio)[1]
+        nan = math.nan
+        rows = zip(stamps[index].tolist(), u.tolist(), x[:, 1].tolist(), p[:, 0, 0].tolist(),
+                   p[:, 0, 1].tolist(), p[:, 1, 1].tolist(), eta_d.tolist(), eta_i.tolist(),
+                   used_cum[index].tolist(), rejected_cum[index].tolist(),
+                   code[index].tolist(), operating.tolist())
+        for (at, _, base), size in zip(runs_at, sizes):
+            fixed, q, mismatch = base.fixed, base.q, base.mismatch
+            outputs[at:at + size] = [
+                FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
+                                 rejected, flow, process_noise=q, mismatch_variance=mismatch,
+                                 operating_time=time, measurement=nan,
+                                 measurement_variance=nan)
+                for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
+                in itertools.islice(rows, size)]
 
     def _window_operating_time(self, window: Window) -> float:
         """Operating time [s] at the last sample of ``window``, closed by the current batch.

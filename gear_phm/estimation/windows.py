@@ -20,8 +20,7 @@ import math
 import numpy as np
 
 from gear_phm.estimation.config import DEFAULTS
-from gear_phm.models import d_u_d_eta_aiding, d_u_d_eta_opposing
-from gear_phm.models import u_from_eta_aiding, u_from_eta_opposing
+from gear_phm.models.lever import reading_with_slope
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
 
 
@@ -263,12 +262,12 @@ def to_measurement(window: Window, ratio: float, min_window: float, min_energy: 
         if not (e_m > 0.0 > e_l):
             return 'wrong_energy_sign'
         eta = -e_l / e_m
-        u, slope = u_from_eta_opposing(eta, ratio), d_u_d_eta_opposing(eta, ratio)
+        u, slope = reading_with_slope(eta, ratio, aiding=False)
     elif window.code in (AIDING, SELF_LOCKING):
         if not e_l > 0.0 or (window.code == AIDING and e_m > 0.0):
             return 'wrong_energy_sign'
         eta = -e_m / e_l
-        u, slope = u_from_eta_aiding(eta, ratio), d_u_d_eta_aiding(eta, ratio)
+        u, slope = reading_with_slope(eta, ratio, aiding=True)
     else:
         raise ValueError(f'window.code must be 1, 2 or 3, got {window.code!r}')
     if not (math.isfinite(u) and math.isfinite(slope)):

@@ -210,15 +210,43 @@ def eta_opposing_from_aiding(eta_aiding: ArrayLike, ratio: ArrayLike) -> np.ndar
     return _where_valid(valid, 2.0 * eta_i + ratio - 1.0, denominator)
 
 
+def _slope_terms(base: Any, ratio: Any) -> tuple[Any, Any]:
+    """Return du/deta's numerator -R (R + 1) and denominator base^2 (floats or arrays).
+
+    ``base``: eq 13's denominator, R eta_D + 1 or R + eta_I (aiding).
+    """
+    return -ratio * (ratio + 1.0), base ** 2     # ** as numpy's scalars: pow, not base * base
+
+
 def d_u_d_eta_opposing(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """Sensitivity du/deta_D [-] of eq 13: -R (R + 1) / (R eta_D + 1)^2 (variance propagation)."""
     eta = finite('eta', eta)
     ratio = positive('ratio', ratio)
-    return _where_valid(ratio * eta + 1.0 > 0.0, -ratio * (ratio + 1.0), (ratio * eta + 1.0) ** 2)
+    base = _u_d_terms(eta, ratio)[1]
+    return _where_valid(base > 0.0, *_slope_terms(base, ratio))
 
 
 def d_u_d_eta_aiding(eta: ArrayLike, ratio: ArrayLike) -> np.ndarray | float:
     """Sensitivity du/deta_I [-] of eq 13 (aiding): -R (R + 1) / (R + eta_I)^2."""
     eta = finite('eta', eta)
     ratio = positive('ratio', ratio)
-    return _where_valid(ratio + eta > 0.0, -ratio * (ratio + 1.0), (ratio + eta) ** 2)
+    base = _u_i_terms(eta, ratio)[1]
+    return _where_valid(base > 0.0, *_slope_terms(base, ratio))
+
+
+def reading_with_slope(eta: float, ratio: float, aiding: bool) -> tuple[float, float]:
+    """(u, du/deta) [-] of one efficiency [-] by eq 13, for Python floats.
+
+    ``aiding`` False: eta is eta_D (:func:`u_from_eta_opposing`,
+    :func:`d_u_d_eta_opposing`); True: eta_I (the aiding ones). The per-window path of the
+    estimator, the same float operations without numpy's per-call cost. NaN where undefined;
+    ValueError if ``eta`` is not finite (as those functions).
+    """
+    if not math.isfinite(eta):
+        msg = f'eta must be finite, got {eta!r}'
+        raise ValueError(msg) from None
+    numerator, base = (_u_i_terms if aiding else _u_d_terms)(eta, ratio)
+    if not base > 0.0:
+        return math.nan, math.nan
+    slope_numerator, slope_denominator = _slope_terms(base, ratio)
+    return numerator / base, slope_numerator / slope_denominator
