@@ -127,27 +127,46 @@ def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int
     return int(driver.latest(prefix).get('messages_received', 0))
 
 
-def publish_acked(driver: Driver, messages: list[JointState], rate: float, window: int = 50,
-                  stall: float = 60.0) -> None:
-    """Publish at up to ``rate`` [Hz], never more than ``window`` messages ahead of the estimator.
+def samples_assessed(driver: Driver, prefix: str = 'gear_phm') -> int:
+    """Samples (used + rejected) behind the diagnostics node's newest status."""
+    status = driver.latest(prefix)
+    return int(status.get('samples_used', 0)) + int(status.get('samples_rejected', 0))
 
-    The estimator's input queue holds 100 messages (best effort): a loaded machine that runs
-    the node behind the publisher would drop the excess. The estimator acknowledges in its
-    /diagnostics status (``messages_received``, every ``diagnostics_period``), so at most
-    ``window`` messages are in flight and none is lost, whatever the load; only the pace drops.
-    Raises AssertionError when no acknowledgement comes for ``stall`` seconds.
+
+def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead: int = 80,
+                  assess_lag: int = 40, stall: float = 60.0) -> None:
+    """Publish at up to ``rate`` [Hz], never faster than the nodes take the stream in.
+
+    The estimator's input queue holds 100 messages (best effort) and the diagnostics node's
+    estimate queues 10 (reliable, keep last; one estimate per few samples): a loaded machine
+    that runs a node behind the publisher would drop the excess. Both acknowledge in their
+    /diagnostics statuses: the estimator its ``messages_received``, the diagnostics node the
+    samples behind its newest estimate. A message goes out only while the estimator is fewer
+    than ``ahead`` messages behind and the diagnostics node fewer than ``assess_lag`` behind
+    the estimator (once its first estimate of this call arrived), so none is lost, whatever
+    the load; only the pace drops. Raises AssertionError when neither acknowledges anything
+    new for ``stall`` seconds.
     """
-    base = messages_received(driver)
+    base_e, base_d = messages_received(driver), samples_assessed(driver)
+
+    def acks() -> tuple[int, int]:
+        return messages_received(driver) - base_e, samples_assessed(driver) - base_d
+
+    def free(i: int, estimated: int, assessed: int) -> bool:
+        if i - estimated >= ahead:
+            return False
+        return assessed <= 0 or estimated - assessed < assess_lag
+
     start = time.perf_counter()
     for i, msg in enumerate(messages):
-        last_progress, acked = time.monotonic(), messages_received(driver) - base
-        while i - acked >= window:
+        last_progress, seen = time.monotonic(), acks()
+        while not free(i, *seen):
             rclpy.spin_once(driver.node, timeout_sec=0.005)
-            now_acked = messages_received(driver) - base
-            if now_acked > acked:
-                last_progress, acked = time.monotonic(), now_acked
+            now = acks()
+            if now != seen:
+                last_progress, seen = time.monotonic(), now
             elif time.monotonic() - last_progress > stall:
-                text = f'the estimator acknowledged {acked} of {i} messages for {stall} s'
+                text = f'the nodes acknowledged {seen} of {i} messages for {stall} s'
                 raise AssertionError(text)
         target = start + i / rate
         while (left := target - time.perf_counter()) > 0:
