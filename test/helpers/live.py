@@ -123,12 +123,12 @@ def publish_paced(driver: Driver, messages: list[JointState], rate: float,
 
 
 def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int:
-    """Messages the estimator node reports received in its newest /diagnostics status."""
+    """Return the messages the estimator reports received in its newest /diagnostics status."""
     return int(driver.latest(prefix).get('messages_received', 0))
 
 
 def samples_assessed(driver: Driver, prefix: str = 'gear_phm') -> int:
-    """Samples (used + rejected) behind the diagnostics node's newest status."""
+    """Return the samples (used + rejected) behind the diagnostics node's newest status."""
     status = driver.latest(prefix)
     return int(status.get('samples_used', 0)) + int(status.get('samples_rejected', 0))
 
