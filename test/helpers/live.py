@@ -127,10 +127,11 @@ def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int
     return int(driver.latest(prefix).get('messages_received', 0))
 
 
-def samples_assessed(driver: Driver, prefix: str = 'gear_phm') -> int:
-    """Return the samples (used + rejected) behind the diagnostics node's newest status."""
-    status = driver.latest(prefix)
-    return int(status.get('samples_used', 0)) + int(status.get('samples_rejected', 0))
+def newest_stamp(driver: Driver, topics: tuple[str, ...] = (HEALTH_RUL, HEALTH_EFFICIENCY)
+                 ) -> int:
+    """Return the newest stamp [ns] the driver received on ``topics`` (-1: none yet)."""
+    return max((driver.stamps[topic][-1] for topic in topics if driver.stamps[topic]),
+               default=-1)
 
 
 def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead: int = 80,
@@ -139,18 +140,19 @@ def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead
 
     The estimator's input queue holds 100 messages (best effort) and the diagnostics node's
     estimate queues 10 (reliable, keep last; one estimate per few samples): a loaded machine
-    that runs a node behind the publisher would drop the excess. Both acknowledge in their
-    /diagnostics statuses: the estimator its ``messages_received``, the diagnostics node the
-    samples behind its newest estimate. A message goes out only while the estimator is fewer
-    than ``ahead`` messages behind and the diagnostics node fewer than ``assess_lag`` behind
-    the estimator (once its first estimate of this call arrived), so none is lost, whatever
-    the load; only the pace drops. Raises AssertionError when neither acknowledges anything
-    new for ``stall`` seconds.
+    that runs a node behind the publisher would drop the excess. The estimator acknowledges
+    in its /diagnostics status (``messages_received``), the diagnostics node by the stamp of
+    its newest health output (each is stamped with the newest sample behind it). A message
+    goes out only while the estimator is fewer than ``ahead`` messages behind and the
+    diagnostics node fewer than ``assess_lag`` behind the estimator (once its first output
+    of this call arrived), so none is lost, whatever the load; only the pace drops. Raises
+    AssertionError when neither acknowledges anything new for ``stall`` seconds.
     """
-    base_e, base_d = messages_received(driver), samples_assessed(driver)
+    position = {stamp_to_ns(msg.header.stamp): i + 1 for i, msg in enumerate(messages)}
+    base = messages_received(driver)
 
     def acks() -> tuple[int, int]:
-        return messages_received(driver) - base_e, samples_assessed(driver) - base_d
+        return messages_received(driver) - base, position.get(newest_stamp(driver), 0)
 
     def free(i: int, estimated: int, assessed: int) -> bool:
         if i - estimated >= ahead:
@@ -161,7 +163,7 @@ def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead
     for i, msg in enumerate(messages):
         last_progress, seen = time.monotonic(), acks()
         while not free(i, *seen):
-            rclpy.spin_once(driver.node, timeout_sec=0.005)
+            rclpy.spin_once(driver.node, timeout_sec=0.01)
             now = acks()
             if now != seen:
                 last_progress, seen = time.monotonic(), now
