@@ -261,7 +261,7 @@ class _Run:
                                            'rul_p95', 'u_eol'),
                            ('level', 'rul_median', 'rul_p5', 'rul_p95', 'u_eol', 'rul_unknown'))}
         self.first_seen: dict[str, int] = {}
-        self.truth: dict[str, Binned] = {}       # by topic name: history, then envelope
+        self.truth: dict[str, tuple[Binned, Binned]] = {}    # by topic: history, envelope
         self.true_end_of_life_ns: int | None = None
         self.samples = 0
 
