@@ -33,6 +33,12 @@ def test_bench_memory_logic_tiny() -> None:
     assert '36,000 (1 h)' in out and '6,000 (10 min)' in out
 
 
+def test_bench_memory_analyze_tiny() -> None:
+    out = run('memory.py', '--mode', 'analyze', '--samples', '3000', '6000')
+    assert '| gear-phm analyze --no-plot | 6,000 |' in out
+    assert '| Python API analyze_bag(bag, 3.0), defaults | 3,000 |' in out
+
+
 @pytest.mark.integration
 def test_bench_live_pipeline_tiny() -> None:
     out = run('live_pipeline.py', '--duration', '1', '--rates', '200',
