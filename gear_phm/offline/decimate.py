@@ -20,6 +20,9 @@ from gear_phm.offline.records import Envelope
 #: Bins of the plot's envelopes: between this and twice as many (analysis.png is ~1000 px
 #: wide).
 ENVELOPE_BINS = 1024
+#: Chunks of bins kept before they are joined: each holds an array per column, a few bins long
+#: once a bin spans a batch (about 100 bytes each: unjoined, they grew with the bag).
+CHUNKS = 16
 
 
 def _joined(chunks: list[np.ndarray]) -> np.ndarray:
@@ -106,6 +109,10 @@ class Binned:
         self._last = {name: values[-1] for name, values in columns.items()}
         self.bins += new.size
         self.count += size
+        if len(self._counts) > CHUNKS:
+            for chunks in (*self._first.values(), *self._low.values(), *self._high.values(),
+                           self._counts):
+                _joined(chunks)
 
     def _merge(self) -> None:
         """Neighbouring bins merge: half as many, each twice as long."""
