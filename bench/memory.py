@@ -1,23 +1,29 @@
-"""Memory: RSS growth of the estimator and diagnostics code over one hour of 1 kHz input.
+"""Memory: peak RSS of offline analysis against bag length, and the nodes' code over an hour.
 
-Two measurements, each against its own start:
-- ``--mode logic`` (default part 1): the code of both nodes (EstimatorPipeline, then
-  HealthAssessor on its estimates, exactly what the nodes and ``gear-phm analyze`` run) fed
-  3,600,000 simulated samples (one hour at 1 kHz) as fast as it goes, in this process; RSS at
+- ``--mode analyze`` (default): simulated 1 kHz bags (with ground truth) of ``--samples``
+  samples each (default 300k, 3M, 10M, 40M), each analysed in its own process: ``gear-phm
+  analyze`` with the plot (truth read), ``gear-phm analyze --no-plot``, and the Python API
+  ``analyze_bag(bag, ratio)`` with its defaults; peak RSS of each process (``os.wait4``),
+  and its growth against the smallest bag. The bags are deleted after use.
+- ``--mode logic``: the code of both nodes (EstimatorPipeline, then HealthAssessor on its
+  estimates) fed 3,600,000 simulated samples (one hour at 1 kHz) in this process; RSS at
   the start, at the 10-minute mark and at the 1-hour mark.
-- ``--mode nodes`` (part 2): the estimator and diagnostics nodes as processes over DDS, fed by
-  the flood publisher at ``--rate`` for ``--duration`` s; RSS of each node from /proc at the
+- ``--mode nodes``: the estimator and diagnostics nodes as processes over DDS, fed by the
+  flood publisher at ``--rate`` for ``--duration`` s; RSS of each node from /proc at the
   start and at the end.
 
-Usage: .venv/bin/python bench/memory.py [--mode logic|nodes|both] [--no-append]
+Usage: .venv/bin/python bench/memory.py [--mode analyze|logic|nodes|all] [--samples N ...]
+[--tmp DIR] [--no-append]
 """
 from __future__ import annotations
 
 import argparse
 import os
 from pathlib import Path
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -35,6 +41,61 @@ def rss_mib(pid: int | str = 'self') -> float:
         if line.startswith('VmRSS:'):
             return int(line.split()[1]) / 1024.0
     return float('nan')
+
+
+def peak_mib(command: list[str]) -> tuple[float, float]:
+    """Run ``command``; return its peak RSS [MiB] (its own, from wait4) and wall time [s]."""
+    start = time.perf_counter()
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    assert child.stderr is not None
+    errors = child.stderr.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode:
+        raise RuntimeError(f'{command} failed: {errors.decode()[-2000:]}')
+    return usage.ru_maxrss / 1024.0, time.perf_counter() - start
+
+
+#: Ways of analysing a bag, as (label, command builder of bag and output directory).
+ANALYSES = (
+    ('gear-phm analyze (plot, truth)',
+     lambda bag, out: [str(BIN / 'gear-phm'), 'analyze', bag, '--ratio', '3', '--out', out,
+                       '--no-progress']),
+    ('gear-phm analyze --no-plot',
+     lambda bag, out: [str(BIN / 'gear-phm'), 'analyze', bag, '--ratio', '3', '--out', out,
+                       '--no-progress', '--no-plot']),
+    ('Python API analyze_bag(bag, 3.0), defaults',
+     lambda bag, out: [sys.executable, '-c', 'import sys; from gear_phm.offline import '
+                       'analyze_bag; analyze_bag(sys.argv[1], 3.0)', bag]),
+)
+
+
+def analyze(sizes: list[int], tmp: str | None) -> list[list[str]]:
+    """Peak RSS [MiB] of each way of analysing a 1 kHz bag, per number of samples."""
+    peaks: dict[str, list[tuple[int, float, float]]] = {label: [] for label, _ in ANALYSES}
+    for samples in sizes:
+        folder = Path(tempfile.mkdtemp(prefix='gear-phm-memory-', dir=tmp))
+        try:
+            bag = str(folder / 'bag')
+            subprocess.run([str(BIN / 'gear-phm'), 'simulate', '--duration',
+                            f'{samples / 1000.0:g}', '--rate', '1000', '--out', bag],
+                           check=True, capture_output=True)
+            for label, command in ANALYSES:
+                peak, wall = peak_mib(command(bag, str(folder / 'out')))
+                shutil.rmtree(folder / 'out', ignore_errors=True)
+                peaks[label].append((samples, peak, wall))
+                print(f'{label}: {samples:,} samples, peak {peak:.0f} MiB, {wall:.1f} s',
+                      flush=True)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+    rows = [['analysis', 'samples (1 kHz, with truth)', 'peak RSS [MiB]',
+             'growth vs smallest', 'wall [s]']]
+    for label, results in peaks.items():
+        smallest = results[0][1]
+        for samples, peak, wall in results:
+            rows.append([label, f'{samples:,}', f'{peak:.0f}',
+                         f'{(peak - smallest) / smallest * 100:+.1f} %', f'{wall:.1f}'])
+    return rows
 
 
 def logic(samples: int, rate: float) -> list[list[str]]:
@@ -99,17 +160,25 @@ def nodes(rate: float, duration: float) -> list[list[str]]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--mode', choices=('logic', 'nodes', 'both'), default='both')
-    parser.add_argument('--samples', type=int, default=3_600_000)
+    parser.add_argument('--mode', choices=('analyze', 'logic', 'nodes', 'all'),
+                        default='analyze')
+    parser.add_argument('--samples', type=int, nargs='+',
+                        default=[300_000, 3_000_000, 10_000_000, 40_000_000],
+                        help='analyze mode: bag sizes; logic mode: the first')
+    parser.add_argument('--tmp', default=None, help='analyze mode: where the bags go')
     parser.add_argument('--rate', type=float, default=2000.0, help='nodes mode input [Hz]')
     parser.add_argument('--duration', type=float, default=300.0, help='nodes mode [s]')
     parser.add_argument('--no-append', action='store_true')
     args = parser.parse_args()
     out = None if args.no_append else BENCHMARKS_MD
-    if args.mode in ('logic', 'both'):
+    if args.mode in ('analyze', 'all'):
+        append_section('Memory: peak RSS of offline analysis against bag length',
+                       analyze(args.samples, args.tmp), out=out)
+    if args.mode in ('logic', 'all'):
         append_section("Memory: both nodes' code, one hour of 1 kHz input (in process)",
-                       logic(args.samples, 1000.0), out=out)
-    if args.mode in ('nodes', 'both'):
+                       logic(args.samples[0] if args.mode == 'logic' else 3_600_000, 1000.0),
+                       out=out)
+    if args.mode in ('nodes', 'all'):
         append_section(f'Memory: node processes over DDS, {args.rate:.0f} Hz for '
                        f'{args.duration:.0f} s', nodes(args.rate, args.duration), out=out)
     return 0

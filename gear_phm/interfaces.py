@@ -176,6 +176,34 @@ def vector3_stamped_cdr(output: Vector3Out) -> bytes:
                   float(output.y), float(output.z))
 
 
+def vector3_stamped_columns(buffer: bytes | memoryview, offsets: np.ndarray,
+                            lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Decode little-endian CDR geometry_msgs/Vector3Stamped payloads into columns.
+
+    The payloads are ``buffer[offsets[i]:offsets[i] + lengths[i]]``; returns (stamps [ns],
+    N x 3 values x, y, z), the inverse of :func:`vector3_stamped_cdr`, by numpy gathers
+    (no Python work per message; frame_ids of any length). Payloads too short for their
+    frame_id or not little-endian CDR are left out.
+    """
+    data = np.frombuffer(buffer, dtype=np.uint8)
+    offsets = np.asarray(offsets, dtype=np.int64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    usable = lengths >= 40                      # header, empty frame_id, padding, 3 doubles
+    usable[usable] = data[offsets[usable] + 1] == 1          # CDR_LE encapsulation
+
+    def gather(at: np.ndarray, size: int, dtype: str) -> np.ndarray:
+        item = np.dtype(dtype).itemsize
+        return data[at[:, None] + np.arange(size)].view(dtype).reshape(at.size, size // item)
+
+    offsets, lengths = offsets[usable], lengths[usable]
+    sec, nanosec, frame = gather(offsets + 4, 12, '<u4').T
+    start = 4 + (12 + frame.astype(np.int64) + 7) // 8 * 8    # x, float64-aligned from byte 4
+    fits = start + 24 <= lengths
+    values = gather(offsets[fits] + start[fits], 24, '<f8')
+    stamps = sec[fits].astype(np.int32).astype(np.int64) * 1_000_000_000 + nanosec[fits]
+    return stamps, values
+
+
 @functools.lru_cache(maxsize=64)
 def _vector3_packer(frame_id: str) -> tuple[bytes, Callable[..., bytes]]:
     """(frame_id with its NUL, struct packer) of the Vector3Stamped layout for ``frame_id``."""

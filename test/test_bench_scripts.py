@@ -110,6 +110,12 @@ def test_bench_memory_logic_tiny() -> None:
     assert number(rows['run time']['growth vs 10-min mark']) > 0        # samples/s
 
 
+def test_bench_memory_analyze_tiny() -> None:
+    out = run('memory.py', '--mode', 'analyze', '--samples', '3000', '6000')
+    assert '| gear-phm analyze --no-plot | 6,000 |' in out
+    assert '| Python API analyze_bag(bag, 3.0), defaults | 3,000 |' in out
+
+
 @pytest.mark.integration
 def test_bench_live_pipeline_tiny() -> None:
     out = run('live_pipeline.py', '--duration', '1', '--rates', '200',

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from gear_phm.offline import AnalysisError, analyze_bag
+from gear_phm.offline.records import ESTIMATES
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -77,17 +78,27 @@ def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
 
 
 def test_history_bounds_the_returned_histories_not_the_result() -> None:
-    """history=N keeps N..2N evenly spaced records; the summary is the full analysis."""
-    full = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False)
+    """history=N keeps N..2N evenly spaced records and the last; the summary is all of it."""
+    full = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=None)
     lean = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=100)
     n = full.estimates.u.size
     assert n > 1000
     kept = lean.estimates.stamp_ns
-    assert 100 <= kept.size < 200 and 100 <= lean.health.stamp_ns.size < 200
+    assert 100 <= kept.size <= 201 and 100 <= lean.health.stamp_ns.size <= 201
+    assert lean.measurements == full.measurements           # 109 windows: fewer than 2N
     assert np.isin(kept, full.estimates.stamp_ns).all()
     positions = np.searchsorted(full.estimates.stamp_ns, kept)
-    assert positions[0] == 0 and np.unique(np.diff(positions)).size == 1    # evenly spaced
+    assert positions[0] == 0 and np.unique(np.diff(positions[:-1])).size == 1  # evenly spaced
+    assert positions[-1] == n - 1 and lean.estimates.u[-1] == full.estimates.u[-1]  # the last
     assert lean.summary['u'] == full.summary['u']
+    # the default keeps a bag this short whole, and the plot's envelopes cover every estimate
+    default = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False)
+    assert np.array_equal(default.estimates.u, full.estimates.u, equal_nan=True)
+    envelope = default.envelopes[ESTIMATES]
+    assert envelope.count.sum() == n and envelope.stamp_ns[0] == full.estimates.stamp_ns[0]
+    for name in ('u', 'eta_opposing'):
+        assert np.nanmin(envelope.low[name]) == np.nanmin(getattr(full.estimates, name))
+        assert np.nanmax(envelope.high[name]) == np.nanmax(getattr(full.estimates, name))
     assert lean.summary['windows_measured'] == full.summary['windows_measured']
     with pytest.raises(AnalysisError, match='history must be >= 1'):
         analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=0)

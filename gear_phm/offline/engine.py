@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from contextlib import nullcontext
-from dataclasses import fields
+from dataclasses import fields, replace
 import json
 import math
 from pathlib import Path
@@ -29,7 +29,7 @@ import shutil
 import sys
 import tempfile
 import time
-from typing import Any, Generic, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -37,16 +37,23 @@ from gear_phm import codec, interfaces
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
-from gear_phm.offline.records import Analysis, EstimateHistory, HealthHistory
+from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
+from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
+                                      HealthHistory, measurements_key)
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,
                                  TRANSMISSION_NAME)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
+from gear_phm.prognostics.metrics import true_end_of_life_index
 from gear_phm.status import LEVEL_NAMES
 
-T = TypeVar('T')
 #: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
 BATCH = 20000
+#: ``analyze_bag``'s default ``history``: the returned histories keep 10 000 to 20 000 records
+#: each, whatever the bag (a few MiB).
+HISTORY = 10_000
+_HEALTH_COLUMNS = tuple(f.name for f in fields(HealthHistory) if f.name != 'messages')
+_TRUTH_COLUMNS = ('stamp_ns', 'x', 'y', 'z')
 ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
 
 
@@ -155,7 +162,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
                 transmission_name: str = str(TRANSMISSION_NAME.default),
                 hardware_id: str = str(HARDWARE_ID.default),
                 diagnostics_rate: float = float(DIAGNOSTICS_RATE.default),
-                history: int | None = None,
+                history: int | None = HISTORY,
                 prior: ShapePrior | None = None, **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
@@ -166,10 +173,15 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     ``eta_opposing_min=0.7333``).
     With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into
     that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
-    nothing is left there if the analysis fails. ``history`` bounds the memory of a long
-    campaign: the returned histories then keep between ``history`` and twice as many
-    estimates, health states and measurements, evenly spaced (None keeps all; the output bag
-    and summary always have everything). ``prior``: a population prior on the wear law's
+    nothing is left there if the analysis fails.
+
+    Memory does not grow with the bags. The returned histories (estimates, health states,
+    measured windows and, with ``plot``, the ground truth) keep between ``history`` (default
+    :data:`HISTORY`) and twice as many records each, evenly spaced from the first, plus the
+    last record; ``history=None`` keeps every record (memory then grows with the bags). The
+    output bag and the summary always cover every record. ``Analysis.envelopes`` holds the
+    plotted series in at most 2 x :data:`~gear_phm.offline.decimate.ENVELOPE_BINS` bins with
+    each bin's min and max, whatever ``history``. ``prior``: a population prior on the wear law's
     shape (:class:`~gear_phm.prognostics.ShapePrior`, ``gear-phm fleet --population-prior``).
     Raises :class:`AnalysisError` on bad input.
     """
@@ -205,8 +217,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
             if target.exists():
                 shutil.rmtree(target)
             written.rename(target)
-            analysis = Analysis(analysis.estimates, analysis.health, analysis.summary,
-                                analysis.measurements, analysis.truth, target)
+            analysis = replace(analysis, out=target)
         return analysis
     finally:
         if staging is not None:
@@ -222,27 +233,6 @@ def _check_out(out: Path, overwrite: bool) -> Path:
     return out
 
 
-class _Kept(Generic[T]):
-    """Every item appended, or (``limit``) between ``limit`` and twice as many, evenly spaced.
-
-    At ``2 * limit`` items every other one is dropped and the stride of those kept doubles.
-    """
-
-    def __init__(self, limit: int | None) -> None:
-        self.limit = limit
-        self.items: list[T] = []
-        self.count = 0
-        self.stride = 1
-
-    def append(self, item: T) -> None:
-        if self.count % self.stride == 0:
-            self.items.append(item)
-            if self.limit is not None and len(self.items) >= 2 * self.limit:
-                del self.items[1::2]
-                self.stride *= 2
-        self.count += 1
-
-
 class _Run:
     """One analysis: the pipeline, the assessor and what they produced."""
 
@@ -250,7 +240,10 @@ class _Run:
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
                  hardware_id: str, diagnostics_rate: float, want_truth: bool,
                  history: int | None = None, prior: ShapePrior | None = None) -> None:
-        self.measurements: _Kept[tuple[int, Measurement, bool]] = _Kept(history)
+        # what the Analysis keeps: bounded histories (``history``) and the plot's envelopes
+        self.measurements = Binned(history, ('stamp_ns',), objects=True)
+        self.pending: list[tuple[int, Measurement, bool]] = []    # of the batch
+        self.measured: dict[str, Binned] = {}    # envelopes of eta by measurements_key
         self.pipeline = EstimatorPipeline(estimator_config, on_measurement=self._on_measurement)
         self.assessor = HealthAssessor(health_config, prior)
         self.estimator_config = estimator_config
@@ -258,15 +251,23 @@ class _Run:
         self.transmission_name, self.hardware_id = transmission_name, hardware_id
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
-        self.estimates: _Kept[FrictionEstimate] = _Kept(history)
-        self.states: _Kept[HealthState] = _Kept(history)
+        self.history = history
+        self.estimates = Binned(history, [f.name for f in fields(EstimateHistory)])
+        self.states = Binned(history, _HEALTH_COLUMNS, objects=True)
+        self.envelopes = {
+            ESTIMATES: Binned(ENVELOPE_BINS, ('stamp_ns', 'u', 'eta_opposing', 'eta_aiding'),
+                              ('u', 'eta_opposing', 'eta_aiding', 'u_low', 'u_high')),
+            HEALTH: Binned(ENVELOPE_BINS, ('stamp_ns', 'level', 'rul_median', 'rul_p5',
+                                           'rul_p95', 'u_eol'),
+                           ('level', 'rul_median', 'rul_p5', 'rul_p95', 'u_eol', 'rul_unknown'))}
         self.first_seen: dict[str, int] = {}
-        self.truth: dict[str, list[tuple[int, float, float, float]]] = {}
+        self.truth: dict[str, tuple[Binned, Binned]] = {}    # by topic: history, envelope
+        self.true_end_of_life_ns: int | None = None
         self.samples = 0
 
     def _on_measurement(self, measurement: Measurement, accepted: bool) -> None:
         stamp_ns = self.pipeline.stamp_ns(measurement.t)
-        self.measurements.append((stamp_ns, measurement, accepted))
+        self.pending.append((stamp_ns, measurement, accepted))
 
     def execute(self, bags: list[Path], directory: Path | None, progress: bool) -> Analysis:
         from gear_phm.bagio import BagError, Rosbag2McapWriter
@@ -284,17 +285,83 @@ class _Run:
             raise AnalysisError(f'no message of topic {self.topic} has joints '
                                 f'{self.motor_joint!r} and {self.load_joint!r}: '
                                 f'{dict(self.pipeline.counts)}')
+        self._keep_measurements()
         summary = self._summary(bags, readers, elapsed)
-        truth = {name: np.array(rows, dtype=float).reshape(-1, 4)
-                 for name, rows in self.truth.items()}
-        return Analysis(EstimateHistory.of(self.estimates.items),
-                        HealthHistory.of(self.states.items), summary,
-                        tuple(self.measurements.items), truth)
+        return self._analysis(summary)
+
+    def _analysis(self, summary: dict[str, Any]) -> Analysis:
+        """Return the Analysis of what was kept."""
+        estimates = (EstimateHistory(**self.estimates.first()) if self.estimates.count
+                     else EstimateHistory.of([]))
+        health = (HealthHistory(**self.states.first(), messages=tuple(self.states.objects()))
+                  if self.states.count else HealthHistory.of([]))
+        truth = {}
+        envelopes: dict[str, Envelope] = {
+            name: kept.envelope() for name, kept in self.envelopes.items() if kept.count}
+        for name, (kept, envelope) in self.truth.items():
+            columns = kept.first()
+            truth[name] = np.column_stack([columns[c].astype(float) for c in _TRUTH_COLUMNS])
+            envelopes[name] = envelope.envelope()
+        envelopes.update((key, kept.envelope()) for key, kept in self.measured.items())
+        return Analysis(estimates, health, summary,
+                        tuple(self.measurements.objects()), truth, None, envelopes,
+                        self.true_end_of_life_ns)
+
+    def _keep(self, estimates: Sequence[FrictionEstimate],
+              states: Sequence[HealthState]) -> None:
+        """Add a batch's estimates, health states and measured windows to the histories."""
+        if estimates:
+            history = EstimateHistory.of(estimates)
+            columns = {f.name: getattr(history, f.name) for f in fields(history)}
+            self.estimates.extend(columns)
+            sigma = history.u_sigma
+            self.envelopes[ESTIMATES].extend(
+                {**columns, 'u_low': history.u - 2 * sigma, 'u_high': history.u + 2 * sigma})
+        if states:
+            health = HealthHistory.of(states)
+            columns = {name: getattr(health, name) for name in _HEALTH_COLUMNS}
+            self.states.extend(columns, health.messages)
+            self.envelopes[HEALTH].extend(
+                {**columns, 'rul_unknown': (~np.isfinite(health.rul_median)).astype(float)})
+        self._keep_measurements()
+
+    def _keep_measurements(self) -> None:
+        """Add the measured windows of the batch to their history and envelopes."""
+        if not self.pending:
+            return
+        stamps = np.fromiter((stamp for stamp, _, _ in self.pending), dtype=np.int64,
+                             count=len(self.pending))
+        self.measurements.extend({'stamp_ns': stamps}, self.pending)
+        eta = np.array([m.eta for _, m, _ in self.pending], dtype=float)
+        code = np.array([m.code for _, m, _ in self.pending], dtype=np.int64)
+        ok = np.array([accepted for _, _, accepted in self.pending], dtype=bool)
+        for value in np.unique(code).tolist():
+            for accepted in (True, False):
+                chosen = (code == value) & (ok == accepted)
+                if chosen.any():
+                    self.measured.setdefault(
+                        measurements_key(value, accepted),
+                        Binned(ENVELOPE_BINS, ('stamp_ns', 'eta'), ('eta',))).extend(
+                            {'stamp_ns': stamps[chosen], 'eta': eta[chosen]})
+        self.pending.clear()
+
+    def _keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
+        """Add ground-truth rows (stamps [ns], x, y, z) of topic ``name``."""
+        columns = {'stamp_ns': stamps, 'x': values[:, 0], 'y': values[:, 1],
+                   'z': values[:, 2]}
+        if name not in self.truth:
+            self.truth[name] = (Binned(self.history, _TRUTH_COLUMNS),
+                                Binned(ENVELOPE_BINS, _TRUTH_COLUMNS, ('x', 'y', 'z')))
+        for kept in self.truth[name]:
+            kept.extend(columns)
+        if name == interfaces.TRUTH_FRICTION and self.true_end_of_life_ns is None:
+            index = true_end_of_life_index(values[:, 0], self.assessor.u_eol)
+            if index is not None:
+                self.true_end_of_life_ns = int(stamps[index])
 
     def _read(self, path: Path, writer: Any, progress: bool) -> str:
         """Feed one bag; returns the reader kind used."""
         from gear_phm.bagio import BagReader
-        from gear_phm.bagio.writer import vector3_stamped_from_cdr
         with BagReader(path) as bag:
             topic = bag.require_topic(self.topic, interfaces.JOINT_STATE_TYPE)
             total = bag.message_count(topic)
@@ -309,8 +376,9 @@ class _Run:
             last_log_ns = 0
             for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
                 if raw.topic != topic:           # ground truth, for the plot only
-                    self.truth.setdefault(truth_topics[raw.topic], []).extend(
-                        vector3_stamped_from_cdr(payload) for payload in raw.payloads())
+                    stamps, values = interfaces.vector3_stamped_columns(
+                        raw.buffer, raw.offsets, raw.lengths)
+                    self._keep_truth(truth_topics[raw.topic], stamps, values)
                     continue
                 times = raw.log_time_ns
                 if next_tick is None:
@@ -350,13 +418,12 @@ class _Run:
         latest = [self.assessor.latest]         # the newest health state after i estimates
         states: list[HealthState] = []
         first_state = [0]                       # states[first_state[i]:] came after i
-        for estimate, state in zip(estimates, self.assessor.on_estimates(estimates)):
-            self.estimates.append(estimate)
+        for state in self.assessor.on_estimates(estimates):
             if state is not None:
-                self.states.append(state)
                 states.append(state)
             latest.append(state if state is not None else latest[-1])
             first_state.append(len(states))
+        self._keep(estimates, states)
         received = [self.samples + cut for cut in cuts]
         self.samples += messages
         ends = [snapshot.estimates for snapshot in snapshots]

@@ -6,7 +6,7 @@ Their own module so that :mod:`gear_phm.offline.engine`, which makes them, and
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -105,6 +105,35 @@ class HealthHistory:
                    column([s.utilisation for s in states]))
 
 
+#: Keys of :attr:`Analysis.envelopes`: the estimates' and the health states' (the truth
+#: topics' are their topic names, the measurements' those of :func:`measurements_key`).
+ESTIMATES, HEALTH = 'estimates', 'health'
+
+
+def measurements_key(code: int, accepted: bool) -> str:
+    """Return the :attr:`Analysis.envelopes` key of the measured windows of one ``code``.
+
+    ``code``: the power flow; ``accepted`` by the filter, or gated.
+    """
+    return f'measurements/{code}/{"accepted" if accepted else "gated"}'
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A series in bins of consecutive records: each bin's first record, least and greatest.
+
+    ``stamp_ns``: the first record's stamp of each bin [ns]; ``count``: records per bin;
+    ``first[name]``: the first record's value; ``low[name]`` / ``high[name]``: the least and
+    greatest value in the bin (NaN only where all are NaN). A bin of one record is that record.
+    """
+
+    stamp_ns: np.ndarray
+    count: np.ndarray
+    first: dict[str, np.ndarray]
+    low: dict[str, np.ndarray]
+    high: dict[str, np.ndarray]
+
+
 @dataclass(frozen=True)
 class Analysis:
     """Result of :func:`analyze_bag`: histories, the JSON summary, and where it was written."""
@@ -116,6 +145,16 @@ class Analysis:
     measurements: tuple[tuple[int, Measurement, bool], ...]
     truth: dict[str, np.ndarray]
     out: Path | None = None
+    #: The plotted series in a bounded number of bins with their min/max (:class:`Envelope`),
+    #: whatever ``history``: :data:`ESTIMATES` (u, eta_opposing, eta_aiding; low/high also of
+    #: u_low, u_high = u -/+ 2 sigma), :data:`HEALTH` (level, rul_median, rul_p5, rul_p95,
+    #: u_eol, rul_unknown = 1 where the median is not finite), the measured windows' eta
+    #: (:func:`measurements_key`) and each truth topic's x, y, z (by topic name).
+    envelopes: dict[str, Envelope] = field(default_factory=dict)
+    #: Stamp [ns] of the first ground-truth sample whose u reaches the health assessor's u_eol
+    #: (:func:`~gear_phm.prognostics.metrics.true_end_of_life_index`, over every truth
+    #: sample), or None.
+    true_end_of_life_ns: int | None = None
 
     def to_dataframe(self) -> Any:
         """Return one row per estimate.

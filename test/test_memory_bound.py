@@ -1,0 +1,77 @@
+"""Memory of offline analysis does not grow with the bag: a bound on peak RSS, not a timing.
+
+Each analysis runs in its own process; its peak RSS comes from ``os.wait4``
+(``bench/memory.py`` measures the same up to 40M samples, docs/benchmarks.md). Before
+the histories were bounded, 100k samples of 1 kHz with truth peaked 54 % above 10k
+(111 -> 171 MiB; now 104 -> 105 MiB).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+
+from gear_phm.offline.decimate import Binned
+
+GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+#: Allowed growth of the peak from a bag to one ten times longer [-] (measured: 1-3 %).
+GROWTH = 0.15
+
+
+def _peak_mib(command: list[str]) -> float:
+    """Run ``command`` to completion; return its own peak RSS [MiB]."""
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    assert child.stderr is not None
+    errors = child.stderr.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0, errors.decode()[-2000:]
+    return usage.ru_maxrss / 1024.0
+
+
+def test_analyze_peak_rss_does_not_grow_with_the_bag(tmp_path: Path) -> None:
+    """gear-phm analyze with truth and plot: 100k samples peak within 15 % of 10k."""
+    peaks = []
+    for samples in (10_000, 100_000):
+        bag = tmp_path / f'bag_{samples}'
+        subprocess.run([str(GEAR_PHM), 'simulate', '--duration', str(samples // 1000),
+                        '--rate', '1000', '--out', str(bag)], check=True, capture_output=True)
+        peaks.append(_peak_mib([str(GEAR_PHM), 'analyze', str(bag), '--ratio', '3', '--out',
+                                str(tmp_path / f'out_{samples}'), '--no-progress']))
+        assert (tmp_path / f'out_{samples}' / 'analysis.png').is_file()
+    small, large = peaks
+    assert large <= (1 + GROWTH) * small, f'peak RSS {small:.0f} -> {large:.0f} MiB'
+
+
+def test_binned_keeps_first_last_and_extremes_in_bounded_bins() -> None:
+    """Bins merge pairwise: limit..2 limit bins, each its first record, its min and max."""
+    rng = np.random.default_rng(7)
+    n = 1000
+    values = rng.normal(size=n)
+    values[::13] = np.nan                        # NaN ignored by the envelope
+    stamps = np.arange(n, dtype=np.int64) * 10
+    kept = Binned(8, ('stamp_ns', 'x'), ('x',), objects=True)
+    done = 0
+    for size in rng.integers(1, 90, size=100).tolist():
+        part = slice(done, min(done + size, n))
+        kept.extend({'stamp_ns': stamps[part], 'x': values[part]},
+                    list(range(n))[part])
+        done = part.stop
+        if done == n:
+            break
+    assert kept.count == n and kept.stride == 64 and 8 <= kept.bins <= 16
+    first = kept.first()
+    expected = np.append(np.arange(0, n, 64), n - 1)          # first of each bin, the last
+    assert np.array_equal(first['stamp_ns'], stamps[expected])
+    assert kept.objects() == expected.tolist()
+    envelope = kept.envelope()
+    assert envelope.count.sum() == n
+    for i, start in enumerate(range(0, n, 64)):
+        assert envelope.low['x'][i] == np.nanmin(values[start:start + 64])
+        assert envelope.high['x'][i] == np.nanmax(values[start:start + 64])
+    everything = Binned(None, ('x',))
+    everything.extend({'x': values[:500]})
+    everything.extend({'x': values[500:]})
+    assert np.array_equal(everything.first()['x'], values, equal_nan=True)
