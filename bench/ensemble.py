@@ -100,6 +100,7 @@ def aggregate(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
     held = band_total = below = optimism_total = finite = levels = 0
     wear = healthy = healthy_ok = with_levels = 0
     band_min = math.inf
+    band_lives: list[float] = []
     for result in results:
         score = result['evaluation']['acceptance']
         if result['life']['healthy']:
@@ -113,10 +114,8 @@ def aggregate(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
         band = score['band']
         held += band['held']
         band_total += band['predictions']
-        if band['predictions']:
-            band_min = min(band_min, band['held'] / band['predictions'])
-        else:
-            band_min = 0.0
+        band_lives.append(band['held'] / band['predictions'] if band['predictions'] else 0.0)
+        band_min = min(band_min, band_lives[-1])
         optimism = score['not_optimistic']
         below += optimism['held']
         optimism_total += optimism['predictions']
@@ -127,6 +126,7 @@ def aggregate(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return {'wear_lives': wear, 'healthy_lives': healthy,
             'alpha_lambda': _share(pairs_passed, pairs), 'alpha_lambda_pairs': pairs,
             'band': _share(held, band_total), 'band_min_life': band_min if wear else math.nan,
+            'band_mean_life': sum(band_lives) / wear if wear else math.nan,
             'not_optimistic': _share(below, optimism_total),
             'finite': _share(finite, wear), 'levels': _share(levels, with_levels),
             'healthy': _share(healthy_ok, healthy)}
@@ -148,6 +148,7 @@ def verdicts(row: dict[str, Any]) -> dict[str, bool | None]:
         'alpha_lambda': check(row['alpha_lambda'], lambda v: v >= ALPHA_LAMBDA_SHARE),
         'band': check(row['band'], lambda v: BAND_RANGE[0] <= v <= BAND_RANGE[1]),
         'band_min_life': check(row['band_min_life'], lambda v: v >= BAND_PER_LIFE_MIN),
+        'band_mean_life': None,
         'not_optimistic': check(row['not_optimistic'], lambda v: v >= NOT_OPTIMISTIC_SHARE),
         'finite': check(row['finite'], lambda v: v >= FINITE_SHARE),
         'levels': check(row['levels'], lambda v: v >= 1.0),
@@ -155,13 +156,14 @@ def verdicts(row: dict[str, Any]) -> dict[str, bool | None]:
     }
 
 
-COLUMNS = ('alpha_lambda', 'band', 'band_min_life', 'not_optimistic', 'finite', 'levels',
-           'healthy')
+COLUMNS = ('alpha_lambda', 'band', 'band_min_life', 'band_mean_life', 'not_optimistic', 'finite',
+           'levels', 'healthy')
 HEADER = ('| group | wear lives | healthy lives | alpha-lambda pairs passed (>= 90 %) | '
           "band coverage from lambda 0.25 (80-98 %) | worst life's band (>= 50 %) | "
+          "mean of the lives' bands | "
           'p5 <= true RUL from lambda 0.5 (>= 95 %) | RUL finite from lambda 0.25 (>= 90 % '
           'of lives) | levels as required (all lives) | healthy: OK, RUL inf (all lives) |\n'
-          '|---|---|---|---|---|---|---|---|---|---|')
+          '|---|---|---|---|---|---|---|---|---|---|---|')
 
 
 def table_row(name: str, row: dict[str, Any], marks: bool = True) -> str:
@@ -173,7 +175,8 @@ def table_row(name: str, row: dict[str, Any], marks: bool = True) -> str:
         if math.isnan(value):
             cells.append('-')
             continue
-        verdict = '' if not marks else (' PASS' if passed[column] else ' FAIL')
+        verdict = '' if not marks or passed[column] is None else (
+            ' PASS' if passed[column] else ' FAIL')
         cells.append(f'{value:.0%}{verdict}')
     return (f'| {name} | {row["wear_lives"]} | {row["healthy_lives"]} | ' + ' | '.join(cells)
             + ' |')
