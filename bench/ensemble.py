@@ -214,8 +214,26 @@ def life_row(result: dict[str, Any]) -> str:
     levels = score.get('levels', {})
     return head + (f'{checks} | {_ratio(band)} | {_ratio(optimism)} | '
                    f"{_fraction(score['finite']['finite_from'])} | "
-                   f"{','.join(levels.get('sequence', [])) or '-'} | "
-                   f"{'ok' if levels.get('passed') else 'FAIL'} |")
+                   f'{_sequence(levels.get("sequence", []))} | {_levels_verdict(levels)} |')
+
+
+def _sequence(steps: list[str]) -> str:
+    """Return the level transitions, or their counts when there are more than four."""
+    if len(steps) <= 4:
+        return ','.join(steps) or '-'
+    counts = {step: steps.count(step) for step in dict.fromkeys(steps)}
+    return f'{len(steps)} changes: ' + ', '.join(f'{k} x{v}' for k, v in counts.items())
+
+
+def _levels_verdict(levels: dict[str, Any]) -> str:
+    if not levels:
+        return '-'
+    if levels['passed']:
+        return 'ok'
+    reasons = [text for key, text in (('warn_before_onset', 'WARN before onset'),
+                                      ('error_before_eol', 'ERROR before EOL'))
+               if levels[key]]
+    return 'FAIL' + (f' ({", ".join(reasons)})' if reasons else '')
 
 
 def _error(check: dict[str, Any]) -> str:
