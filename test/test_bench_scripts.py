@@ -6,6 +6,7 @@ rounding.
 """
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 import subprocess
@@ -199,3 +200,32 @@ def test_bench_simulate_speed_tiny() -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     assert '3,000 samples at 1000 Hz, medians of 1 runs' in result.stdout
     assert result.stdout.count('| A: ') == 1 and 'A / B: wall ' in result.stdout
+
+
+def test_bench_ensemble_two_short_lives(tmp_path: Path) -> None:
+    """Seeds 55 (healthy, 355 s) and 56 (linear, 353 s): the table is evaluate's numbers."""
+    result = subprocess.run([sys.executable, str(BENCH / 'ensemble.py'), str(tmp_path),
+                             '--first', '55', '--seeds', '2'],
+                            capture_output=True, text=True, timeout=240.0)
+    assert result.returncode == 0, result.stderr[-2000:]
+    summary = json.loads((tmp_path / 'ensemble.json').read_text())
+    assert summary['lives'] == 2
+    every = summary['gear_phm']['all']
+    assert (every['wear_lives'], every['healthy_lives'], every['alpha_lambda_pairs']) == (1, 1, 3)
+    score = json.loads((tmp_path / '100hz' / 'life_56' / 'a' / 'evaluation.json').read_text())
+    life = json.loads((tmp_path / '100hz' / 'life_56' / 'bag' / 'life.json').read_text())
+    assert score['t_start_s'] == life['onset_s'] and score['t_eol_s'] == life['end_of_life_s']
+    accept = score['acceptance']
+    band, below = accept['band'], accept['not_optimistic']
+    assert band['predictions'] > 100 and below['predictions'] > 50
+    assert every['band'] == pytest.approx(band['held'] / band['predictions'])
+    assert every['not_optimistic'] == pytest.approx(below['held'] / below['predictions'])
+    assert every['alpha_lambda'] == pytest.approx(
+        sum(c['passed'] for c in accept['alpha_lambda']) / 3)
+    assert every['finite'] == float(accept['finite']['passed'])
+    assert every['healthy'] == float(json.loads(
+        (tmp_path / '100hz' / 'life_55' / 'a' / 'evaluation.json').read_text())
+        ['acceptance']['healthy']['passed'])
+    assert summary['gear_phm']['healthy']['band'] is None
+    row = next(line for line in result.stdout.splitlines() if line.startswith('| **all'))
+    assert f"| {every['band']:.0%} FAIL |" in row or f"| {every['band']:.0%} PASS |" in row

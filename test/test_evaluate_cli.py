@@ -10,7 +10,9 @@ import pytest
 
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.cli.main import main
+from gear_phm.cli.simulate import LIFE_FILE
 from gear_phm.interfaces import HEALTH_EFFICIENCY, HEALTH_RUL, TRUTH_FRICTION, Vector3Out
+from gear_phm.prognostics import end_of_life_u, HealthConfig
 
 
 def _write(directory: Path, topic: str, rows) -> None:
@@ -135,3 +137,107 @@ def test_evaluate_without_levels_and_never_finite(bags, tmp_path: Path) -> None:
     assert result['rul_finite_from'] == 'inf'
     assert result['band_coverage']['share'] == 0.0
     assert 'level_transitions' not in result and 'error_before_eol' not in result
+
+
+def _life(truth: Path, onset: float | None, end_of_life: float | None, **extra) -> None:
+    """Write a life.json as `simulate --random-life` does, beside the truth bag."""
+    config = HealthConfig(ratio=3.0, eta_opposing_min=0.5)
+    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
+                             config.u_max)
+    life = {'seed': 1, 'family': 'linear', 'healthy': end_of_life is None, 'ratio': 3.0,
+            'eta_opposing_min': 0.5, 'u_eol': u_eol, 'onset_s': onset,
+            'end_of_life_s': end_of_life, **extra}
+    (truth / LIFE_FILE).write_text(json.dumps(life))
+
+
+def test_evaluate_reads_the_life_beside_the_truth(bags, tmp_path: Path, capsys) -> None:
+    """life.json: t_P = onset, its end of life; the issue-23 scores; options still win."""
+    run, truth = bags
+    _life(truth, onset=100.0, end_of_life=605.0)
+    out = tmp_path / 'life.json'
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result['t_start_s'] == 100.0 and result['t_eol_s'] == 605.0
+    score = result['acceptance']
+    assert score['t_start_s'] == 100.0
+    # lambda 0.5: t = 352.5, latest prediction at 350 s: 1.1 * 250 = 275 vs true 252.5
+    checks = [(c['lam'], c['passed']) for c in score['alpha_lambda']]
+    assert checks == [(0.5, True), (0.75, True), (0.9, True)]
+    assert score['alpha_lambda'][0]['predicted_rul'] == pytest.approx(275.0)
+    assert score['alpha_lambda'][0]['true_rul'] == pytest.approx(252.5)
+    # lambda 0.9: t = 554.5, prediction at 550 s: 55 vs true 50.5
+    assert score['alpha_lambda'][2]['predicted_rul'] == pytest.approx(55.0)
+    # from lambda 0.25 (226.25 s) to 590 s: 37 predictions; p95 = 1.32 (600 - t) holds
+    # 605 - t up to t = 590 (15 <= 13.2 fails): 584.8 -> t <= 580 holds
+    assert score['band'] == {'from_lambda': 0.25, 'held': 36, 'predictions': 37}
+    # p5 = 0.88 (600 - t) <= 605 - t always: from lambda 0.5 (352.5 s): 360..590 = 24
+    assert score['not_optimistic'] == {'from_lambda': 0.5, 'held': 24, 'predictions': 24}
+    assert score['finite'] == {'by_lambda': 0.25, 'finite_from': 0.0, 'passed': True}
+    assert 'levels' not in score
+    assert 'band holds 36 of 37 from lambda 0.25' in capsys.readouterr().out
+    # an explicit --eta-opposing-min wins: u_eol 0.29 from the truth bag at 270 s
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out),
+                 '--eta-opposing-min', '0.7']) == 0
+    assert json.loads(out.read_text())['t_eol_s'] == 270.0
+    # --no-life: the truth bag's end of life and the first prediction as t_P, no scores
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out),
+                 '--no-life']) == 0
+    result = json.loads(out.read_text())
+    assert (result['t_start_s'], result['t_eol_s']) == (0.0, 600.0)
+    assert 'acceptance' not in result
+
+
+@pytest.mark.parametrize('onset, error_at, passed, early', [
+    (100.0, 610.0, True, False),      # OK > WARN at 200 s, WARN > ERROR after the end of life
+    (100.0, 550.0, False, False),     # ERROR before the end of life
+    (250.0, 610.0, False, True),      # WARN at 200 s, before the onset
+])
+def test_evaluate_scores_a_life_s_levels(bags, tmp_path: Path, onset: float, error_at: float,
+                                         passed: bool, early: bool) -> None:
+    _, truth = bags
+    _life(truth, onset=onset, end_of_life=600.0)
+    run = tmp_path / 'levels'
+    _run_with_levels(run, error_at)
+    out = tmp_path / 'm.json'
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out)]) == 0
+    levels = json.loads(out.read_text())['acceptance']['levels']
+    assert levels == {'sequence': ['OK>WARN', 'WARN>ERROR'], 'ok_to_warn': 1,
+                      'warn_to_error': 1, 'warn_before_onset': early,
+                      'error_before_eol': error_at < 600.0, 'passed': passed}
+
+
+@pytest.mark.parametrize('finite_at, level, passed', [
+    (None, 0.0, True), (500.0, 0.0, False), (None, 1.0, False)])
+def test_evaluate_scores_a_healthy_life(tmp_path: Path, capsys, finite_at: float | None,
+                                        level: float, passed: bool) -> None:
+    """A healthy life passes only with RUL inf and level OK at every status."""
+    truth, run = tmp_path / 'truth', tmp_path / 'run'
+    t = np.arange(0.0, 1000.0, 10.0)
+    _write(truth, TRUTH_FRICTION, [(ti, 0.05, 0.05, 0.0) for ti in t])
+    _life(truth, onset=None, end_of_life=None)
+    with Rosbag2McapWriter(run, compression=None) as writer:
+        for ti in t:
+            rul = 100.0 if ti == finite_at else math.inf
+            writer.write_output(Vector3Out(HEALTH_RUL, int(round(ti * 1e9)), rul, rul, rul))
+            state = level if ti >= 700.0 else 0.0
+            writer.write_output(Vector3Out(HEALTH_EFFICIENCY, int(round(ti * 1e9)), 0.9, 0.9,
+                                           state))
+    out = tmp_path / 'h.json'
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result['healthy'] is True
+    assert result['acceptance']['healthy'] == {
+        'predictions': 100, 'finite': 0 if finite_at is None else 1,
+        'finite_share': 0.0 if finite_at is None else 0.01,
+        'levels_seen': ['OK'] if level == 0.0 else ['OK', 'WARN'], 'passed': passed}
+    assert ('PASS' if passed else 'FAIL') in capsys.readouterr().out
+    # without life.json a truth that never reaches u_eol is an error, as before
+    assert main(['evaluate', str(run), '--truth', str(truth), '--no-life']) == 2
+
+
+def test_evaluate_rejects_a_broken_life_file(bags, capsys) -> None:
+    run, truth = bags
+    (truth / LIFE_FILE).write_text('{"ratio": 3.0}')
+    assert main(['evaluate', str(run), '--truth', str(truth)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count('\n') == 0 and 'missing eta_opposing_min, u_eol' in err

@@ -26,13 +26,13 @@ from helpers.live import Driver, joint_state, publish_acked  # noqa: E402
 from helpers.plant import lever_plant  # noqa: E402
 from helpers.processes import stop  # noqa: E402
 
-pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(420)]
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
          'motor_inertia:=0.01', 'sensor_timeout:=5.0', 'diagnostics_period:=0.05')
 HEALTH = ('ratio:=3.0', 'eta_opposing_min:=0.5', 'rate:=20.0', 'stale_timeout:=60.0')
-#: The stream: 120 s at 50 Hz of a gearbox whose u grows from 0.05 to 0.35 (RUL finite).
+#: The stream: 240 s at 50 Hz of a gearbox whose u grows from 0.05 to 0.35 (RUL finite).
 RATE = 50.0
-DURATION = 120.0
+DURATION = 240.0
 #: Messages per second of wall time at most (x20 real time); publish_acked keeps both nodes
 #: within their queues (they acknowledge in their statuses, every 0.05 s), so a node behind
 #: under load slows the pace instead of losing input.
@@ -178,14 +178,13 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     assert abs(u_split - u_whole) <= 0.1 * sigma_whole
     # The RUL runs on operating time. Every part starts after a probe reached the new
     # estimator (_handshake) and publish_acked never runs ahead of the nodes' queues, so both
-    # runs got every sample: the same samples and operating time, whatever the load. What
-    # remains is the restarts' own effect: each loses the open energy window (one of ~65
-    # updates) and moves the wear fit's refits; 4 restarts in this 120 s life moved the RUL
-    # by 1-3 % (49.0 s against 47.5 s under two CPU burners), hence 5 %.
+    # runs got every sample: the same samples and operating time, whatever the load, and the
+    # RUL within 2 % (88.45 s against 89.16 s under two CPU burners). A 120 s life was tried
+    # and is too short for that: its RUL moved 3-14 % over the 4 restarts.
     assert split_estimator['samples_used'] == whole_estimator['samples_used']
     assert split_estimator['samples_missing'] == whole_estimator['samples_missing'] == '0'
     assert split['operating_time_s'] == whole['operating_time_s']
-    assert rul_split == pytest.approx(rul_whole, rel=0.05)
+    assert rul_split == pytest.approx(rul_whole, rel=0.02)
     assert sigma_split == pytest.approx(sigma_whole, rel=0.1)
     # the estimator's counters continued (a restart loses the open window or two; a fresh
     # filter in the last part would have about a fifth)

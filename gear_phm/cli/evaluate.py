@@ -9,7 +9,13 @@ Also scored: from which fraction of the life the RUL stays finite, how often its
 (y, z of the RUL topic) holds the true RUL from ``--band-from``, and, when the run has
 ``gear_phm/health/efficiency`` (z = level), its health-level transitions and whether ERROR came
 before the true end of life. Prints the metrics and writes them as JSON (``--output``).
-Definitions: docs/prognostics.md.
+
+A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` beside it: its
+``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
+``--eta-opposing-min``, its wear onset that of ``--t-start`` (t_P = onset), its
+``end_of_life_s`` the true end of life (when the options give its u_eol), and issue 23's
+per-life scores are added (``acceptance``); a healthy life, which has no end of life, is scored
+on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 
@@ -18,21 +24,27 @@ import csv
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
+from gear_phm.cli.simulate import LIFE_FILE
 from gear_phm.interfaces import (field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT, HEALTH_RUL,
                                  stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics import end_of_life_u, HealthConfig
-from gear_phm.prognostics.metrics import (ALPHA, band_coverage, BAND_FROM, evaluate,
-                                          finite_from, LAMBDAS, level_transitions,
-                                          true_end_of_life_index)
+from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
+                                          evaluate, finite_from, healthy_acceptance, LAMBDAS,
+                                          level_transitions, true_end_of_life_index)
 from gear_phm.status import ERROR, LEVEL_NAMES
 
+#: life.json fields that are the defaults of the health options of the same name.
+LIFE_HEALTH = ('eta_opposing_min',)
+#: life.json fields evaluate reads.
+LIFE_FIELDS = ('ratio', 'eta_opposing_min', 'u_eol', 'onset_s', 'end_of_life_s', 'healthy')
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
 
 
@@ -53,11 +65,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='fraction of the life from which the p5-p95 band coverage is '
                              f'counted (default {BAND_FROM})')
     parser.add_argument('--t-start', type=float, default=None,
-                        help='prognostics start time [s] (default: first prediction)')
-    parser.add_argument('--ratio', type=float, default=RATIO.default,
-                        help='gearbox ratio R for u_eol from --eta-opposing-min (default '
-                             f'{RATIO.default})')
+                        help=f'prognostics start time t_P [s] (default: the wear onset of the '
+                             f"truth's {LIFE_FILE}, else the first prediction)")
+    parser.add_argument('--ratio', type=float, default=None,
+                        help='gearbox ratio R for u_eol from --eta-opposing-min (default: '
+                             f"that of the truth's {LIFE_FILE}, else {RATIO.default})")
+    parser.add_argument('--no-life', dest='life', action='store_false',
+                        help=f'ignore a {LIFE_FILE} beside the truth bag')
     add_health_arguments(parser)
+    # None: from life.json when the truth has one, else the parameter's default.
+    parser.set_defaults(**{f'health_{name}': None for name in LIFE_HEALTH})
+
+
+def read_life(truth: Path) -> dict[str, Any] | None:
+    """Return the random life's record beside a truth bag (in it or beside its file), or None.
+
+    Raises CliError if that file is unreadable or lacks a field evaluate needs.
+    """
+    path = (truth if truth.is_dir() else truth.parent) / LIFE_FILE
+    if not path.is_file():
+        return None
+    try:
+        life: dict[str, Any] = json.loads(path.read_text(encoding='utf-8'))
+    except (OSError, ValueError) as exc:
+        raise CliError(f'cannot read {path}: {exc}') from None
+    missing = [key for key in LIFE_FIELDS if not isinstance(life, dict) or key not in life]
+    if missing:
+        raise CliError(f'{path} is not a life record of gear-phm simulate --random-life '
+                       f'(missing {", ".join(missing)})')
+    return life
 
 
 def _find_bag(run: Path) -> Path:
@@ -127,18 +163,40 @@ def truth_eol(truth: Path, u_eol: float) -> float:
     return float(times[index])
 
 
-def run(args: argparse.Namespace) -> int:
+def _config(args: argparse.Namespace, life: dict[str, Any] | None) -> HealthConfig:
+    """Health options, unset ones from ``life`` (else their defaults); CliError if invalid."""
+    values = health_values(args)
+    for name in LIFE_HEALTH:
+        if values[name] is None:
+            values.pop(name)
+            if life is not None:
+                values[name] = float(life[name])
+    ratio = args.ratio if args.ratio is not None else (
+        float(life['ratio']) if life is not None else RATIO.default)
     try:
-        config = HealthConfig(ratio=float(args.ratio), **health_values(args))
-    except ValueError as exc:
+        return HealthConfig(ratio=float(ratio), **values)
+    except (TypeError, ValueError) as exc:
         raise CliError(str(exc)) from None
+
+
+def run(args: argparse.Namespace) -> int:
+    life = read_life(args.truth) if args.life else None
+    config = _config(args, life)
     u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
                              config.u_max)
     bag = _find_bag(args.run)
     times, values = read_vector_topic(bag, HEALTH_RUL)
     median, p5, p95 = (values[:, field_index(HEALTH_LAYOUT, HEALTH_RUL, f'rul.{name}')]
                        for name in ('median', 'p5', 'p95'))
-    t_eol = truth_eol(args.truth, u_eol)
+    same_eol = life is not None and math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9)
+    if same_eol and life is not None and life['healthy']:
+        return _healthy(args, bag, median, u_eol)
+    if same_eol and life is not None and life['end_of_life_s'] is not None:
+        t_eol = float(life['end_of_life_s'])
+    else:
+        t_eol = truth_eol(args.truth, u_eol)
+    if args.t_start is None and life is not None and life['onset_s'] is not None:
+        args.t_start = float(life['onset_s'])
     before = times < t_eol
     if not before.any():
         raise CliError(f'no prediction before the true end of life at {t_eol:.6g} s')
@@ -150,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
         share, counted = band_coverage(times, p5, p95, t_eol, args.band_from, start)
         changes = () if levels is None else level_transitions(*levels, t_eol, start)
         finite = finite_from(times[before], median[before], t_eol, start)
+        scores = None if life is None else acceptance(times, median, p5, p95, t_eol, start,
+                                                      levels, args.alpha)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     metrics['rul_finite_from'] = 'inf' if math.isinf(finite) else finite
@@ -161,12 +221,9 @@ def run(args: argparse.Namespace) -> int:
             {'t': c.t, 'lam': c.lam, 'from': LEVEL_NAMES.get(c.before, str(c.before)),
              'to': LEVEL_NAMES.get(c.after, str(c.after))} for c in changes]
         metrics['error_before_eol'] = bool(np.any((levels[1] == ERROR) & (levels[0] < t_eol)))
-    metrics['u_eol'] = u_eol
-    metrics['run'] = str(bag)
-    metrics['truth'] = str(args.truth)
-    output = args.output or (bag / 'evaluation.json' if bag.is_dir()
-                             else bag.with_suffix('.evaluation.json'))
-    output.write_text(json.dumps(metrics, indent=2) + '\n', encoding='utf-8')
+    if scores is not None:
+        metrics['acceptance'] = scores
+    output = _write(args, bag, metrics, u_eol)
     print(f'true end of life {t_eol:.6g} s (u_eol {u_eol:.4g}), {metrics["predictions"]} '
           f'predictions from {metrics["t_start_s"]:.6g} s')
     for check in metrics['alpha_lambda']:
@@ -184,5 +241,49 @@ def run(args: argparse.Namespace) -> int:
                           for c in metrics['level_transitions'])
         print(f'  health levels: {steps or "no change"}; ERROR before the true end of life: '
               f'{"YES" if metrics["error_before_eol"] else "no"}')
+    if scores is not None:
+        _print_acceptance(scores)
     print(f'metrics written to {output}')
     return 0
+
+
+def _write(args: argparse.Namespace, bag: Path, metrics: dict[str, Any], u_eol: float) -> Path:
+    """Add u_eol and the paths to ``metrics``, write it as JSON; return the file."""
+    metrics['u_eol'] = u_eol
+    metrics['run'] = str(bag)
+    metrics['truth'] = str(args.truth)
+    output: Path = args.output or (bag / 'evaluation.json' if bag.is_dir()
+                                   else bag.with_suffix('.evaluation.json'))
+    output.write_text(json.dumps(metrics, indent=2) + '\n', encoding='utf-8')
+    return output
+
+
+def _healthy(args: argparse.Namespace, bag: Path, median: np.ndarray, u_eol: float) -> int:
+    """Score a healthy random life: RUL inf and level OK throughout."""
+    levels = _levels(bag)
+    score = healthy_acceptance(median, None if levels is None else levels[1])
+    metrics = {'healthy': True, 'predictions': score['predictions'],
+               'acceptance': {'healthy': score}}
+    output = _write(args, bag, metrics, u_eol)
+    print(f'healthy life (u_eol {u_eol:.4g}): {score["finite"]} of {score["predictions"]} '
+          f'RUL predictions finite, levels {", ".join(score["levels_seen"]) or "none"}: '
+          f'{"PASS" if score["passed"] else "FAIL"}')
+    print(f'metrics written to {output}')
+    return 0
+
+
+def _print_acceptance(scores: dict[str, Any]) -> None:
+    """Print issue 23's per-life scores (docs/prognostics.md)."""
+    checks = ', '.join(f'{c["lam"]:g} {"PASS" if c["passed"] else "FAIL"}'
+                       for c in scores['alpha_lambda'])
+    band, below, finite = scores['band'], scores['not_optimistic'], scores['finite']
+    print(f'  life from t_P {scores["t_start_s"]:.6g} s: alpha-lambda {checks}; band holds '
+          f'{band["held"]} of {band["predictions"]} from lambda {band["from_lambda"]:g}; '
+          f'p5 <= true RUL at {below["held"]} of {below["predictions"]} from lambda '
+          f'{below["from_lambda"]:g}; RUL finite from lambda {finite["finite_from"]} '
+          f'({"PASS" if finite["passed"] else "FAIL"} by {finite["by_lambda"]:g})')
+    if 'levels' in scores:
+        levels = scores['levels']
+        print(f'  levels {" ".join(levels["sequence"]) or "no change"}: '
+              f'{"PASS" if levels["passed"] else "FAIL"} (WARN before onset: '
+              f'{"YES" if levels["warn_before_onset"] else "no"})')

@@ -8,7 +8,9 @@ is the latest one made at or before t_lambda.
 
 Beyond Saxena's: how early the RUL is finite (:func:`finite_from`), how often its p5-p95 band
 holds the true RUL (:func:`band_coverage`) and the health-level transitions of a run
-(:func:`level_transitions`), the acceptance measures of docs/prognostics.md.
+(:func:`level_transitions`), the acceptance measures of docs/prognostics.md; and issue 23's
+per-life scores of a random life (:func:`acceptance`, :func:`healthy_acceptance`), with t_start
+its wear onset.
 """
 from __future__ import annotations
 
@@ -19,12 +21,20 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from gear_phm.status import ERROR, LEVEL_NAMES, OK, WARN
+
 LAMBDAS = (0.25, 0.5, 0.75)
 #: Half-width of the accuracy cone around the true RUL, as a fraction of it (Saxena's alpha):
 #: the default of ``gear-phm evaluate`` and the cone of ``analysis.png``.
 ALPHA = 0.2
 #: Fraction of the life from which :func:`band_coverage` counts predictions.
 BAND_FROM = 0.25
+#: Issue 23's scoring of a life (:func:`acceptance`): alpha-lambda at these lambdas, ...
+ACCEPTANCE_LAMBDAS = (0.5, 0.75, 0.9)
+#: ... p5 at or below the true RUL from this fraction of the life on, ...
+NOT_OPTIMISTIC_FROM = 0.5
+#: ... and the RUL finite from this fraction of the life on [-].
+FINITE_BY = 0.25
 
 
 @dataclass(frozen=True)
@@ -176,6 +186,20 @@ def band_coverage(t: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
 
     Returns (share, number of those predictions); (NaN, 0) if there are none.
     """
+    held, counted = _held(t, p5, p95, t_eol, lam, t_start)
+    return (held / counted if counted else math.nan), counted
+
+
+def not_optimistic(t: ArrayLike, p5: ArrayLike, t_eol: float, lam: float = NOT_OPTIMISTIC_FROM,
+                   t_start: float | None = None) -> tuple[int, int]:
+    """(How many, of how many) predictions in [t_lambda, t_eol) have p5 <= r*(t)."""
+    lower = np.asarray(p5, dtype=float).ravel()
+    return _held(t, lower, np.full(lower.shape, math.inf), t_eol, lam, t_start)
+
+
+def _held(t: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float, lam: float,
+          t_start: float | None) -> tuple[int, int]:
+    """(Held, counted): predictions in [t_lambda, t_eol) and those whose [p5, p95] holds r*."""
     if not 0.0 <= lam < 1.0:
         raise ValueError(f'lam must be in [0, 1), got {lam!r}')
     times, lower, t_eol, start = _inputs(t, p5, t_eol, t_start)
@@ -183,11 +207,9 @@ def band_coverage(t: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
     if upper.shape != times.shape or np.isnan(upper).any():
         raise ValueError('p95 must have one value, not NaN, per prediction time')
     keep = (times >= start + lam * (t_eol - start)) & (times < t_eol)
-    if not keep.any():
-        return math.nan, 0
     true = t_eol - times[keep]
     held = (lower[keep] <= true) & (true <= upper[keep])
-    return float(np.mean(held)), int(keep.sum())
+    return int(held.sum()), int(keep.sum())
 
 
 @dataclass(frozen=True)
@@ -218,6 +240,79 @@ def level_transitions(t: ArrayLike, levels: ArrayLike, t_eol: float,
     changed = np.flatnonzero(codes[1:] != codes[:-1]) + 1
     return tuple(Transition(float(times[i]), float((times[i] - start) / (t_eol - start)),
                             int(codes[i - 1]), int(codes[i])) for i in changed)
+
+
+def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
+                t_start: float | None = None) -> dict:
+    """Issue 23's levels of a wear life, JSON-ready.
+
+    ``sequence``: the transitions as 'FROM>TO' level names; ``passed`` when they are
+    exactly OK -> WARN then WARN -> ERROR, no state before ``onset`` [s] is WARN or ERROR and
+    none before ``t_eol`` [s] is ERROR.
+    """
+    times = np.asarray(t, dtype=float).ravel()
+    codes = np.asarray(levels, dtype=float).ravel()
+    changes = level_transitions(times, codes, t_eol, t_start)
+    sequence = [(c.before, c.after) for c in changes]
+    warn_early = bool(np.any(np.isin(codes, (WARN, ERROR)) & (times < onset)))
+    error_early = bool(np.any((codes == ERROR) & (times < t_eol)))
+    first_ok = codes.size > 0 and int(codes[0]) == OK
+    return {'sequence': [f'{_name(a)}>{_name(b)}' for a, b in sequence],
+            'ok_to_warn': sequence.count((OK, WARN)),
+            'warn_to_error': sequence.count((WARN, ERROR)),
+            'warn_before_onset': warn_early, 'error_before_eol': error_early,
+            'passed': bool(first_ok and sequence == [(OK, WARN), (WARN, ERROR)]
+                           and not warn_early and not error_early)}
+
+
+def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
+               t_start: float, levels: tuple[ArrayLike, ArrayLike] | None = None,
+               alpha: float = ALPHA) -> dict:
+    """Issue 23's scores of one wear life from t_start = its onset [s], JSON-ready.
+
+    ``t``, ``median``, ``p5``, ``p95``: every prediction (after t_eol too: ignored);
+    ``levels``: (stamps [s], level codes) of the health states, None without them.
+    alpha-lambda at :data:`ACCEPTANCE_LAMBDAS`, band coverage from :data:`BAND_FROM` and p5 at
+    or below the true RUL from :data:`NOT_OPTIMISTIC_FROM` as (held, predictions) counts, RUL
+    finite from :data:`FINITE_BY`, and :func:`level_check`. Raises ValueError on bad inputs.
+    """
+    times = np.asarray(t, dtype=float).ravel()
+    values = np.asarray(median, dtype=float).ravel()
+    before = times < t_eol
+    if not before.any():
+        raise ValueError(f'no prediction before t_eol = {t_eol!r}')
+    checks = [alpha_lambda(times[before], values[before], t_eol, lam, alpha, t_start)
+              for lam in ACCEPTANCE_LAMBDAS]
+    held, counted = _held(times, p5, p95, t_eol, BAND_FROM, t_start)
+    below, total = not_optimistic(times, p5, t_eol, NOT_OPTIMISTIC_FROM, t_start)
+    finite = finite_from(times[before], values[before], t_eol, t_start)
+    result: dict = {
+        't_start_s': t_start,
+        'alpha_lambda': [asdict(check) for check in checks],
+        'band': {'from_lambda': BAND_FROM, 'held': held, 'predictions': counted},
+        'not_optimistic': {'from_lambda': NOT_OPTIMISTIC_FROM, 'held': below,
+                           'predictions': total},
+        'finite': {'by_lambda': FINITE_BY, 'finite_from': finite,
+                   'passed': finite <= FINITE_BY},
+    }
+    if levels is not None:
+        result['levels'] = level_check(*levels, t_eol, t_start, t_start)
+    return _json_ready(result)
+
+
+def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> dict:
+    """Issue 23's score of a healthy life: every RUL inf and every level OK, JSON-ready."""
+    values = np.asarray(median, dtype=float).ravel()
+    finite = int(np.isfinite(values).sum())
+    codes = [] if levels is None else sorted({int(c) for c in np.asarray(levels).ravel()})
+    return {'predictions': int(values.size), 'finite': finite,
+            'finite_share': finite / values.size if values.size else 0.0,
+            'levels_seen': [_name(code) for code in codes],
+            'passed': bool(values.size and finite == 0 and codes in ([], [OK]))}
+
+
+def _name(level: int) -> str:
+    return LEVEL_NAMES.get(level, str(level))
 
 
 def _json_ready(value: object) -> object:
