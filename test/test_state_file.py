@@ -19,7 +19,7 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from sensor_msgs.msg import JointState  # noqa: E402, I100
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline  # noqa: E402, I100, I201
-from gear_phm.interfaces import HEALTH_RUL, OPERATING_TIME  # noqa: E402
+from gear_phm.interfaces import HEALTH_RUL, OPERATING_TIME, stamp_to_ns  # noqa: E402
 from gear_phm.persistence import save_state, SCHEMA  # noqa: E402
 from helpers import processes  # noqa: E402
 from helpers.live import Driver, joint_state, publish_acked  # noqa: E402
@@ -129,6 +129,15 @@ def _quiet(driver: Driver) -> tuple[dict[str, str], dict[str, str]]:
     return driver.latest(ESTIMATOR), driver.latest(DIAGNOSTICS)
 
 
+def _saved_up_to(state_dir: Path, stamp_ns: int) -> bool:
+    """Whether the estimator's state file holds the sample of ``stamp_ns`` [ns]."""
+    try:
+        doc = json.loads((state_dir / 'estimator.json').read_text())
+    except (OSError, ValueError):
+        return False                    # not written yet (or mid-rename on another FS)
+    return doc.get('saved_stamp_ns') == stamp_ns
+
+
 def _final(status: dict[str, str]) -> tuple[float, float, float]:
     return float(status['u']), float(status['u_sigma']), float(status['rul_s'])
 
@@ -153,8 +162,10 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
             try:
                 publish_acked(driver, messages[bounds[part]:bounds[part + 1]], PACE)
                 split_estimator, split = _quiet(driver)
-                if killed:
-                    driver.spin(1.5)            # > 2 save periods before the kill
+                if killed:              # kill once a periodic save holds the part's end
+                    last_ns = stamp_to_ns(messages[bounds[part + 1] - 1].header.stamp)
+                    driver.wait(functools.partial(_saved_up_to, tmp_path, last_ns), 60.0,
+                                'a periodic save with the last sample')
             finally:
                 codes = [stop(p, signal.SIGKILL if killed else signal.SIGTERM)
                          for p in procs]
