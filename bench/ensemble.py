@@ -35,7 +35,14 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 GEAR_PHM = [sys.executable, '-m', 'gear_phm.cli.main']
-NICE = ['nice', '-n', '19']
+#: Niceness of the analysis processes (``--nice``; children read it from the environment).
+NICE_ENV = 'GEAR_PHM_BENCH_NICE'
+
+
+def _nice() -> list[str]:
+    return ['nice', '-n', os.environ.get(NICE_ENV, '19')]
+
+
 #: 1 kHz lives are run only up to this record length [s] (issue 23).
 FAST_RATE_MAX_DURATION = 3000.0
 #: Issue 23's acceptance thresholds.
@@ -69,12 +76,12 @@ def run_life(task: tuple[Path, int, float, bool, bool]) -> dict[str, Any]:
     out, seed, rate, reuse, prepare_only = task
     started = time.perf_counter()
     bag, analysis = out / 'bag', out / 'a'
-    _step(bag, [*NICE, *GEAR_PHM, 'simulate', '--random-life', str(seed), '--rate', repr(rate),
+    _step(bag, [*_nice(), *GEAR_PHM, 'simulate', '--random-life', str(seed), '--rate', repr(rate),
                 '--out', str(bag), '--truth-every', str(max(1, round(rate / 10.0)))], reuse)
     life = json.loads((bag / 'life.json').read_text())
     health = ['--ratio', repr(life['ratio']), '--eta-opposing-min',
               repr(life['eta_opposing_min'])]
-    _step(analysis, [*NICE, *GEAR_PHM, 'analyze', str(bag), *health, '--out', str(analysis),
+    _step(analysis, [*_nice(), *GEAR_PHM, 'analyze', str(bag), *health, '--out', str(analysis),
                      '--no-plot', '--no-progress'], reuse)
     if prepare_only:
         return {'life': life, 'seconds': time.perf_counter() - started}
@@ -82,7 +89,7 @@ def run_life(task: tuple[Path, int, float, bool, bool]) -> dict[str, Any]:
     if reuse and evaluation.is_file() and 'acceptance' in json.loads(evaluation.read_text()):
         return {'life': life, 'evaluation': json.loads(evaluation.read_text()),
                 'directory': str(out), 'seconds': time.perf_counter() - started}
-    result = subprocess.run([*NICE, *GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag)],
+    result = subprocess.run([*_nice(), *GEAR_PHM, 'evaluate', str(analysis), '--truth', str(bag)],
                             capture_output=True, text=True, env=_environment())
     if result.returncode != 0:
         raise RuntimeError(f'evaluate {analysis} failed:\n{result.stderr[-2000:]}')
@@ -267,6 +274,8 @@ def main() -> int:
                         help='sample rates [Hz]; rates above 100 Hz only for lives up to '
                              f'{FAST_RATE_MAX_DURATION:.0f} s (default 100)')
     parser.add_argument('--workers', type=int, default=1, help='parallel lives (default 1)')
+    parser.add_argument('--nice', type=int, default=19,
+                        help='niceness of simulate/analyze/evaluate (default 19)')
     parser.add_argument('--reuse', action='store_true',
                         help='keep lives already simulated and analysed in OUT')
     parser.add_argument('--prepare-only', action='store_true',
@@ -277,6 +286,7 @@ def main() -> int:
     parser.add_argument('--samples', type=int, default=100,
                         help='progpy MonteCarlo samples per prediction (default 100)')
     args = parser.parse_args()
+    os.environ[NICE_ENV] = str(args.nice)
     sys.path.insert(0, str(ROOT))
     from gear_phm.simulation.lives import random_life
 

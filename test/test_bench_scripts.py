@@ -205,7 +205,7 @@ def test_bench_simulate_speed_tiny() -> None:
 def test_bench_ensemble_two_short_lives(tmp_path: Path) -> None:
     """Seeds 55 (healthy, 355 s) and 56 (linear, 353 s): the table is evaluate's numbers."""
     result = subprocess.run([sys.executable, str(BENCH / 'ensemble.py'), str(tmp_path),
-                             '--first', '55', '--seeds', '2'],
+                             '--first', '55', '--seeds', '2', '--nice', '0'],
                             capture_output=True, text=True, timeout=240.0)
     assert result.returncode == 0, result.stderr[-2000:]
     summary = json.loads((tmp_path / 'ensemble.json').read_text())
