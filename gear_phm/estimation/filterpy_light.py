@@ -5,9 +5,10 @@
 took 1.2 s of a 1.6 s start-up of ``gear-phm analyze`` here (``python -X importtime``), for a
 filter of which gear_phm uses ``predict`` and ``update`` only.
 
-:func:`kalman_filter_class` loads filterpy's own ``kalman/kalman_filter.py`` (the library's
-code, unchanged) with just the two helpers it needs at import time: ``pretty_str`` and
-``reshape_z`` from ``filterpy/common/helpers.py`` (numpy only). ``logpdf``, used only by the
+This module's ``KalmanFilter`` (imported by ``estimation/kalman.py``) is filterpy's own class,
+loaded from ``kalman/kalman_filter.py`` (the library's code, unchanged) with just the two
+helpers it needs at import time: ``pretty_str`` and ``reshape_z`` from
+``filterpy/common/helpers.py`` (numpy only). ``logpdf``, used only by the
 likelihood properties, imports ``filterpy.stats`` on its first call. The temporary module
 entries are removed again, so a later ``import filterpy`` by anyone else is the full, normal
 import. If filterpy's layout ever differs, the normal import is used instead (slower, never
@@ -40,7 +41,7 @@ def _load(name: str, path: Path) -> types.ModuleType:
     return module
 
 
-def light_kalman_filter_class() -> type:
+def _light_class() -> type:
     """Return filterpy's ``KalmanFilter`` loaded light; raises ImportError if it cannot be."""
     spec = importlib.util.find_spec('filterpy')
     if spec is None or spec.origin is None:
@@ -67,15 +68,17 @@ def light_kalman_filter_class() -> type:
     return module.KalmanFilter
 
 
-def kalman_filter_class() -> type:
+def _kalman_filter_class() -> type:
     """Return filterpy's ``KalmanFilter`` class, loaded light when filterpy is not imported yet."""
     if 'filterpy.kalman' in sys.modules:
         return sys.modules['filterpy.kalman'].KalmanFilter
     try:
-        return light_kalman_filter_class()
+        return _light_class()
     except Exception:  # noqa: B902 - any surprise in filterpy's layout: the normal import
         from filterpy.kalman import KalmanFilter
         return KalmanFilter
 
 
-KalmanFilter = kalman_filter_class()
+#: filterpy's ``KalmanFilter``: the class of a full ``import filterpy.kalman`` if that came
+#: first, else the same code loaded light. The one public name of this module.
+KalmanFilter = _kalman_filter_class()
