@@ -29,6 +29,7 @@ the progpy model of that law; its columns are added to the table).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 import json
 import math
 from pathlib import Path
@@ -51,6 +52,29 @@ U_TYPICAL = 0.3
 #: gear_phm's `--trend` for each simulated wear law with --told-law: the simulator's
 #: exponential wear, u0 exp(k t), is gear_phm's proportional law (docs/prognostics.md).
 TOLD_TREND = {'linear': 'linear', 'exponential': 'proportional', 'power': 'power'}
+
+
+def earliest_prediction(measured: np.ndarray) -> float:
+    """Return the first time [s] a prediction is made: the sixth measurement's (or the last's)."""
+    return float(measured[min(5, len(measured) - 1), 0])
+
+
+def prediction_times(t_start: float, t_end: float, lambdas: Sequence[float],
+                     measured: np.ndarray) -> np.ndarray:
+    """Return the prediction times [s]: at each lambda and every 1/GRID of [t_start, t_end].
+
+    Only those from :func:`earliest_prediction` on.
+    """
+    t_pred = np.unique(np.concatenate([
+        t_start + np.array(lambdas) * (t_end - t_start),
+        t_start + np.arange(1, GRID) / GRID * (t_end - t_start)]))
+    return t_pred[t_pred >= earliest_prediction(measured)]
+
+
+def write_exchange(path: Path, measured: np.ndarray, t_pred: np.ndarray, u_eol: float) -> None:
+    """Write the worker's input: measurements (t [s], u, variance), prediction times, u_eol."""
+    np.savez(path, t=measured[:, 0], u=measured[:, 1], u_variance=measured[:, 2],
+             t_pred=t_pred, u_eol=u_eol)
 
 
 def _worker(source: Path, target: Path, samples: int, seed: int, q_rate: float) -> None:
@@ -178,13 +202,9 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
             if accepted and math.isfinite(m.u)]
     measured = np.array(rows)
     u_eol = float(gear['u_eol'])
-    t_pred = np.unique(np.concatenate([
-        t_start + np.array(LAMBDAS) * (t_eol - t_start),
-        t_start + np.arange(1, GRID) / GRID * (t_eol - t_start)]))
-    t_pred = t_pred[t_pred >= measured[min(5, len(measured) - 1), 0]]
+    t_pred = prediction_times(t_start, t_eol, LAMBDAS, measured)
     exchange, predictions = out / 'progpy_in.npz', out / 'progpy_out.npz'
-    np.savez(exchange, t=measured[:, 0], u=measured[:, 1], u_variance=measured[:, 2],
-             t_pred=t_pred, u_eol=u_eol)
+    write_exchange(exchange, measured, t_pred, u_eol)
     subprocess.run([args.progpy_python, __file__, '--worker', str(exchange), str(predictions),
                     '--samples', str(args.samples), '--seed', str(seed),
                     '--q-rate', repr(args.q_rate)], check=True)

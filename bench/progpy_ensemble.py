@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from progpy_baseline import GRID
+from progpy_baseline import earliest_prediction, GRID, prediction_times, write_exchange
 
 MODELS = ('linear', 'exponential')
 LAMBDAS = (0.5, 0.75, 0.9)
@@ -46,15 +46,12 @@ def _life(task: tuple[dict[str, Any], argparse.Namespace]) -> dict[str, Any]:
     if life['healthy']:
         t_start, t_end = float(measured[0, 0]), float(life['duration_s'])
         t_pred = t_start + np.arange(1, GRID + 1) / GRID * (t_end - t_start)
+        t_pred = t_pred[t_pred >= earliest_prediction(measured)]
     else:
         t_start, t_end = float(life['onset_s']), float(life['end_of_life_s'])
-        t_pred = np.unique(np.concatenate([
-            t_start + np.array(LAMBDAS) * (t_end - t_start),
-            t_start + np.arange(1, GRID) / GRID * (t_end - t_start)]))
-    t_pred = t_pred[t_pred >= measured[min(5, len(measured) - 1), 0]]
+        t_pred = prediction_times(t_start, t_end, LAMBDAS, measured)
     exchange, predictions = directory / 'progpy_in.npz', directory / 'progpy_out.npz'
-    np.savez(exchange, t=measured[:, 0], u=measured[:, 1], u_variance=measured[:, 2],
-             t_pred=t_pred, u_eol=float(life['u_eol']))
+    write_exchange(exchange, measured, t_pred, float(life['u_eol']))
     subprocess.run(['nice', '-n', '19', args.progpy_python,
                     str(Path(__file__).with_name('progpy_baseline.py')), '--worker',
                     str(exchange), str(predictions), '--samples', str(args.samples),
