@@ -45,7 +45,7 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTO
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.metrics import true_end_of_life_index
-from gear_phm.status import LEVEL_NAMES
+from gear_phm.status import LEVEL_NAMES, StatusOut
 
 #: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
 BATCH = 20000
@@ -239,7 +239,13 @@ class _Run:
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
                  hardware_id: str, diagnostics_rate: float, want_truth: bool,
-                 history: int | None = None, prior: ShapePrior | None = None) -> None:
+                 history: int | None = None, prior: ShapePrior | None = None,
+                 drive: str | None = None) -> None:
+        #: one drive of many (issue 25): its topics are gear_phm/<drive>/..., its statuses
+        #: named by it; None: the single transmission, today's names
+        self.drive = drive
+        self.estimator_status_name = (ESTIMATOR_STATUS_NAME if drive is None
+                                      else f'gear_phm estimator: {drive}')
         # what the Analysis keeps: bounded histories (``history``) and the plot's envelopes
         self.measurements = Binned(history, ('stamp_ns',), objects=True)
         self.pending: list[tuple[int, Measurement, bool]] = []    # of the batch
@@ -408,6 +414,21 @@ class _Run:
         number of the batch's messages logged before each: its statuses report the state after
         those messages only (marks of the pipeline, not cuts of the batch).
         """
+        step = self._step(decoded, messages, cuts)
+        if writer is None or step.increasing:
+            # one block, each status after the outputs of the estimates before its mark
+            between = [(step.limit(i), self._tick(tick, *step.at(i)))
+                       for i, tick in enumerate(ticks)]
+            if writer is not None:
+                writer.write_vector3_columns(step.columns(), between=between)
+            return
+        for i, tick in enumerate(ticks):        # stamps restarted inside the batch: by parts
+            writer.write_vector3_columns(step.columns(i))
+            writer.write_output(self._tick(tick, *step.at(i)))
+        writer.write_vector3_columns(step.columns(len(ticks)))
+
+    def _step(self, decoded: codec.JointBatch, messages: int, cuts: list[int]) -> _Step:
+        """Run the estimator and the assessor over one decoded batch (see :meth:`_process`)."""
         index = decoded.message_index
         marks = np.searchsorted(index, cuts, side='left').tolist()
         rejected_at = [(int(np.searchsorted(index, position)), reason)
@@ -426,25 +447,17 @@ class _Run:
         self._keep(estimates, states)
         received = [self.samples + cut for cut in cuts]
         self.samples += messages
-        ends = [snapshot.estimates for snapshot in snapshots]
-        stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
-                             count=len(estimates))
-        if writer is None or np.all(np.diff(stamps) > 0):
-            # one block, each status after the outputs of the estimates before its mark
-            between = [(int(stamps[end - 1]) if end else -1,
-                        self._tick(tick, count, snapshot, latest[end]))
-                       for tick, count, snapshot, end in zip(ticks, received, snapshots, ends)]
-            if writer is not None:
-                writer.write_vector3_columns(output_columns(estimates, states), between=between)
-            return
-        done = 0                                # stamps restarted inside the batch: by parts
-        for tick, count, snapshot, end in zip(ticks, received, snapshots, ends):
-            writer.write_vector3_columns(output_columns(
-                estimates[done:end], states[first_state[done]:first_state[end]]))
-            writer.write_output(self._tick(tick, count, snapshot, latest[end]))
-            done = end
-        writer.write_vector3_columns(output_columns(estimates[done:],
-                                                    states[first_state[done]:]))
+        return _Step(self.drive, estimates, states, latest, first_state, snapshots, received)
+
+    def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
+                  latest: HealthState | None) -> list[StatusOut]:
+        """Return the estimator's and the diagnostics node's statuses at ``stamp_ns`` [ns]."""
+        statuses = [self.pipeline.status(self.estimator_status_name, received, snapshot)]
+        if latest is not None:
+            statuses.append(interfaces.health_status(latest, self.transmission_name,
+                                                     self.hardware_id))
+            self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
+        return statuses
 
     def _tick(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
               latest: HealthState | None) -> interfaces.DiagnosticsOut:
@@ -453,12 +466,8 @@ class _Run:
         ``received``: messages so far; the estimator's status is as of ``snapshot`` (None:
         now), the diagnostics node's from its newest health state ``latest``.
         """
-        statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, received, snapshot)]
-        if latest is not None:
-            statuses.append(interfaces.health_status(latest, self.transmission_name,
-                                                     self.hardware_id))
-            self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
-        return interfaces.DiagnosticsOut(stamp_ns, tuple(statuses))
+        return interfaces.DiagnosticsOut(
+            stamp_ns, tuple(self._statuses(stamp_ns, received, snapshot, latest)))
 
     def _summary(self, bags: list[Path], readers: list[str], elapsed: float
                  ) -> dict[str, Any]:
@@ -485,6 +494,52 @@ class _Run:
             'config': self.estimator_config.as_dict(), 'health': health,
         })
         return summary
+
+
+class _Step:
+    """What one drive's estimator and assessor made of one batch, for the writer.
+
+    ``latest[i]`` is the newest health state after ``i`` estimates, ``states[first_state[i]:]``
+    came after estimate ``i``; ``snapshots``/``received`` are per /diagnostics tick.
+    """
+
+    def __init__(self, drive: str | None, estimates: list[FrictionEstimate],
+                 states: list[HealthState], latest: list[HealthState | None],
+                 first_state: list[int], snapshots: list[StatusSnapshot],
+                 received: list[int]) -> None:
+        self.drive = drive
+        self.estimates, self.states = estimates, states
+        self.latest, self.first_state = latest, first_state
+        self.snapshots, self.received = snapshots, received
+        self.ends = [snapshot.estimates for snapshot in snapshots]
+        self.stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
+                                  count=len(estimates))
+        self.increasing = bool(np.all(np.diff(self.stamps) > 0))
+
+    def at(self, i: int) -> tuple[int, StatusSnapshot, HealthState | None]:
+        """Return (messages received, estimator snapshot, newest health state) at tick ``i``."""
+        return self.received[i], self.snapshots[i], self.latest[self.ends[i]]
+
+    def limit(self, i: int) -> int:
+        """Return the stamp [ns] of the last estimate before tick ``i`` (-1: none)."""
+        end = self.ends[i]
+        return int(self.stamps[end - 1]) if end else -1
+
+    def columns(self, part: int | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """Return the outputs (:func:`output_columns`) of all estimates, or of those between
+        tick ``part - 1`` and tick ``part`` (``part`` = number of ticks: after the last)."""
+        if part is None:
+            estimates, states = self.estimates, self.states
+        else:
+            done = self.ends[part - 1] if part else 0
+            end = self.ends[part] if part < len(self.ends) else len(self.estimates)
+            estimates = self.estimates[done:end]
+            states = self.states[self.first_state[done]:self.first_state[end]]
+        columns = output_columns(estimates, states)
+        if self.drive is None:
+            return columns
+        return [(interfaces.drive_topic(self.drive, topic), stamps, values)
+                for topic, stamps, values in columns]
 
 
 def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState]
