@@ -73,8 +73,8 @@ class Transmission:
     motor_joint: str
     load_joint: str
     ratio: float
-    estimator: Mapping[str, Value] = field(default_factory=dict)
-    health: Mapping[str, Value] = field(default_factory=dict)
+    estimator: Mapping[str, Any] = field(default_factory=dict)
+    health: Mapping[str, Any] = field(default_factory=dict)
     simulation: Mapping[str, Value] = field(default_factory=dict)
 
     def estimator_config(self) -> EstimatorConfig:
@@ -86,9 +86,11 @@ class Transmission:
         return HealthConfig(ratio=self.ratio, **self.health)
 
     def offline_options(self) -> dict[str, Value]:
-        """Return the estimator and health values the offline tools take (``analyze_bag``'s
-        options: the live-only :data:`~gear_phm.prognostics.config.NOT_OFFLINE_OPTIONS` are
-        left out)."""
+        """Return the estimator and health values the offline tools take.
+
+        These are ``analyze_bag``'s options: the live-only
+        :data:`~gear_phm.prognostics.config.NOT_OFFLINE_OPTIONS` are left out.
+        """
         return {**self.estimator, **{k: v for k, v in self.health.items()
                                      if k not in NOT_OFFLINE_OPTIONS}}
 
@@ -274,4 +276,3 @@ def load_transmissions(path: str | Path, defaults: Mapping[str, Any] | None = No
     except TransmissionsError as exc:
         msg = f'{path}: {exc}'
         raise TransmissionsError(msg) from None
-

@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='many drives in one JointState stream (README "Bench"): each '
                              'drive of the file with its joints, ratio and simulation keys; '
                              'the simulation options below apply to each drive that does not '
-                             'set its own (seed: --seed + the drive\'s index). Truth on '
+                             "set its own (seed: --seed + the drive's index). Truth on "
                              'gear_phm/<drive>/truth/...')
     parser.add_argument('--random-life', type=int, default=None, metavar='SEED',
                         help='draw a whole life from the documented prior (docs/lives.md): '
@@ -117,8 +117,10 @@ def _config(args: argparse.Namespace) -> SimulationConfig:
     return config
 
 
-def _drive_configs(args: argparse.Namespace) -> list[tuple[SimulationConfig, tuple[str, str],
-                                                            tuple[str, str]]]:
+_Drive = tuple[SimulationConfig, tuple[str, str], tuple[str, str]]
+
+
+def _drive_configs(args: argparse.Namespace) -> list[_Drive]:
     """Return each drive of ``--transmissions`` as write_drives' (config, joints, truth)."""
     given = [option for option, value, default in (
         ('--random-life', args.random_life, None), ('--fleet', args.fleet, 0),
@@ -228,8 +230,7 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
                         rate, start_time, truth_every, compression, operating_offset)
 
 
-def write_drives(out: Path, drives: Sequence[tuple[SimulationConfig, tuple[str, str],
-                                                   tuple[str, str]]],
+def write_drives(out: Path, drives: Sequence[_Drive],
                  duration: float, rate: float, start_time: float = 0.0, truth_every: int = 1,
                  compression: str | None = 'zstd', operating_offset: float = 0.0) -> int:
     """Simulate drives in one JointState stream into the rosbag2 directory ``out``.

@@ -638,8 +638,11 @@ class _Step:
         return int(self.stamps[end - 1]) if end else -1
 
     def columns(self, part: int | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
-        """Return the outputs (:func:`output_columns`) of all estimates, or of those between
-        tick ``part - 1`` and tick ``part`` (``part`` = number of ticks: after the last)."""
+        """Return the outputs (:func:`output_columns`) of all estimates or of one part.
+
+        Part ``i`` holds the estimates between tick ``i - 1`` and tick ``i`` (``i`` = the
+        number of ticks: those after the last).
+        """
         if part is None:
             estimates, states = self.estimates, self.states
         else:
