@@ -79,7 +79,11 @@ def test_simulated_bench_has_all_joints_in_one_stream_and_truth_per_drive(bench:
 
 
 def test_one_pass_equals_single_drive_runs(bench: Path, tmp_path: Path) -> None:
-    """Each drive's outputs equal a single-drive run's within 1e-9 relative (here: exactly)."""
+    """Each drive's outputs equal a single-drive run's within 1e-9 relative.
+
+    Not to the last bit: the one pass hands the estimator batches of many chunks, a single run
+    one chunk at a time (to keep today's results exactly), and the sums differ in rounding.
+    """
     out = tmp_path / 'bench'
     assert main(['analyze', str(bench / 'bag'), '--transmissions', str(bench / 'bench.yaml'),
                  '--eta-opposing-min', GLOBAL_ETA_MIN, '--out', str(out),
@@ -97,9 +101,12 @@ def test_one_pass_equals_single_drive_runs(bench: Path, tmp_path: Path) -> None:
         alone = json.loads((single / 'summary.json').read_text())
         mine = summary['transmissions'][name]
         assert set(mine) == set(alone)                                 # same keys
-        for key in ('u', 'sigma_u', 'filter_updates', 'samples_used', 'config'):
+        for key in ('filter_updates', 'samples_used', 'samples_seen', 'config'):
             assert mine[key] == alone[key], key
+        for key in ('u', 'sigma_u', 'eta_opposing', 'operating_time_s'):
+            assert mine[key] == pytest.approx(alone[key], rel=1e-9, abs=0), key
         assert mine['health']['trend']['u_eol'] == alone['health']['trend']['u_eol']
+        assert mine['health']['level'] == alone['health']['level']
         for topic in (interfaces.FRICTION, interfaces.HEALTH_RUL):
             ours = _vectors(out, '/' + interfaces.drive_topic(name, topic))
             theirs = _vectors(single, '/' + topic)
@@ -221,5 +228,6 @@ def test_fleet_writes_one_row_per_unit_and_drive(bench: Path, tmp_path: Path) ->
     assert list(rows) == ['unit_a/flap_l', 'unit_a/spoiler_3', 'unit_a/rudder', 'unit_b']
     assert not any(row['level'] == 'FAILED' for row in rows.values())
     # the same recording and joints: the same estimate, in a drive of many or alone
-    assert float(rows['unit_a/flap_l']['u']) == float(rows['unit_b']['u'])
+    assert float(rows['unit_a/flap_l']['u']) == pytest.approx(float(rows['unit_b']['u']),
+                                                              rel=1e-9, abs=0)
     assert (tmp_path / 'out' / 'fleet.png').is_file()

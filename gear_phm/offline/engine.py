@@ -29,7 +29,7 @@ import shutil
 import sys
 import tempfile
 import time
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
@@ -48,6 +48,9 @@ from gear_phm.prognostics.metrics import true_end_of_life_index
 from gear_phm.status import LEVEL_NAMES, StatusOut
 from gear_phm.transmissions import (load_transmissions, parse_transmissions, Transmission,
                                     TransmissionsError)
+
+if TYPE_CHECKING:
+    from gear_phm.bagio.chunks import RawBatch
 
 #: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
 BATCH = 20000
@@ -503,7 +506,11 @@ class _Stream:
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
         self.pairs = [(run.motor_joint, run.load_joint) for run in self.runs]
-        self.samples = 0
+        self.next_tick: int | None = None        # next /diagnostics tick, bag time [ns]
+        #: many drives: chunks joined into batches of BATCH messages (the drives' per-batch
+        #: work then amortised); one transmission: batch by batch as the reader gives them,
+        #: so that its results stay those of earlier versions to the last bit
+        self.join = any(run.drive is not None for run in self.runs)
 
     def execute(self, bags: list[Path], directory: Path | None, progress: bool
                 ) -> tuple[list[Analysis], list[str], float]:
@@ -542,8 +549,9 @@ class _Stream:
                 raise AnalysisError(f'topic {topic} in bag {path} has no message')
             truth_topics = self._truth_topics(bag)
             bar = _progress(total, not progress)
-            next_tick: int | None = None         # next /diagnostics tick, bag time [ns]
+            self.next_tick = None
             last_log_ns = 0
+            pending: list[RawBatch] = []         # JointState chunks, processed by BATCH
             for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
                 if raw.topic != topic:           # ground truth, for the plot only
                     stamps, values = interfaces.vector3_stamped_columns(
@@ -551,27 +559,39 @@ class _Stream:
                     run, name = truth_topics[raw.topic]
                     run._keep_truth(name, stamps, values)
                     continue
-                times = raw.log_time_ns
-                if next_tick is None:
-                    next_tick = int(times[0]) + self.diag_period_ns
-                ticks = []
-                while next_tick <= int(times[-1]):
-                    ticks.append(next_tick)
-                    next_tick += self.diag_period_ns
-                cuts = np.searchsorted(times, ticks, side='left').tolist()
-                decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
-                                                         self.pairs)
-                self._write([run._step(batch, len(raw), cuts)
-                             for run, batch in zip(self.runs, decoded)], ticks, writer)
-                last_log_ns = int(times[-1])
-                bar.update(len(raw))
-            if next_tick is not None:            # the final state, at the last message
+                pending.append(raw)
+                if not self.join or sum(len(p) for p in pending) >= BATCH:
+                    last_log_ns = self._batch(_joined(pending), writer, bar)
+                    pending.clear()
+            if pending:
+                last_log_ns = self._batch(_joined(pending), writer, bar)
+            if self.next_tick is not None:       # the final state, at the last message
                 final = self._tick(last_log_ns, [(run, (run.samples, None, run.assessor.latest))
                                                  for run in self.runs])
                 if writer is not None:
                     writer.write_output(final)
             bar.close()
             return bag.reader_kind
+
+    def _batch(self, raw: RawBatch, writer: Any, bar: Any) -> int:
+        """Decode one batch of JointState for every drive, run and write it.
+
+        Returns its last log time [ns].
+        """
+        times = raw.log_time_ns
+        if self.next_tick is None:
+            self.next_tick = int(times[0]) + self.diag_period_ns
+        ticks = []
+        while self.next_tick <= int(times[-1]):
+            ticks.append(self.next_tick)
+            self.next_tick += self.diag_period_ns
+        cuts = np.searchsorted(times, ticks, side='left').tolist()
+        decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
+                                                 self.pairs)
+        self._write([run._step(batch, len(raw), cuts)
+                     for run, batch in zip(self.runs, decoded)], ticks, writer)
+        bar.update(len(raw))
+        return int(times[-1])
 
     def _tick(self, stamp_ns: int,
               states: Sequence[tuple[_Run, tuple[int, StatusSnapshot | None,
@@ -606,6 +626,23 @@ class _Stream:
             writer.write_vector3_columns([c for step in steps for c in step.columns(i)])
             writer.write_output(out)
         writer.write_vector3_columns([c for step in steps for c in step.columns(len(outs))])
+
+
+def _joined(batches: list[RawBatch]) -> RawBatch:
+    """Return consecutive batches of one topic as one.
+
+    An MCAP chunk holds a few hundred messages: each drive's per-batch work is then paid once
+    per :data:`BATCH` messages.
+    """
+    if len(batches) == 1:
+        return batches[0]
+    from gear_phm.bagio.chunks import RawBatch
+    sizes = [len(b.buffer) for b in batches]
+    starts = np.cumsum([0, *sizes[:-1]])
+    return RawBatch(batches[0].topic, np.concatenate([b.log_time_ns for b in batches]),
+                    b''.join(bytes(b.buffer) for b in batches),
+                    np.concatenate([b.offsets + start for b, start in zip(batches, starts)]),
+                    np.concatenate([b.lengths for b in batches]))
 
 
 class _Step:
