@@ -231,3 +231,42 @@ def test_fleet_writes_one_row_per_unit_and_drive(bench: Path, tmp_path: Path) ->
     assert float(rows['unit_a/flap_l']['u']) == pytest.approx(float(rows['unit_b']['u']),
                                                               rel=1e-9, abs=0)
     assert (tmp_path / 'out' / 'fleet.png').is_file()
+
+
+def test_a_drive_whose_joints_vanish_counts_them_alone(bench: Path, tmp_path: Path) -> None:
+    """Cut rudder's joints from the second half of the stream: rudder alone counts them.
+
+    It counts missing_joint for each of those messages; flap_l and spoiler_3 equal their
+    analysis of the whole bag.
+    """
+    from gear_phm.bagio import Rosbag2McapWriter
+    from gear_phm.codec import decode_joint_states, joint_state_rows
+    cut = tmp_path / 'cut'
+    pairs = [(d['motor_joint'], d['load_joint']) for d in DRIVES.values()]
+    with BagReader(bench / 'bag') as bag:
+        messages = list(bag.raw_messages(['/joint_states']))
+    log_times = np.array([t for _, t, _ in messages], dtype=np.int64)
+    batches = [decode_joint_states([raw for _, _, raw in messages], *pair) for pair in pairs]
+    names = [joint for pair in pairs for joint in pair]
+
+    def columns(kind: str, keep: int) -> np.ndarray:
+        return np.column_stack([getattr(b, f'{end}_{kind}') for b in batches
+                                for end in ('motor', 'load')])[:, :keep]
+    half = len(messages) // 2
+    with Rosbag2McapWriter(cut, batch=True) as writer:
+        writer.add_topic(interfaces.JOINT_STATES, interfaces.JOINT_STATE_TYPE)
+        for rows, keep in ((slice(0, half), len(names)), (slice(half, None), 4)):
+            payloads = joint_state_rows(batches[0].stamp_ns[rows], names[:keep],
+                                        columns('position', keep)[rows],
+                                        columns('velocity', keep)[rows],
+                                        columns('effort', keep)[rows])
+            writer.write_groups([(interfaces.JOINT_STATES, log_times[rows], payloads)])
+    whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
+    analysis = analyze_bag(cut, transmissions=bench / 'bench.yaml', plot=False)
+    counts = {n: a.summary['counts'] for n, a in analysis.transmissions.items()}
+    assert counts['rudder'].get('missing_joint') == len(messages) - half
+    assert analysis.transmissions['rudder'].summary['samples_seen'] == half
+    for name in ('flap_l', 'spoiler_3'):
+        assert counts[name].get('missing_joint', 0) == 0
+        assert analysis.transmissions[name].summary['u'] == pytest.approx(
+            whole.transmissions[name].summary['u'], rel=1e-9, abs=0)
