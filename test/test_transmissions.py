@@ -270,3 +270,37 @@ def test_a_drive_whose_joints_vanish_counts_them_alone(bench: Path, tmp_path: Pa
         assert counts[name].get('missing_joint', 0) == 0
         assert analysis.transmissions[name].summary['u'] == pytest.approx(
             whole.transmissions[name].summary['u'], rel=1e-9, abs=0)
+
+
+def test_evaluate_scores_each_drive_against_its_own_truth(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    """Two drives that wear out at different times: each is scored against its own end of life."""
+    spec = tmp_path / 'worn.yaml'
+    spec.write_text(yaml.safe_dump({'transmissions': {
+        'aileron': {'motor_joint': 'ail_m', 'load_joint': 'ail_l', 'ratio': 3.0,
+                    'eta_opposing_min': 0.7,
+                    'simulation': {'wear': 'linear', 'friction_initial': 0.05,
+                                   'wear_rate': 5e-3}},
+        'elevator': {'motor_joint': 'elv_m', 'load_joint': 'elv_l', 'ratio': 2.0,
+                     'eta_opposing_min': 0.7,
+                     'simulation': {'wear': 'linear', 'friction_initial': 0.05,
+                                    'wear_rate': 4e-3}}}}, sort_keys=False))
+    bag, out = tmp_path / 'bag', tmp_path / 'analysis'
+    assert main(['simulate', '--transmissions', str(spec), '--duration', '60', '--out',
+                 str(bag)]) == 0
+    assert main(['analyze', str(bag), '--transmissions', str(spec), '--out', str(out),
+                 '--no-plot', '--no-progress']) == 0
+    capsys.readouterr()
+    assert main(['evaluate', str(out), '--truth', str(bag), '--transmissions', str(spec)]) == 0
+    printed = capsys.readouterr().out
+    assert 'drive aileron:' in printed and 'drive elevator:' in printed
+    eol = {}
+    for drive, u_eol in (('aileron', 0.9 / 3.1), ('elevator', 0.6 / 2.4)):
+        result = json.loads((out / f'evaluation_{drive}.json').read_text())
+        assert result['drive'] == drive and result['u_eol'] == pytest.approx(u_eol)
+        eol[drive] = result['t_eol_s']
+        assert result['predictions'] > 0
+    # true u = 0.05 + rate t reaches u_eol at t = (u_eol - 0.05) / rate (stamps from 0)
+    assert eol['aileron'] == pytest.approx((0.9 / 3.1 - 0.05) / 5e-3, abs=0.02)
+    assert eol['elevator'] == pytest.approx((0.6 / 2.4 - 0.05) / 4e-3, abs=0.02)
