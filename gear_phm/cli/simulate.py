@@ -5,6 +5,10 @@ end-of-life threshold, record length) from the prior of :mod:`gear_phm.simulatio
 (docs/lives.md), writes the bag and ``life.json`` (what was drawn and the true end of life)
 in ``--out``, and prints that JSON.
 
+``--transmissions FILE`` simulates many drives in one stream (:mod:`gear_phm.transmissions`):
+one JointState with every drive's joints per sample, each drive's truth on
+``/gear_phm/<drive>/truth/...``.
+
 Topics: ``/joint_states`` (sensor_msgs/JointState, joints ``motor`` and ``load``),
 ``/gear_phm/truth/friction`` and ``/gear_phm/truth/efficiency`` (geometry_msgs/Vector3Stamped,
 layouts in docs/architecture.md). Stamps and log times are ``start_time + k / rate``, so the

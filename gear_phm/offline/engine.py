@@ -8,7 +8,8 @@ the nodes publish as a rosbag2 MCAP directory, plus ``summary.json`` and ``analy
 
 Data path (no Python work per message): the bag reader yields raw batches of JointState CDR
 (:meth:`gear_phm.bagio.BagReader.raw_batches`), :func:`gear_phm.codec.
-decode_joint_state_buffer` turns each into columns, the pipeline returns
+decode_joint_state_pairs` turns each into columns (once for all drives, with
+``transmissions``), the pipeline returns
 :class:`~gear_phm.estimation.FrictionEstimate` records, the assessor a
 :class:`~gear_phm.prognostics.HealthState` per estimate, and :mod:`gear_phm.interfaces`
 maps both to the topics written by :class:`~gear_phm.bagio.Rosbag2McapWriter`. Each
@@ -550,7 +551,7 @@ class _Stream:
             truth_topics = self._truth_topics(bag)
             bar = _progress(total, not progress)
             self.next_tick = None
-            last_log_ns = 0
+            last_log_ns: int | None = None       # of the bag's last JointState
             pending: list[RawBatch] = []         # JointState chunks, processed by BATCH
             for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
                 if raw.topic != topic:           # ground truth, for the plot only
@@ -565,7 +566,7 @@ class _Stream:
                     pending.clear()
             if pending:
                 last_log_ns = self._batch(_joined(pending), writer, bar)
-            if self.next_tick is not None:       # the final state, at the last message
+            if last_log_ns is not None:          # the final state, at the last message
                 final = self._tick(last_log_ns, [(run, (run.samples, None, run.assessor.latest))
                                                  for run in self.runs])
                 if writer is not None:
