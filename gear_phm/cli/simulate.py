@@ -18,7 +18,7 @@ for the same arguments (no wall-clock time is written; see docs/publisher.md).
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 import json
 import math
@@ -333,6 +333,19 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
     return 0
 
 
+def _writing(out: Path, write: Callable[[], int]) -> int:
+    """Return what ``write`` returns; its errors as CliError.
+
+    ValueError: e.g. the wear trajectory jams the gearbox within the run.
+    """
+    try:
+        return write()
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    except (OSError, BagError) as exc:
+        raise CliError(f'cannot write {out}: {exc}') from None
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
     out: Path = args.out
@@ -340,14 +353,9 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--out {out} exists and is not an empty directory')
     if args.transmissions is not None:
         drives = _drive_configs(args)
-        try:
-            count = write_drives(out, drives, args.duration, args.rate, args.start_time,
-                                 args.truth_every,
-                                 None if args.compression == 'none' else args.compression)
-        except ValueError as exc:
-            raise CliError(str(exc)) from None
-        except (OSError, BagError) as exc:
-            raise CliError(f'cannot write {out}: {exc}') from None
+        count = _writing(out, lambda: write_drives(
+            out, drives, args.duration, args.rate, args.start_time, args.truth_every,
+            None if args.compression == 'none' else args.compression))
         print(f'wrote {count} samples of {len(drives)} drives ({args.duration:g} s at '
               f'{args.rate:g} Hz) to {out}')
         return 0
@@ -363,23 +371,14 @@ def run(args: argparse.Namespace) -> int:
         args.duration, single = args.duration * args.recordings, args.duration
         config = _config(args)
         args.duration = single
-        try:
-            count = write_fleet(out, config, args)
-        except ValueError as exc:
-            raise CliError(str(exc)) from None
-        except (OSError, BagError) as exc:
-            raise CliError(f'cannot write {out}: {exc}') from None
+        count = _writing(out, lambda: write_fleet(out, config, args))
         print(f'wrote {args.fleet} units x {args.recordings} recordings, {count} samples, '
               f'to {out}')
         return 0
     config = _config(args)
-    try:
-        count = write_simulation(out, config, args.duration, args.rate, args.start_time,
-                                 (args.motor_joint, args.load_joint), args.truth_every,
-                                 None if args.compression == 'none' else args.compression)
-    except ValueError as exc:   # e.g. the wear trajectory jams the gearbox within the run
-        raise CliError(str(exc)) from None
-    except (OSError, BagError) as exc:
-        raise CliError(f'cannot write {out}: {exc}') from None
+    count = _writing(out, lambda: write_simulation(
+        out, config, args.duration, args.rate, args.start_time,
+        (args.motor_joint, args.load_joint), args.truth_every,
+        None if args.compression == 'none' else args.compression))
     print(f'wrote {count} samples ({args.duration:g} s at {args.rate:g} Hz) to {out}')
     return 0
