@@ -131,9 +131,8 @@ def _parse_layout(raw: bytes) -> tuple[_Layout, list[str]] | None:
     return layout, names
 
 
-def _joint_layout(raw: bytes, motor_joint: str, load_joint: str
-                  ) -> tuple[_Layout, int, int] | str:
-    """(layout, motor index, load index) of one payload, or the reason it is unusable."""
+def _any_layout(raw: bytes) -> tuple[_Layout, list[str]] | str:
+    """(layout, joint names) of one payload, or the reason it is unusable for any joint."""
     if len(raw) < 8 or raw[1] != 0x01:
         return 'bad_encoding'
     try:
@@ -142,13 +141,31 @@ def _joint_layout(raw: bytes, motor_joint: str, load_joint: str
         return 'truncated'
     if parsed is None:
         return 'truncated'
-    layout, names = parsed
+    return parsed
+
+
+def _pair_indices(layout: _Layout, names: list[str], motor_joint: str, load_joint: str
+                  ) -> tuple[int, int] | str:
+    """(motor index, load index) of two joints in a layout, or the reason they are unusable."""
     if motor_joint not in names or load_joint not in names:
         return 'missing_joint'
     mi, li = names.index(motor_joint), names.index(load_joint)
     if min(layout.array_lengths[1:]) <= max(mi, li):
         return 'short_arrays'
-    return layout, mi, li
+    return mi, li
+
+
+def _joint_layout(raw: bytes, motor_joint: str, load_joint: str
+                  ) -> tuple[_Layout, int, int] | str:
+    """(layout, motor index, load index) of one payload, or the reason it is unusable."""
+    parsed = _any_layout(raw)
+    if isinstance(parsed, str):
+        return parsed
+    layout, names = parsed
+    indices = _pair_indices(layout, names, motor_joint, load_joint)
+    if isinstance(indices, str):
+        return indices
+    return layout, indices[0], indices[1]
 
 
 # --- many payloads at once (numpy) -------------------------------------------------------------
@@ -213,6 +230,61 @@ def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
     rejected_at.sort()
     return JointBatch(**{name: out[name][keep] for name in _COLUMNS},
                       message_index=np.flatnonzero(keep), rejected_at=rejected_at)
+
+
+def decode_joint_state_pairs(buffer: bytes | memoryview, offsets: np.ndarray,
+                             lengths: np.ndarray, pairs: Sequence[tuple[str, str]]
+                             ) -> list[JointBatch]:
+    """Decode JointState CDR payloads into columns for several (motor, load) joint pairs.
+
+    One :class:`JointBatch` per pair, each equal to :func:`decode_joint_state_buffer`'s for
+    that pair (the same samples, values, ``message_index`` and rejections), with each layout
+    parsed and each payload checked once for all pairs (many drives in one stream).
+    """
+    offsets = np.asarray(offsets, dtype=np.int64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    n = offsets.size
+    data = np.frombuffer(buffer, dtype=np.uint8)
+    outs = [{name: np.zeros(n, dtype=np.int64 if name == 'stamp_ns' else float)
+             for name in _COLUMNS} for _ in pairs]
+    keeps = [np.zeros(n, dtype=bool) for _ in pairs]
+    rejections: list[list[tuple[int, str]]] = [[] for _ in pairs]
+    pending = np.ones(n, dtype=bool)
+    groups = 0
+    while True:
+        remaining = np.flatnonzero(pending)
+        if remaining.size == 0:
+            break
+        first = int(remaining[0])
+        parsed = _any_layout(_payload(buffer, offsets, lengths, first))
+        if isinstance(parsed, str):
+            for rejected in rejections:
+                rejected.append((first, parsed))
+            pending[first] = False
+            continue
+        layout, names = parsed
+        if groups < MAX_LAYOUTS:
+            groups += 1
+            same = remaining[lengths[remaining] == layout.size]
+            signature = layout.signature()
+            rows = data[offsets[same, None] + signature]
+            members = same[(rows == rows[0]).all(axis=1)]
+        else:                                   # many layouts: one by one
+            members = np.array([first])
+        pending[members] = False
+        for k, (motor_joint, load_joint) in enumerate(pairs):
+            indices = _pair_indices(layout, names, motor_joint, load_joint)
+            if isinstance(indices, str):
+                rejections[k].extend((i, indices) for i in members.tolist())
+                continue
+            keeps[k][members] = True
+            _gather(data, offsets[members], layout, indices[0], indices[1], outs[k], members)
+    batches = []
+    for out, keep, rejected_at in zip(outs, keeps, rejections):
+        rejected_at.sort()
+        batches.append(JointBatch(**{name: out[name][keep] for name in _COLUMNS},
+                                  message_index=np.flatnonzero(keep), rejected_at=rejected_at))
+    return batches
 
 
 def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,

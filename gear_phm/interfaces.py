@@ -43,6 +43,15 @@ HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 
+
+def drive_topic(drive: str, topic: str) -> str:
+    """Return one drive's topic of many (issue 25): ``gear_phm/friction`` ->
+    ``gear_phm/<drive>/friction``, ``gear_phm/truth/friction`` -> ``gear_phm/<drive>/truth/
+    friction``."""
+    head, slash, tail = topic.partition('/')
+    return f'{head}/{drive}/{tail}' if slash else f'{drive}/{topic}'
+
+
 JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
 VECTOR3_STAMPED_TYPE = 'geometry_msgs/msg/Vector3Stamped'
 DIAGNOSTIC_ARRAY_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'

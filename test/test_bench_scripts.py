@@ -229,3 +229,18 @@ def test_bench_ensemble_two_short_lives(tmp_path: Path) -> None:
     assert summary['gear_phm']['healthy']['band'] is None
     row = next(line for line in result.stdout.splitlines() if line.startswith('| **all'))
     assert f"| {every['band']:.0%} FAIL |" in row or f"| {every['band']:.0%} PASS |" in row
+
+
+def test_bench_multi_drive_tiny() -> None:
+    out = run('multi_drive.py', '--drives', '2', '--duration', '10', '--rate', '100')
+    rows = table(out, 'analysis')
+    assert [r['analysis'] for r in rows] == [
+        '2 single-drive runs (`--ratio`, one process each)',
+        'one pass (`--transmissions`, one process)']
+    for column in ('wall', 'CPU'):
+        base = rows[0][f'{column} [s]']
+        for row in rows:
+            assert_ratio(row[f'N runs / one pass ({column})'], base, row[f'{column} [s]'])
+    assert '2 drives in one JointState stream (4 joints), 1,000 messages' in out
+    worst = float(out.split('and its single run: u ')[1].split()[0].rstrip(','))
+    assert 0.0 <= worst <= 1e-9

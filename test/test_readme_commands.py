@@ -34,7 +34,8 @@ from helpers.bags import regenerated_differences
 
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / 'README.md'
-SECTIONS = ('Quick start', 'Live: three nodes over topics', 'Offline')
+SECTIONS = ('Quick start', 'Live: three nodes over topics', 'Offline',
+            'Bench: many drives in one stream')
 #: `&&` parts of README commands that are not run, with the reason.
 NOT_RUN = {
     'bash .ci/setup': 'creates .venv, in which this test suite already runs',
@@ -160,7 +161,39 @@ def check_fleet(cwd: Path, done: subprocess.CompletedProcess) -> None:
     _check_fleet_table(cwd / 'out' / 'my-fleet-analysis', 4)
 
 
+#: The bench example's drives (config/bench.yaml).
+BENCH_DRIVES = ('flap_l', 'spoiler_3', 'rudder')
+
+
+def check_bench_simulate(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    with BagReader(cwd / 'out' / 'bench') as bag:
+        assert bag.message_count('/joint_states') == 12000          # 120 s at 100 Hz
+        for drive in BENCH_DRIVES:
+            assert bag.message_count(f'/gear_phm/{drive}/truth/friction') == 12000
+
+
+def check_bench_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
+    """Each drive's u is within 0.01 of its truth; its outputs and plot are there."""
+    out = cwd / 'out' / 'bench-analysis'
+    summary = json.loads((out / 'summary.json').read_text())
+    assert summary['messages'] == 12000
+    assert list(summary['transmissions']) == list(BENCH_DRIVES)
+    with BagReader(cwd / 'out' / 'bench') as bag:
+        truth = {drive: [m.vector.x for _, _, m in bag.messages(
+            [f'/gear_phm/{drive}/truth/friction'])][-1] for drive in BENCH_DRIVES}
+    with BagReader(out) as bag:
+        topics = bag.topics
+    for drive in BENCH_DRIVES:
+        assert abs(summary['transmissions'][drive]['u'] - truth[drive]) < 0.01, drive
+        assert f'/gear_phm/{drive}/friction' in topics
+        assert (out / f'analysis_{drive}.png').stat().st_size > 20000
+        assert f'{drive}: u = ' in done.stderr
+
+
 CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], ...] = (
+    (r'^\.venv/bin/gear-phm simulate --transmissions config/bench\.yaml ',
+     check_bench_simulate),
+    (r'^\.venv/bin/gear-phm analyze out/bench --transmissions ', check_bench_analyze),
     (r'^\.venv/bin/gear-phm analyze bags/wearing .*--out out/wearing', check_quick_start_analyze),
     (r'^\.venv/bin/gear-phm simulate --out out/run ', check_simulate),
     (r'^\.venv/bin/gear-phm analyze out/run ', check_analyze),
@@ -226,6 +259,10 @@ def test_readme_sections_hold_the_documented_commands() -> None:
 
 def test_quick_start_commands(workdir: Path) -> None:
     assert run_section_one_shots('Quick start', workdir) == []
+
+
+def test_bench_commands(workdir: Path) -> None:
+    assert run_section_one_shots('Bench: many drives in one stream', workdir) == []
 
 
 @pytest.mark.parametrize('chain', [name for name, _ in OFFLINE_CHAINS])

@@ -1,4 +1,4 @@
-"""``gear-phm analyze BAG --ratio R --out DIR``: the command line of ``analyze_bag``.
+"""``gear-phm analyze BAG (--ratio R | --transmissions FILE) --out DIR``: ``analyze_bag``'s CLI.
 
 :func:`gear_phm.offline.analyze_bag` runs the estimator and diagnostics nodes' code over a
 recorded bag.
@@ -26,8 +26,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='rosbag2 directory, .mcap, .db3 or ROS1 .bag, or a folder of '
                              'them; several are analysed as one run, in order of their start '
                              'times')
-    parser.add_argument('--ratio', type=float, required=True,
-                        help='ideal torque gain load/motor R = z2/z1 [-]')
+    parser.add_argument('--ratio', type=float, default=None,
+                        help='ideal torque gain load/motor R = z2/z1 [-] (one transmission)')
+    parser.add_argument('--transmissions', default=None, metavar='FILE.yaml',
+                        help='many drives in one JointState stream, instead of --ratio and '
+                             'the joints: a transmissions file or node parameters file '
+                             '(README "Bench"); the options below apply to each drive that '
+                             'does not set its own')
     parser.add_argument('--motor-joint', default=MOTOR_JOINT.default,
                         help=f'motor joint name (default {MOTOR_JOINT.default})')
     parser.add_argument('--load-joint', default=LOAD_JOINT.default,
@@ -55,18 +60,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gear_phm.offline import AnalysisError, analyze_bag
 
+    if (args.ratio is None) == (args.transmissions is None):
+        raise CliError('give --ratio (one transmission) or --transmissions FILE (many drives)')
     options: dict[str, Any] = {**estimator_params(args.param), **health_values(args)}
+    if args.transmissions is not None:
+        options['transmissions'] = args.transmissions
+        for name, default in (('motor_joint', MOTOR_JOINT.default),
+                              ('load_joint', LOAD_JOINT.default),
+                              ('transmission_name', TRANSMISSION_NAME.default),
+                              ('hardware_id', HARDWARE_ID.default)):
+            if getattr(args, name) != default:
+                raise CliError(f'--{name.replace("_", "-")}: with --transmissions each drive '
+                               f'has its own (the file)')
+    else:
+        options.update(ratio=args.ratio, motor_joint=args.motor_joint,
+                       load_joint=args.load_joint, transmission_name=args.transmission_name,
+                       hardware_id=args.hardware_id)
     try:
         analysis = analyze_bag(
-            args.bag, args.ratio, motor_joint=args.motor_joint, load_joint=args.load_joint,
-            topic=args.topic, out=args.out, overwrite=args.overwrite, plot=not args.no_plot,
-            progress=not args.no_progress, transmission_name=args.transmission_name,
-            hardware_id=args.hardware_id, diagnostics_rate=args.diagnostics_rate, **options)
+            args.bag, topic=args.topic, out=args.out, overwrite=args.overwrite,
+            plot=not args.no_plot, progress=not args.no_progress,
+            diagnostics_rate=args.diagnostics_rate, **options)
     except AnalysisError as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary
-    print(f'u = {summary["u"]:.5f} +/- {summary["sigma_u"]:.5f}, eta_D = '
-          f'{summary["eta_opposing"]:.4f}, eta_I = {summary["eta_aiding"]:.4f}; '
-          f'{summary["messages"]} messages in {summary["seconds"]:.2f} s '
-          f'({summary["samples_per_second"]:.0f}/s) -> {analysis.out}', file=sys.stderr)
+    rate = (f'{summary["messages"]} messages in {summary["seconds"]:.2f} s '
+            f'({summary["samples_per_second"]:.0f}/s) -> {analysis.out}')
+    drives = summary.get('transmissions', {'': summary})
+    for name, drive in drives.items():
+        print(f'{name + ": " if name else ""}u = {drive["u"]:.5f} +/- {drive["sigma_u"]:.5f}, '
+              f'eta_D = {drive["eta_opposing"]:.4f}, eta_I = {drive["eta_aiding"]:.4f}'
+              + ('' if name else f'; {rate}'), file=sys.stderr)
+    if '' not in drives:
+        print(rate, file=sys.stderr)
     return 0

@@ -32,14 +32,15 @@ from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
 from gear_phm.cli.simulate import LIFE_FILE
-from gear_phm.interfaces import (field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT, HEALTH_RUL,
-                                 stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.interfaces import (drive_topic, field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT,
+                                 HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
                                           evaluate, finite_from, healthy_acceptance, LAMBDAS,
                                           level_transitions, true_end_of_life_index)
 from gear_phm.status import ERROR, LEVEL_NAMES
+from gear_phm.transmissions import load_transmissions, TransmissionsError
 
 #: life.json fields that are the defaults of the health options of the same name.
 LIFE_HEALTH = ('eta_opposing_min',)
@@ -70,6 +71,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--ratio', type=float, default=None,
                         help='gearbox ratio R for u_eol from --eta-opposing-min (default: '
                              f"that of the truth's {LIFE_FILE}, else {RATIO.default})")
+    parser.add_argument('--drive', default=None, metavar='NAME',
+                        help='one drive of many (gear-phm analyze --transmissions): its '
+                             'gear_phm/<drive>/health/... in the run and '
+                             'gear_phm/<drive>/truth/friction in the truth bag')
+    parser.add_argument('--transmissions', type=Path, default=None, metavar='FILE.yaml',
+                        help="score each drive of the file (or --drive's only) against its "
+                             "truth, with the drive's ratio and health parameters; each "
+                             'writes <run>/evaluation_<drive>.json')
     parser.add_argument('--no-life', dest='life', action='store_false',
                         help=f'ignore a {LIFE_FILE} beside the truth bag')
     add_health_arguments(parser)
@@ -96,7 +105,12 @@ def read_life(truth: Path) -> dict[str, Any] | None:
     return life
 
 
-def _find_bag(run: Path) -> Path:
+def _topic(topic: str, drive: str | None) -> str:
+    """Return ``topic``, or one drive's own (``gear_phm/<drive>/...``)."""
+    return topic if drive is None else drive_topic(drive, topic)
+
+
+def _find_bag(run: Path, drive: str | None = None) -> Path:
     if not run.exists():
         raise CliError(f'{run} does not exist')
     candidates = [run] + (sorted(p.parent for p in run.glob('*/metadata.yaml'))
@@ -104,11 +118,11 @@ def _find_bag(run: Path) -> Path:
     for candidate in candidates:
         try:
             with BagReader(candidate) as bag:
-                if bag.resolve_topic(HEALTH_RUL) in bag.topics:
+                if bag.resolve_topic(_topic(HEALTH_RUL, drive)) in bag.topics:
                     return candidate
         except BagError:
             continue
-    raise CliError(f'no bag with topic {HEALTH_RUL} in {run}')
+    raise CliError(f'no bag with topic {_topic(HEALTH_RUL, drive)} in {run}')
 
 
 def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
@@ -126,16 +140,16 @@ def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
     return data[:, 0], data[:, 1:]
 
 
-def _levels(bag: Path) -> tuple[np.ndarray, np.ndarray] | None:
+def _levels(bag: Path, drive: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """(stamps [s], levels) of the run's health states, or None without that topic."""
     with BagReader(bag) as reader:
-        if reader.resolve_topic(HEALTH_EFFICIENCY) not in reader.topics:
+        if reader.resolve_topic(_topic(HEALTH_EFFICIENCY, drive)) not in reader.topics:
             return None
-    times, vectors = read_vector_topic(bag, HEALTH_EFFICIENCY)
+    times, vectors = read_vector_topic(bag, _topic(HEALTH_EFFICIENCY, drive))
     return times, vectors[:, field_index(HEALTH_LAYOUT, HEALTH_EFFICIENCY, 'level')]
 
 
-def truth_eol(truth: Path, u_eol: float) -> float:
+def truth_eol(truth: Path, u_eol: float, drive: str | None = None) -> float:
     """Return the true end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
     if truth.suffix.lower() == '.csv':
         try:
@@ -155,7 +169,7 @@ def truth_eol(truth: Path, u_eol: float) -> float:
         if not values or not math.isfinite(values[-1][1]):
             raise CliError(f'{truth} holds no finite time,true_eol row')
         return values[-1][1]
-    times, vectors = read_vector_topic(truth, TRUTH_FRICTION)
+    times, vectors = read_vector_topic(truth, _topic(TRUTH_FRICTION, drive))
     index = true_end_of_life_index(vectors[:, 0], u_eol)
     if index is None:
         raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
@@ -180,12 +194,47 @@ def _config(args: argparse.Namespace, life: dict[str, Any] | None) -> HealthConf
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.transmissions is None:
+        return _run_one(args)
+    try:
+        drives = load_transmissions(args.transmissions)
+    except TransmissionsError as exc:
+        raise CliError(str(exc)) from None
+    chosen = [d for d in drives if args.drive in (None, d.name)]
+    if not chosen:
+        raise CliError(f'--drive {args.drive} is not in {args.transmissions} '
+                       f'({", ".join(d.name for d in drives)})')
+    if len(chosen) > 1 and args.output is not None:
+        raise CliError('--output names one file: give --drive, or leave --output out '
+                       '(each drive writes <run>/evaluation_<drive>.json)')
+    given = health_values(args)
+    failed: list[str] = []
+    for drive in chosen:
+        one = argparse.Namespace(**vars(args))
+        one.drive = drive.name
+        one.ratio = drive.ratio if args.ratio is None else args.ratio
+        for name, value in drive.health.items():
+            if name in given:
+                setattr(one, f'health_{name}', value)
+        print(f'drive {drive.name}:')
+        try:
+            _run_one(one)
+        except CliError as exc:             # the other drives are still scored
+            failed.append(f'{drive.name}: {exc}')
+    if failed:
+        raise CliError(f'{len(failed)} of {len(chosen)} drives not scored: '
+                       + '; '.join(failed))
+    return 0
+
+
+def _run_one(args: argparse.Namespace) -> int:
+    """Score one run (one transmission, or ``args.drive`` of many)."""
     life = read_life(args.truth) if args.life else None
     config = _config(args, life)
     u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
                              config.u_max)
-    bag = _find_bag(args.run)
-    times, values = read_vector_topic(bag, HEALTH_RUL)
+    bag = _find_bag(args.run, args.drive)
+    times, values = read_vector_topic(bag, _topic(HEALTH_RUL, args.drive))
     median, p5, p95 = (values[:, field_index(HEALTH_LAYOUT, HEALTH_RUL, f'rul.{name}')]
                        for name in ('median', 'p5', 'p95'))
     same_eol = life is not None and math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9)
@@ -194,13 +243,13 @@ def run(args: argparse.Namespace) -> int:
     if same_eol and life is not None and life['end_of_life_s'] is not None:
         t_eol = float(life['end_of_life_s'])
     else:
-        t_eol = truth_eol(args.truth, u_eol)
+        t_eol = truth_eol(args.truth, u_eol, args.drive)
     if args.t_start is None and life is not None and life['onset_s'] is not None:
         args.t_start = float(life['onset_s'])
     before = times < t_eol
     if not before.any():
         raise CliError(f'no prediction before the true end of life at {t_eol:.6g} s')
-    levels = _levels(bag)
+    levels = _levels(bag, args.drive)
     try:
         metrics = evaluate(times[before], median[before], t_eol, args.alpha, args.lambdas,
                            args.t_start)
@@ -251,16 +300,19 @@ def _write(args: argparse.Namespace, bag: Path, metrics: dict[str, Any], u_eol: 
     """Add u_eol and the paths to ``metrics``, write it as JSON; return the file."""
     metrics['u_eol'] = u_eol
     metrics['run'] = str(bag)
+    if args.drive is not None:
+        metrics['drive'] = args.drive
     metrics['truth'] = str(args.truth)
-    output: Path = args.output or (bag / 'evaluation.json' if bag.is_dir()
-                                   else bag.with_suffix('.evaluation.json'))
+    name = 'evaluation' if args.drive is None else f'evaluation_{args.drive}'
+    output: Path = args.output or (bag / f'{name}.json' if bag.is_dir()
+                                   else bag.with_suffix(f'.{name}.json'))
     output.write_text(json.dumps(metrics, indent=2) + '\n', encoding='utf-8')
     return output
 
 
 def _healthy(args: argparse.Namespace, bag: Path, median: np.ndarray, u_eol: float) -> int:
     """Score a healthy random life: RUL inf and level OK throughout."""
-    levels = _levels(bag)
+    levels = _levels(bag, args.drive)
     score = healthy_acceptance(median, None if levels is None else levels[1])
     metrics = {'healthy': True, 'predictions': score['predictions'],
                'acceptance': {'healthy': score}}

@@ -5,6 +5,10 @@ end-of-life threshold, record length) from the prior of :mod:`gear_phm.simulatio
 (docs/lives.md), writes the bag and ``life.json`` (what was drawn and the true end of life)
 in ``--out``, and prints that JSON.
 
+``--transmissions FILE`` simulates many drives in one stream (:mod:`gear_phm.transmissions`):
+one JointState with every drive's joints per sample, each drive's truth on
+``/gear_phm/<drive>/truth/...``.
+
 Topics: ``/joint_states`` (sensor_msgs/JointState, joints ``motor`` and ``load``),
 ``/gear_phm/truth/friction`` and ``/gear_phm/truth/efficiency`` (geometry_msgs/Vector3Stamped,
 layouts in docs/architecture.md). Stamps and log times are ``start_time + k / rate``, so the
@@ -14,6 +18,7 @@ for the same arguments (no wall-clock time is written; see docs/publisher.md).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 import json
 import math
@@ -25,12 +30,13 @@ from gear_phm.bagio import BagError, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
 from gear_phm.codec import joint_state_rows
-from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION,
-                                 VECTOR3_STAMPED_TYPE)
-from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
+from gear_phm.interfaces import (drive_topic, JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
+                                 TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, RATIO
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
 from gear_phm.simulation.lives import random_life
+from gear_phm.transmissions import load_transmissions, TransmissionsError
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
 #: The default (motor, load) joint names.
@@ -62,6 +68,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the truth topics every N-th sample (1)')
     parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
                         help='MCAP chunk compression (zstd)')
+    parser.add_argument('--transmissions', type=Path, default=None, metavar='FILE.yaml',
+                        help='many drives in one JointState stream (README "Bench"): each '
+                             'drive of the file with its joints, ratio and simulation keys; '
+                             'the simulation options below apply to each drive that does not '
+                             "set its own (seed: --seed + the drive's index). Truth on "
+                             'gear_phm/<drive>/truth/...')
     parser.add_argument('--random-life', type=int, default=None, metavar='SEED',
                         help='draw a whole life from the documented prior (docs/lives.md): '
                              'plant, ratio, duty cycle, noise, wear law, onset, running-in, '
@@ -105,14 +117,51 @@ def _config(args: argparse.Namespace) -> SimulationConfig:
         config = config_from_parameters(values)
     except ValueError as exc:
         raise CliError(str(exc)) from None
+    _check_jam(config, args.duration)
+    return config
+
+
+_Drive = tuple[SimulationConfig, tuple[str, str], tuple[str, str]]
+
+
+def _drive_configs(args: argparse.Namespace) -> list[_Drive]:
+    """Return each drive of ``--transmissions`` as write_drives' (config, joints, truth)."""
+    given = [option for option, value, default in (
+        ('--random-life', args.random_life, None), ('--fleet', args.fleet, 0),
+        ('--friction-final', args.friction_final, None),
+        ('--motor-joint', args.motor_joint, MOTOR_JOINT.default),
+        ('--load-joint', args.load_joint, LOAD_JOINT.default)) if value != default]
+    if given:
+        raise CliError(f'--transmissions sets each drive: drop {", ".join(given)}')
+    try:
+        drives = load_transmissions(args.transmissions)
+    except TransmissionsError as exc:
+        raise CliError(str(exc)) from None
+    shared = {spec.name: getattr(args, spec.name) for spec in PARAMETERS}
+    configs = []
+    for index, drive in enumerate(drives):
+        values = {**shared, 'seed': args.seed + index, **drive.simulation,
+                  RATIO.name: drive.ratio}
+        try:
+            config = config_from_parameters(values)
+        except ValueError as exc:
+            raise CliError(f'drive {drive.name}: {exc}') from None
+        _check_jam(config, args.duration, f'drive {drive.name}: ')
+        configs.append((config, (drive.motor_joint, drive.load_joint),
+                        (drive_topic(drive.name, TRUTH_FRICTION),
+                         drive_topic(drive.name, TRUTH_EFFICIENCY))))
+    return configs
+
+
+def _check_jam(config: SimulationConfig, duration: float, what: str = '') -> None:
+    """Refuse a wear that jams the gearbox (eta_D <= 0) within ``duration`` [s]."""
     # wear never decreases: the friction at the end is the largest of the run
-    friction_end = float(config.wear.value(args.duration))
+    friction_end = float(config.wear.value(duration))
     _, eta_d, _ = config.plant.efficiencies(friction_end)
     if not float(eta_d) > 0.0:
-        raise CliError(f'friction value {friction_end:.4g} reached at --duration '
-                       f'{args.duration:g} s gives eta_D = {float(eta_d):.4g} <= 0 '
+        raise CliError(f'{what}friction value {friction_end:.4g} reached at --duration '
+                       f'{duration:g} s gives eta_D = {float(eta_d):.4g} <= 0 '
                        f'(the gearbox jams); lower the wear')
-    return config
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -129,25 +178,33 @@ def _check(args: argparse.Namespace) -> None:
                        f'got {args.motor_joint!r} and {args.load_joint!r}')
 
 
-def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns: np.ndarray,
-                 first_index: int, names: list[str], truth_every: int) -> None:
+def _write_chunk(writer: Rosbag2McapWriter, results: Sequence[SimulationResult],
+                 stamps_ns: np.ndarray, first_index: int, names: Sequence[str],
+                 truth_every: int, truth_topics: Sequence[tuple[str, str]] = (
+                     (TRUTH_FRICTION, TRUTH_EFFICIENCY),)) -> None:
     """Write one chunk of samples, packed as CDR rows at once.
 
-    Per sample its JointState, then (every ``truth_every``-th sample of the run) its two truth
-    Vector3Stamped: the order the message-by-message writer had.
+    Per sample one JointState of every drive's joints (``names``: motor then load of each
+    result), then (every ``truth_every``-th sample of the run) each drive's two truth
+    Vector3Stamped (``truth_topics``, one pair per result): for one drive the order the
+    message-by-message writer had.
     """
     joints = joint_state_rows(
-        stamps_ns, names, np.column_stack((result.position_motor, result.position_load)),
-        np.column_stack((result.velocity_motor, result.velocity_load)),
-        np.column_stack((result.effort_motor, result.effort_load)))
+        stamps_ns, names,
+        np.column_stack([c for r in results for c in (r.position_motor, r.position_load)]),
+        np.column_stack([c for r in results for c in (r.velocity_motor, r.velocity_load)]),
+        np.column_stack([c for r in results for c in (r.effort_motor, r.effort_load)]))
     m, k = len(stamps_ns), truth_every
     head = min(m, -first_index % k)            # samples before the chunk's first truth sample
     truth = np.arange(head, m, k)
     zero = np.zeros(len(truth))
-    friction = vector3_stamped_rows(stamps_ns[truth], np.column_stack(
-        (result.u[truth], result.friction[truth], zero)))
-    efficiency = vector3_stamped_rows(stamps_ns[truth], np.column_stack(
-        (result.eta_opposing[truth], result.eta_aiding[truth], zero)))
+    truth_rows = []
+    for result, (friction_topic, efficiency_topic) in zip(results, truth_topics):
+        truth_rows.append((friction_topic, vector3_stamped_rows(stamps_ns[truth], np.column_stack(
+            (result.u[truth], result.friction[truth], zero)))))
+        truth_rows.append((efficiency_topic, vector3_stamped_rows(
+            stamps_ns[truth], np.column_stack((result.eta_opposing[truth],
+                                               result.eta_aiding[truth], zero)))))
     if head:                                   # one group: a run of joint states
         writer.write_groups([(JOINT_STATES, stamps_ns[None, :head], joints[None, :head])])
     periods = (m - head) // k                  # groups of k samples, the first with truth
@@ -158,8 +215,8 @@ def _write_chunk(writer: Rosbag2McapWriter, result: SimulationResult, stamps_ns:
             js = joints[begin:end].reshape(n, js_stamps.shape[1], -1)
             t = slice(len(truth) - n, len(truth)) if begin == tail else slice(0, n)
             writer.write_groups([(JOINT_STATES, js_stamps[:, :1], js[:, :1]),
-                                 (TRUTH_FRICTION, stamps_ns[truth[t]], friction[t]),
-                                 (TRUTH_EFFICIENCY, stamps_ns[truth[t]], efficiency[t]),
+                                 *[(topic, stamps_ns[truth[t]], rows[t])
+                                   for topic, rows in truth_rows],
                                  (JOINT_STATES, js_stamps[:, 1:], js[:, 1:])])
 
 
@@ -173,20 +230,36 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
     that continues a life after idle time. Returns the number of samples. Deterministic: no
     wall-clock flushes, fixed stamps.
     """
+    return write_drives(out, [(config, names, (TRUTH_FRICTION, TRUTH_EFFICIENCY))], duration,
+                        rate, start_time, truth_every, compression, operating_offset)
+
+
+def write_drives(out: Path, drives: Sequence[_Drive],
+                 duration: float, rate: float, start_time: float = 0.0, truth_every: int = 1,
+                 compression: str | None = 'zstd', operating_offset: float = 0.0) -> int:
+    """Simulate drives in one JointState stream into the rosbag2 directory ``out``.
+
+    ``drives``: per drive its configuration, its (motor, load) joint names and its (friction,
+    efficiency) truth topics. Each drive has its own simulator; all share the stamps. Returns
+    the number of samples (JointState messages); see :func:`write_simulation`.
+    """
     count = int(math.floor(duration * rate + 1e-9))
     start_ns = int(round(start_time * 1e9))
-    simulator = Simulator(config)
+    simulators = [Simulator(config) for config, _, _ in drives]
+    names = [name for _, pair, _ in drives for name in pair]
+    truth_topics = [topics for _, _, topics in drives]
     with Rosbag2McapWriter(out, compression=compression, flush_period_s=None,
                            batch=True) as writer:
         writer.add_topic(JOINT_STATES, JOINT_STATE_TYPE)
-        writer.add_topic(TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
-        writer.add_topic(TRUTH_EFFICIENCY, VECTOR3_STAMPED_TYPE)
+        for topic in (topic for pair in truth_topics for topic in pair):
+            writer.add_topic(topic, VECTOR3_STAMPED_TYPE)
         for first in range(0, count, CHUNK):
             index = np.arange(first, min(first + CHUNK, count))
             # integer-nanosecond stamps, no accumulated rounding: stamp_k = start + k/rate
             stamps_ns = start_ns + np.round(index * (1e9 / rate)).astype(np.int64)
-            result = simulator.sample(operating_offset + (stamps_ns - start_ns) * 1e-9)
-            _write_chunk(writer, result, stamps_ns, first, list(names), truth_every)
+            times = operating_offset + (stamps_ns - start_ns) * 1e-9
+            results = [simulator.sample(times) for simulator in simulators]
+            _write_chunk(writer, results, stamps_ns, first, names, truth_every, truth_topics)
     return count
 
 
@@ -260,11 +333,32 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
     return 0
 
 
+def _writing(out: Path, write: Callable[[], int]) -> int:
+    """Return what ``write`` returns; its errors as CliError.
+
+    ValueError: e.g. the wear trajectory jams the gearbox within the run.
+    """
+    try:
+        return write()
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    except (OSError, BagError) as exc:
+        raise CliError(f'cannot write {out}: {exc}') from None
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
     out: Path = args.out
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise CliError(f'--out {out} exists and is not an empty directory')
+    if args.transmissions is not None:
+        drives = _drive_configs(args)
+        count = _writing(out, lambda: write_drives(
+            out, drives, args.duration, args.rate, args.start_time, args.truth_every,
+            None if args.compression == 'none' else args.compression))
+        print(f'wrote {count} samples of {len(drives)} drives ({args.duration:g} s at '
+              f'{args.rate:g} Hz) to {out}')
+        return 0
     if args.random_life is not None:
         return _write_random_life(out, args)
     if args.fleet:
@@ -277,23 +371,14 @@ def run(args: argparse.Namespace) -> int:
         args.duration, single = args.duration * args.recordings, args.duration
         config = _config(args)
         args.duration = single
-        try:
-            count = write_fleet(out, config, args)
-        except ValueError as exc:
-            raise CliError(str(exc)) from None
-        except (OSError, BagError) as exc:
-            raise CliError(f'cannot write {out}: {exc}') from None
+        count = _writing(out, lambda: write_fleet(out, config, args))
         print(f'wrote {args.fleet} units x {args.recordings} recordings, {count} samples, '
               f'to {out}')
         return 0
     config = _config(args)
-    try:
-        count = write_simulation(out, config, args.duration, args.rate, args.start_time,
-                                 (args.motor_joint, args.load_joint), args.truth_every,
-                                 None if args.compression == 'none' else args.compression)
-    except ValueError as exc:   # e.g. the wear trajectory jams the gearbox within the run
-        raise CliError(str(exc)) from None
-    except (OSError, BagError) as exc:
-        raise CliError(f'cannot write {out}: {exc}') from None
+    count = _writing(out, lambda: write_simulation(
+        out, config, args.duration, args.rate, args.start_time,
+        (args.motor_joint, args.load_joint), args.truth_every,
+        None if args.compression == 'none' else args.compression))
     print(f'wrote {count} samples ({args.duration:g} s at {args.rate:g} Hz) to {out}')
     return 0

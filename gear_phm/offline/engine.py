@@ -8,7 +8,8 @@ the nodes publish as a rosbag2 MCAP directory, plus ``summary.json`` and ``analy
 
 Data path (no Python work per message): the bag reader yields raw batches of JointState CDR
 (:meth:`gear_phm.bagio.BagReader.raw_batches`), :func:`gear_phm.codec.
-decode_joint_state_buffer` turns each into columns, the pipeline returns
+decode_joint_state_pairs` turns each into columns (once for all drives, with
+``transmissions``), the pipeline returns
 :class:`~gear_phm.estimation.FrictionEstimate` records, the assessor a
 :class:`~gear_phm.prognostics.HealthState` per estimate, and :mod:`gear_phm.interfaces`
 maps both to the topics written by :class:`~gear_phm.bagio.Rosbag2McapWriter`. Each
@@ -19,7 +20,7 @@ without cutting the batch (cutting a 100 Hz bag at every tick cost more than the
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import fields, replace
 import json
@@ -29,7 +30,7 @@ import shutil
 import sys
 import tempfile
 import time
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
@@ -45,7 +46,12 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTO
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.metrics import true_end_of_life_index
-from gear_phm.status import LEVEL_NAMES
+from gear_phm.status import LEVEL_NAMES, StatusOut
+from gear_phm.transmissions import (load_transmissions, parse_transmissions, Transmission,
+                                    TransmissionsError)
+
+if TYPE_CHECKING:
+    from gear_phm.bagio.chunks import RawBatch
 
 #: Messages per batch when the bag is read through rosbags (indexed MCAP goes by chunk).
 BATCH = 20000
@@ -154,8 +160,8 @@ def _metadata_start_ns(path: Path) -> int | None:
         return None
 
 
-def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, *,
-                motor_joint: str = str(MOTOR_JOINT.default),
+def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float | None = None,
+                *, motor_joint: str = str(MOTOR_JOINT.default),
                 load_joint: str = str(LOAD_JOINT.default),
                 topic: str = interfaces.JOINT_STATES, out: str | Path | None = None,
                 overwrite: bool = False, plot: bool = True, progress: bool = False,
@@ -163,7 +169,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
                 hardware_id: str = str(HARDWARE_ID.default),
                 diagnostics_rate: float = float(DIAGNOSTICS_RATE.default),
                 history: int | None = HISTORY,
-                prior: ShapePrior | None = None, **options: Any) -> Analysis:
+                prior: ShapePrior | None = None, transmissions: Any = None,
+                **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
     ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, a
@@ -175,6 +182,16 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
     nothing is left there if the analysis fails.
 
+    ``transmissions`` (instead of ``ratio`` and the joints): many drives in one JointState
+    stream (:mod:`gear_phm.transmissions`), as a file path, its parsed YAML document, or
+    :class:`~gear_phm.transmissions.Transmission` records; ``options`` then apply to each drive
+    that does not set its own. The bags are read once; each drive has its own estimator and
+    assessor, its outputs under ``gear_phm/<drive>/...``, its statuses ``gear_phm: <drive>``
+    (hardware_id ``<drive>``) and ``gear_phm estimator: <drive>``; ``summary.json`` holds
+    ``transmissions: {<drive>: <a single-transmission summary>}`` and the plots are
+    ``analysis_<drive>.png``. The returned Analysis holds the combined summary and each
+    drive's own Analysis in ``transmissions``.
+
     Memory does not grow with the bags. The returned histories (estimates, health states,
     measured windows and, with ``plot``, the ground truth) keep between ``history`` (default
     :data:`HISTORY`) and twice as many records each, evenly spaced from the first, plus the
@@ -183,37 +200,67 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     plotted series in at most 2 x :data:`~gear_phm.offline.decimate.ENVELOPE_BINS` bins with
     each bin's min and max, whatever ``history``. ``prior``: a population prior on the wear law's
     shape (:class:`~gear_phm.prognostics.ShapePrior`, ``gear-phm fleet --population-prior``).
-    Raises :class:`AnalysisError` on bad input.
+    Raises :class:`AnalysisError` on bad input (a bad transmissions list included).
     """
-    estimator_config, health_config = split_options(ratio, options)
     if history is not None and history < 1:
         raise AnalysisError(f'history must be >= 1, got {history}')
-    if not motor_joint or not load_joint or motor_joint == load_joint:
-        raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty names, '
-                            f'got {motor_joint!r} and {load_joint!r}')
     if not diagnostics_rate > 0:
         raise AnalysisError(f'diagnostics_rate must be > 0 Hz, got {diagnostics_rate}')
+    if transmissions is None:
+        if ratio is None:
+            raise AnalysisError('give the ratio (one transmission) or transmissions (many)')
+        estimator_config, health_config = split_options(ratio, options)
+        if not motor_joint or not load_joint or motor_joint == load_joint:
+            raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty '
+                                f'names, got {motor_joint!r} and {load_joint!r}')
+        runs = [_Run(estimator_config, health_config, motor_joint, load_joint, topic,
+                     transmission_name, hardware_id, history, prior)]
+    else:
+        given = [name for name, value, default in (
+            ('ratio', ratio, None), ('motor_joint', motor_joint, MOTOR_JOINT.default),
+            ('load_joint', load_joint, LOAD_JOINT.default),
+            ('transmission_name', transmission_name, TRANSMISSION_NAME.default),
+            ('hardware_id', hardware_id, HARDWARE_ID.default)) if value != default]
+        if given:
+            raise AnalysisError(f'with transmissions, each drive sets its own ratio, joints '
+                                f'and names: drop {", ".join(given)}')
+        runs = []
+        for drive in _drives(transmissions):
+            estimator_config, health_config = split_options(
+                drive.ratio, {**options, **drive.offline_options()})
+            runs.append(_Run(estimator_config, health_config, drive.motor_joint,
+                             drive.load_joint, topic, drive.name, drive.name, history, prior,
+                             drive=drive.name))
     paths = [path_or_paths] if isinstance(path_or_paths, (str, Path)) else list(path_or_paths)
     if not paths:
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite)
-    run = _Run(estimator_config, health_config, motor_joint, load_joint, topic,
-               transmission_name, hardware_id, diagnostics_rate, plot, history, prior)
+    stream = _Stream(runs, topic, diagnostics_rate, plot)
     staging = None
     try:
         if target is not None:
             target.parent.mkdir(parents=True, exist_ok=True)
             staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
-        analysis = run.execute(bags, None if staging is None or target is None
-                               else staging / target.name, progress)
+        analyses, readers, elapsed = stream.execute(
+            bags, None if staging is None or target is None else staging / target.name,
+            progress)
+        if transmissions is None:
+            analysis = analyses[0]
+        else:
+            analysis = _combined(stream, analyses, bags, readers, elapsed)
         if target is not None and staging is not None:
             written = staging / target.name
             (written / 'summary.json').write_text(
                 json.dumps(analysis.summary, indent=2, default=_json) + '\n')
             if plot:
                 from gear_phm.offline.plot import plot_analysis
-                plot_analysis(written / 'analysis.png', analysis, ratio, bags)
+                if transmissions is None:
+                    plot_analysis(written / 'analysis.png', analysis,
+                                  runs[0].estimator_config.ratio, bags)
+                for run, drive_analysis in zip(runs, analyses) if transmissions else ():
+                    plot_analysis(written / f'analysis_{run.drive}.png', drive_analysis,
+                                  run.estimator_config.ratio, bags, drive=str(run.drive))
             if target.exists():
                 shutil.rmtree(target)
             written.rename(target)
@@ -222,6 +269,38 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float, 
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
+
+
+def _drives(transmissions: Any) -> tuple[Transmission, ...]:
+    """Return the drives of ``analyze_bag``'s ``transmissions`` (AnalysisError if bad)."""
+    try:
+        if isinstance(transmissions, (str, Path)):
+            return load_transmissions(transmissions)
+        if isinstance(transmissions, Mapping):
+            return parse_transmissions(transmissions)
+        drives = tuple(transmissions)
+    except TransmissionsError as exc:
+        raise AnalysisError(str(exc)) from None
+    if not drives or not all(isinstance(d, Transmission) for d in drives):
+        raise AnalysisError('transmissions must be a file, its YAML document or a non-empty '
+                            'sequence of Transmission records')
+    return drives
+
+
+def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
+              readers: list[str], elapsed: float) -> Analysis:
+    """Return the Analysis of many drives: the combined summary, each drive's Analysis."""
+    messages = stream.runs[0].samples
+    one = len(bags) == 1
+    summary = {'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': stream.topic,
+               'messages': messages, 'reader': readers[0] if one else readers,
+               'seconds': elapsed,
+               'samples_per_second': messages / elapsed if elapsed > 0 else math.inf,
+               'transmissions': {run.drive: analysis.summary
+                                 for run, analysis in zip(stream.runs, analyses)}}
+    return Analysis(EstimateHistory.of([]), HealthHistory.of([]), summary, (), {},
+                    transmissions={str(run.drive): analysis
+                                   for run, analysis in zip(stream.runs, analyses)})
 
 
 def _check_out(out: Path, overwrite: bool) -> Path:
@@ -238,8 +317,13 @@ class _Run:
 
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
-                 hardware_id: str, diagnostics_rate: float, want_truth: bool,
-                 history: int | None = None, prior: ShapePrior | None = None) -> None:
+                 hardware_id: str, history: int | None = None, prior: ShapePrior | None = None,
+                 drive: str | None = None) -> None:
+        #: one drive of many (issue 25): its topics are gear_phm/<drive>/..., its statuses
+        #: named by it; None: the single transmission, today's names
+        self.drive = drive
+        self.estimator_status_name = (ESTIMATOR_STATUS_NAME if drive is None
+                                      else f'gear_phm estimator: {drive}')
         # what the Analysis keeps: bounded histories (``history``) and the plot's envelopes
         self.measurements = Binned(history, ('stamp_ns',), objects=True)
         self.pending: list[tuple[int, Measurement, bool]] = []    # of the batch
@@ -249,8 +333,6 @@ class _Run:
         self.estimator_config = estimator_config
         self.motor_joint, self.load_joint, self.topic = motor_joint, load_joint, topic
         self.transmission_name, self.hardware_id = transmission_name, hardware_id
-        self.diag_period_ns = int(1e9 / diagnostics_rate)
-        self.want_truth = want_truth
         self.history = history
         self.estimates = Binned(history, [f.name for f in fields(EstimateHistory)])
         self.states = Binned(history, _HEALTH_COLUMNS, objects=True)
@@ -269,21 +351,12 @@ class _Run:
         stamp_ns = self.pipeline.stamp_ns(measurement.t)
         self.pending.append((stamp_ns, measurement, accepted))
 
-    def execute(self, bags: list[Path], directory: Path | None, progress: bool) -> Analysis:
-        from gear_phm.bagio import BagError, Rosbag2McapWriter
-        started = time.perf_counter()
-        readers = []
-        try:
-            with (nullcontext(None) if directory is None
-                  else Rosbag2McapWriter(directory, batch=True)) as writer:
-                for path in bags:
-                    readers.append(self._read(path, writer, progress))
-        except BagError as exc:
-            raise AnalysisError(str(exc)) from None
-        elapsed = time.perf_counter() - started
+    def result(self, bags: list[Path], readers: list[str], elapsed: float) -> Analysis:
+        """Return the Analysis of the run once every bag is read (AnalysisError: no sample)."""
         if self.pipeline.samples_seen == 0:
+            drive = '' if self.drive is None else f' (drive {self.drive})'
             raise AnalysisError(f'no message of topic {self.topic} has joints '
-                                f'{self.motor_joint!r} and {self.load_joint!r}: '
+                                f'{self.motor_joint!r} and {self.load_joint!r}{drive}: '
                                 f'{dict(self.pipeline.counts)}')
         self._keep_measurements()
         summary = self._summary(bags, readers, elapsed)
@@ -359,55 +432,8 @@ class _Run:
             if index is not None:
                 self.true_end_of_life_ns = int(stamps[index])
 
-    def _read(self, path: Path, writer: Any, progress: bool) -> str:
-        """Feed one bag; returns the reader kind used."""
-        from gear_phm.bagio import BagReader
-        with BagReader(path) as bag:
-            topic = bag.require_topic(self.topic, interfaces.JOINT_STATE_TYPE)
-            total = bag.message_count(topic)
-            if total == 0:
-                raise AnalysisError(f'topic {topic} in bag {path} has no message')
-            truth_topics = {} if not self.want_truth else {
-                bag.resolve_topic(name): name
-                for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY)
-                if bag.resolve_topic(name) in bag.topics}
-            bar = _progress(total, not progress)
-            next_tick: int | None = None         # next /diagnostics tick, bag time [ns]
-            last_log_ns = 0
-            for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
-                if raw.topic != topic:           # ground truth, for the plot only
-                    stamps, values = interfaces.vector3_stamped_columns(
-                        raw.buffer, raw.offsets, raw.lengths)
-                    self._keep_truth(truth_topics[raw.topic], stamps, values)
-                    continue
-                times = raw.log_time_ns
-                if next_tick is None:
-                    next_tick = int(times[0]) + self.diag_period_ns
-                ticks = []
-                while next_tick <= int(times[-1]):
-                    ticks.append(next_tick)
-                    next_tick += self.diag_period_ns
-                decoded = codec.decode_joint_state_buffer(
-                    raw.buffer, raw.offsets, raw.lengths, self.motor_joint, self.load_joint)
-                self._process(decoded, len(raw), ticks,
-                              np.searchsorted(times, ticks, side='left').tolist(), writer)
-                last_log_ns = int(times[-1])
-                bar.update(len(raw))
-            if next_tick is not None:            # the final state, at the last message
-                final = self._tick(last_log_ns, self.samples, None, self.assessor.latest)
-                if writer is not None:
-                    writer.write_output(final)
-            bar.close()
-            return bag.reader_kind
-
-    def _process(self, decoded: codec.JointBatch, messages: int, ticks: list[int],
-                 cuts: list[int], writer: Any) -> None:
-        """One decoded batch of ``messages`` messages: estimator, then diagnostics code.
-
-        ``ticks`` are the /diagnostics times [ns] of bag time inside the batch, ``cuts`` the
-        number of the batch's messages logged before each: its statuses report the state after
-        those messages only (marks of the pipeline, not cuts of the batch).
-        """
+    def _step(self, decoded: codec.JointBatch, messages: int, cuts: list[int]) -> _Step:
+        """Run the estimator and the assessor over one decoded batch (see :meth:`_process`)."""
         index = decoded.message_index
         marks = np.searchsorted(index, cuts, side='left').tolist()
         rejected_at = [(int(np.searchsorted(index, position)), reason)
@@ -426,39 +452,17 @@ class _Run:
         self._keep(estimates, states)
         received = [self.samples + cut for cut in cuts]
         self.samples += messages
-        ends = [snapshot.estimates for snapshot in snapshots]
-        stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
-                             count=len(estimates))
-        if writer is None or np.all(np.diff(stamps) > 0):
-            # one block, each status after the outputs of the estimates before its mark
-            between = [(int(stamps[end - 1]) if end else -1,
-                        self._tick(tick, count, snapshot, latest[end]))
-                       for tick, count, snapshot, end in zip(ticks, received, snapshots, ends)]
-            if writer is not None:
-                writer.write_vector3_columns(output_columns(estimates, states), between=between)
-            return
-        done = 0                                # stamps restarted inside the batch: by parts
-        for tick, count, snapshot, end in zip(ticks, received, snapshots, ends):
-            writer.write_vector3_columns(output_columns(
-                estimates[done:end], states[first_state[done]:first_state[end]]))
-            writer.write_output(self._tick(tick, count, snapshot, latest[end]))
-            done = end
-        writer.write_vector3_columns(output_columns(estimates[done:],
-                                                    states[first_state[done]:]))
+        return _Step(self.drive, estimates, states, latest, first_state, snapshots, received)
 
-    def _tick(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
-              latest: HealthState | None) -> interfaces.DiagnosticsOut:
-        """Return the /diagnostics array the nodes would publish at ``stamp_ns`` [ns].
-
-        ``received``: messages so far; the estimator's status is as of ``snapshot`` (None:
-        now), the diagnostics node's from its newest health state ``latest``.
-        """
-        statuses = [self.pipeline.status(ESTIMATOR_STATUS_NAME, received, snapshot)]
+    def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
+                  latest: HealthState | None) -> list[StatusOut]:
+        """Return the estimator's and the diagnostics node's statuses at ``stamp_ns`` [ns]."""
+        statuses = [self.pipeline.status(self.estimator_status_name, received, snapshot)]
         if latest is not None:
             statuses.append(interfaces.health_status(latest, self.transmission_name,
                                                      self.hardware_id))
             self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
-        return interfaces.DiagnosticsOut(stamp_ns, tuple(statuses))
+        return statuses
 
     def _summary(self, bags: list[Path], readers: list[str], elapsed: float
                  ) -> dict[str, Any]:
@@ -485,6 +489,210 @@ class _Run:
             'config': self.estimator_config.as_dict(), 'health': health,
         })
         return summary
+
+
+class _Stream:
+    """One JointState stream read once for one or many drives (:class:`_Run` each).
+
+    One drive with ``drive`` None is today's single transmission: its outputs, statuses and
+    summary are those of the nodes. Each batch is decoded once for all drives
+    (:func:`gear_phm.codec.decode_joint_state_pairs`); each /diagnostics tick writes one
+    array with every drive's estimator and health status.
+    """
+
+    def __init__(self, runs: Sequence[_Run], topic: str, diagnostics_rate: float,
+                 want_truth: bool) -> None:
+        self.runs = list(runs)
+        self.topic = topic
+        self.diag_period_ns = int(1e9 / diagnostics_rate)
+        self.want_truth = want_truth
+        self.pairs = [(run.motor_joint, run.load_joint) for run in self.runs]
+        self.next_tick: int | None = None        # next /diagnostics tick, bag time [ns]
+        #: many drives: chunks joined into batches of BATCH messages (the drives' per-batch
+        #: work then amortised); one transmission: batch by batch as the reader gives them,
+        #: so that its results stay those of earlier versions to the last bit
+        self.join = any(run.drive is not None for run in self.runs)
+
+    def execute(self, bags: list[Path], directory: Path | None, progress: bool
+                ) -> tuple[list[Analysis], list[str], float]:
+        """Read the bags into the runs; return each run's Analysis, the readers, seconds."""
+        from gear_phm.bagio import BagError, Rosbag2McapWriter
+        started = time.perf_counter()
+        readers = []
+        try:
+            with (nullcontext(None) if directory is None
+                  else Rosbag2McapWriter(directory, batch=True)) as writer:
+                for path in bags:
+                    readers.append(self._read(path, writer, progress))
+        except BagError as exc:
+            raise AnalysisError(str(exc)) from None
+        elapsed = time.perf_counter() - started
+        return [run.result(bags, readers, elapsed) for run in self.runs], readers, elapsed
+
+    def _truth_topics(self, bag: Any) -> dict[str, tuple[_Run, str]]:
+        """Return {bag topic: (run, canonical truth topic)} of the truth the bag holds."""
+        found = {}
+        for run in self.runs if self.want_truth else ():
+            for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY):
+                topic = bag.resolve_topic(name if run.drive is None
+                                          else interfaces.drive_topic(run.drive, name))
+                if topic in bag.topics:
+                    found[topic] = (run, name)
+        return found
+
+    def _read(self, path: Path, writer: Any, progress: bool) -> str:
+        """Feed one bag; returns the reader kind used."""
+        from gear_phm.bagio import BagReader
+        with BagReader(path) as bag:
+            topic = bag.require_topic(self.topic, interfaces.JOINT_STATE_TYPE)
+            total = bag.message_count(topic)
+            if total == 0:
+                raise AnalysisError(f'topic {topic} in bag {path} has no message')
+            truth_topics = self._truth_topics(bag)
+            bar = _progress(total, not progress)
+            self.next_tick = None
+            last_log_ns: int | None = None       # of the bag's last JointState
+            pending: list[RawBatch] = []         # JointState chunks, processed by BATCH
+            for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+                if raw.topic != topic:           # ground truth, for the plot only
+                    stamps, values = interfaces.vector3_stamped_columns(
+                        raw.buffer, raw.offsets, raw.lengths)
+                    run, name = truth_topics[raw.topic]
+                    run._keep_truth(name, stamps, values)
+                    continue
+                pending.append(raw)
+                if not self.join or sum(len(p) for p in pending) >= BATCH:
+                    last_log_ns = self._batch(_joined(pending), writer, bar)
+                    pending.clear()
+            if pending:
+                last_log_ns = self._batch(_joined(pending), writer, bar)
+            if last_log_ns is not None:          # the final state, at the last message
+                final = self._tick(last_log_ns, [(run, (run.samples, None, run.assessor.latest))
+                                                 for run in self.runs])
+                if writer is not None:
+                    writer.write_output(final)
+            bar.close()
+            return bag.reader_kind
+
+    def _batch(self, raw: RawBatch, writer: Any, bar: Any) -> int:
+        """Decode one batch of JointState for every drive, run and write it.
+
+        Returns its last log time [ns].
+        """
+        times = raw.log_time_ns
+        if self.next_tick is None:
+            self.next_tick = int(times[0]) + self.diag_period_ns
+        ticks = []
+        while self.next_tick <= int(times[-1]):
+            ticks.append(self.next_tick)
+            self.next_tick += self.diag_period_ns
+        cuts = np.searchsorted(times, ticks, side='left').tolist()
+        decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
+                                                 self.pairs)
+        self._write([run._step(batch, len(raw), cuts)
+                     for run, batch in zip(self.runs, decoded)], ticks, writer)
+        bar.update(len(raw))
+        return int(times[-1])
+
+    def _tick(self, stamp_ns: int,
+              states: Sequence[tuple[_Run, tuple[int, StatusSnapshot | None,
+                                                 HealthState | None]]]
+              ) -> interfaces.DiagnosticsOut:
+        """Return the /diagnostics array the nodes would publish at ``stamp_ns`` [ns].
+
+        ``states``: per run, (messages so far, the estimator's snapshot (None: now), the
+        newest health state).
+        """
+        return interfaces.DiagnosticsOut(stamp_ns, tuple(
+            status for run, state in states for status in run._statuses(stamp_ns, *state)))
+
+    def _write(self, steps: list[_Step], ticks: list[int], writer: Any) -> None:
+        """Write one batch: each status after the outputs of the estimates before its mark.
+
+        ``ticks`` are the /diagnostics times [ns] of bag time inside the batch; the statuses
+        report the state after the messages logged before each (marks of the pipeline, not
+        cuts of the batch).
+        """
+        outs = [self._tick(tick, [(run, step.at(i)) for run, step in zip(self.runs, steps)])
+                for i, tick in enumerate(ticks)]
+        if writer is None:
+            return
+        if all(step.increasing for step in steps):      # one block
+            between = [(max(step.limit(i) for step in steps), out)
+                       for i, out in enumerate(outs)]
+            writer.write_vector3_columns([c for step in steps for c in step.columns()],
+                                         between=between)
+            return
+        for i, out in enumerate(outs):          # stamps restarted inside the batch: by parts
+            writer.write_vector3_columns([c for step in steps for c in step.columns(i)])
+            writer.write_output(out)
+        writer.write_vector3_columns([c for step in steps for c in step.columns(len(outs))])
+
+
+def _joined(batches: list[RawBatch]) -> RawBatch:
+    """Return consecutive batches of one topic as one.
+
+    An MCAP chunk holds a few hundred messages: each drive's per-batch work is then paid once
+    per :data:`BATCH` messages.
+    """
+    if len(batches) == 1:
+        return batches[0]
+    from gear_phm.bagio.chunks import RawBatch
+    sizes = [len(b.buffer) for b in batches]
+    starts = np.cumsum([0, *sizes[:-1]])
+    return RawBatch(batches[0].topic, np.concatenate([b.log_time_ns for b in batches]),
+                    b''.join(bytes(b.buffer) for b in batches),
+                    np.concatenate([b.offsets + start for b, start in zip(batches, starts)]),
+                    np.concatenate([b.lengths for b in batches]))
+
+
+class _Step:
+    """What one drive's estimator and assessor made of one batch, for the writer.
+
+    ``latest[i]`` is the newest health state after ``i`` estimates, ``states[first_state[i]:]``
+    came after estimate ``i``; ``snapshots``/``received`` are per /diagnostics tick.
+    """
+
+    def __init__(self, drive: str | None, estimates: list[FrictionEstimate],
+                 states: list[HealthState], latest: list[HealthState | None],
+                 first_state: list[int], snapshots: list[StatusSnapshot],
+                 received: list[int]) -> None:
+        self.drive = drive
+        self.estimates, self.states = estimates, states
+        self.latest, self.first_state = latest, first_state
+        self.snapshots, self.received = snapshots, received
+        self.ends = [snapshot.estimates for snapshot in snapshots]
+        self.stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
+                                  count=len(estimates))
+        self.increasing = bool(np.all(np.diff(self.stamps) > 0))
+
+    def at(self, i: int) -> tuple[int, StatusSnapshot, HealthState | None]:
+        """Return (messages received, estimator snapshot, newest health state) at tick ``i``."""
+        return self.received[i], self.snapshots[i], self.latest[self.ends[i]]
+
+    def limit(self, i: int) -> int:
+        """Return the stamp [ns] of the last estimate before tick ``i`` (-1: none)."""
+        end = self.ends[i]
+        return int(self.stamps[end - 1]) if end else -1
+
+    def columns(self, part: int | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """Return the outputs (:func:`output_columns`) of all estimates or of one part.
+
+        Part ``i`` holds the estimates between tick ``i - 1`` and tick ``i`` (``i`` = the
+        number of ticks: those after the last).
+        """
+        if part is None:
+            estimates, states = self.estimates, self.states
+        else:
+            done = self.ends[part - 1] if part else 0
+            end = self.ends[part] if part < len(self.ends) else len(self.estimates)
+            estimates = self.estimates[done:end]
+            states = self.states[self.first_state[done]:self.first_state[end]]
+        columns = output_columns(estimates, states)
+        if self.drive is None:
+            return columns
+        return [(interfaces.drive_topic(self.drive, topic), stamps, values)
+                for topic, stamps, values in columns]
 
 
 def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState]

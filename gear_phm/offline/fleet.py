@@ -10,6 +10,8 @@ they finish: the table of a run on 2 workers is byte for byte the table of a ser
 A unit folder holds rosbag2 directories and/or ``.mcap``, ``.db3``, ``.bag`` files, and an
 optional ``unit.yaml`` of per-unit options (``ratio``, ``motor_joint``, ``load_joint``,
 ``topic``, and any estimator or health parameter by name), which override the fleet-wide ones.
+A unit with many drives in one stream lists them under ``transmissions`` in its ``unit.yaml``
+(:mod:`gear_phm.transmissions`): it gets one row per drive, named ``<unit>/<drive>``.
 A unit that cannot be analysed (no recording, a corrupt bag, bad options) gets a row with level
 ``FAILED`` and the reason; the others complete.
 """
@@ -129,34 +131,55 @@ def _failed(name: str, recordings: int, reason: str) -> dict[str, Any]:
 
 
 def analyze_unit(unit: Path, fleet_options: dict[str, Any],
-                 out: Path | None = None, prior: ShapePrior | None = None) -> UnitResult:
-    """One unit's row (never raises on the unit's data: a failure is a FAILED row).
+                 out: Path | None = None, prior: ShapePrior | None = None) -> list[UnitResult]:
+    """One unit's rows (never raises on the unit's data: a failure is a FAILED row).
 
-    ``prior``: the fleet's population prior on the wear law's shape, if any.
+    One row, or with ``transmissions`` in its ``unit.yaml`` one row per drive, named
+    ``<unit>/<drive>`` (the fleet-wide ratio and joints are then not used). ``prior``: the
+    fleet's population prior on the wear law's shape, if any.
     """
     from gear_phm.offline.engine import AnalysisError, analyze_bag, recordings_in
+    from gear_phm.transmissions import TRANSMISSIONS
     recordings = recordings_in(unit)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     empty: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())
     if not recordings:
-        return UnitResult(_failed(unit.name, 0, f'no recording in {unit}'), empty, peak)
+        return [UnitResult(_failed(unit.name, 0, f'no recording in {unit}'), empty, peak)]
     try:
         options = unit_options(unit, fleet_options)
-        ratio = options.pop('ratio', None)
-        if ratio is None:
-            raise ValueError('no ratio: give --ratio or ratio in unit.yaml')
+        if TRANSMISSIONS in options:
+            options = {**{k: v for k, v in fleet_options.items()
+                          if k not in ('ratio', 'motor_joint', 'load_joint')},
+                       **unit_options(unit, {})}
+            options[TRANSMISSIONS] = {TRANSMISSIONS: options[TRANSMISSIONS]}
+            ratio = None
+        else:
+            ratio = options.pop('ratio', None)
+            if ratio is None:
+                raise ValueError('no ratio: give --ratio or ratio in unit.yaml')
+            ratio = float(ratio)
         # the histories only feed the trend: bounded, so that a worker's memory does not grow
         # with the unit's number of recordings
-        analysis = analyze_bag(recordings, float(ratio), out=out, plot=False, progress=False,
+        analysis = analyze_bag(recordings, ratio, out=out, plot=False, progress=False,
                                history=TREND_POINTS, prior=prior,
                                overwrite=prior is not None, **options)
     except (AnalysisError, ValueError, TypeError, OSError) as exc:
-        return UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
-                          empty, peak)
+        return [UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
+                           empty, peak)]
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    if not analysis.transmissions:
+        return [_result(unit.name, len(recordings), analysis, peak, prior)]
+    return [_result(f'{unit.name}/{drive}', len(recordings), drive_analysis, peak, prior)
+            for drive, drive_analysis in analysis.transmissions.items()]
+
+
+def _result(name: str, recordings: int, analysis: Any, peak: float,
+            prior: ShapePrior | None) -> UnitResult:
+    """Return the row of one transmission's Analysis (a unit's, or one drive of a unit)."""
     s = analysis.summary
     health = s['health']
     values = health.get('values', {})
-    row = {'unit': unit.name, 'recordings': len(recordings),
+    row = {'unit': name, 'recordings': recordings,
            'operating_time_s': float(s.get('operating_time_s', math.nan)),
            'u': float(s['u']), 'u_sigma': float(s['sigma_u']),
            'eta_opposing': float(s['eta_opposing']), 'eta_aiding': float(s['eta_aiding']),
@@ -167,7 +190,6 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
     clock = e.operating_time if np.all(np.isfinite(e.operating_time)) else e.t - e.t[0]
     trend = (tuple(clock[keep].tolist()), tuple(e.u[keep].tolist()),
              tuple(e.u_sigma[keep].tolist()))
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return UnitResult(row, trend, peak, s, prior)
 
 
@@ -202,21 +224,27 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
                                  key=f'gear-phm-unit-{unit.name}-{i}')
                    for i, (unit, unit_out) in enumerate(zip(units, outs))]
         order = {future.key: i for i, future in enumerate(futures)}
-        results: list[UnitResult | None] = [None] * len(futures)
+        results: list[list[UnitResult]] = [[] for _ in futures]
         for future in as_completed(futures):
             results[order[future.key]] = future.result()
             on_done()
-        done = [r for r in results if r is not None]
-        prior = population_prior([r.summary for r in done]) if population else None
+        prior = (population_prior([r.summary for rows in results for r in rows])
+                 if population else None)
         if prior is None:
-            return done
-        again = [i for i, r in enumerate(done)
-                 if r.row['level'] != 'FAILED' and not _at_end_of_life(r.summary)]
+            return [r for rows in results for r in rows]
+
+        def running(r: UnitResult) -> bool:
+            return r.row['level'] != 'FAILED' and not _at_end_of_life(r.summary)
+        again = [i for i, rows in enumerate(results) if any(running(r) for r in rows)]
         futures = [client.submit(analyze_unit, units[i], options, outs[i], prior, pure=False,
                                  key=f'gear-phm-unit-prior-{units[i].name}-{i}') for i in again]
-        for i, result in zip(again, client.gather(futures)):
-            done[i] = result
-        return done
+        for i, rows in zip(again, client.gather(futures)):
+            before = results[i]
+            if len(rows) == len(before):
+                # a drive at its end of life keeps the result it taught the prior with
+                rows = [new if running(old) else old for old, new in zip(before, rows)]
+            results[i] = rows
+        return [r for rows in results for r in rows]
     finally:
         client.close()
         if cluster is not None:
@@ -305,7 +333,8 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
         bar.close()
     rows = [r.row for r in results]
     write_table(rows, out)
-    plot_fleet(results, out / 'fleet.png', f'gear-phm fleet {root.name}: {len(rows)} units')
+    plot_fleet(results, out / 'fleet.png', f'gear-phm fleet {root.name}: {len(rows)} '
+               f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
     (out / 'fleet_run.json').write_text(json.dumps({
         'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
         'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1) for r in results},

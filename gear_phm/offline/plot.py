@@ -43,7 +43,8 @@ def level_spans(t: np.ndarray, level: np.ndarray) -> list[tuple[float, float, in
     return [(float(t[a]), float(t[b]), int(level[a])) for a, b in zip(starts, ends)]
 
 
-def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[Path]) -> None:
+def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[Path],
+                  drive: str = '') -> None:
     """Plot efficiency, u, the RUL and the health level against bag time [s].
 
     Panels, top to bottom: measured and estimated efficiency; u with its 2-sigma band and
@@ -51,7 +52,8 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     +/- alpha cone, :data:`~gear_phm.prognostics.metrics.ALPHA`, and the true end of life); a
     strip of the health level (the worst of each bin). Drawn from ``analysis.envelopes``: a
     line through each bin's first record and, shaded, each bin's min-max range, so the cost
-    is bounded whatever the length of the bags and no excursion is lost.
+    is bounded whatever the length of the bags and no excursion is lost. ``drive``: the
+    drive's name in the title, for one drive of many.
     """
     import matplotlib
     matplotlib.use('Agg')
@@ -103,7 +105,8 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     ax_eta.legend(loc='best', fontsize=8)
     ax_eta.grid(alpha=0.3)
     names = ', '.join(Path(b).name for b in bags[:3]) + (' ...' if len(bags) > 3 else '')
-    ax_eta.set_title(f'gear-phm analyze {names}  (R = {ratio:g})')
+    what = f'drive {drive}, ' if drive else ''
+    ax_eta.set_title(f'gear-phm analyze {names}  ({what}R = {ratio:g})')
     u = e.first['u']
     ax_u.fill_between(t, e.low['u_low'], e.high['u_high'], color='C2', alpha=0.3, lw=0,
                       label='u_hat +/- 2 sigma')

@@ -155,6 +155,9 @@ class Analysis:
     #: (:func:`~gear_phm.prognostics.metrics.true_end_of_life_index`, over every truth
     #: sample), or None.
     true_end_of_life_ns: int | None = None
+    #: Many drives (``analyze_bag(..., transmissions=...)``): each drive's own Analysis by
+    #: name; this one then holds only the combined summary. Empty for one transmission.
+    transmissions: dict[str, Analysis] = field(default_factory=dict)
 
     def to_dataframe(self) -> Any:
         """Return one row per estimate.
