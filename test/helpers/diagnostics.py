@@ -14,9 +14,10 @@ import time
 import rclpy
 from geometry_msgs.msg import Vector3Stamped  # noqa: I100
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from gear_phm.interfaces import ESTIMATOR_TOPICS
-from gear_phm.nodes.common import OUTPUT_QOS, stamp
+from gear_phm.nodes.common import stamp
 
 EXE = Path(sys.executable).parent / 'diagnostics'
 
@@ -40,6 +41,12 @@ def wait_for(node: Node, condition, deadline_s: float, what: str) -> None:
     raise AssertionError(f'timed out waiting for {what}')
 
 
+#: The feeder's queue: deep enough that a diagnostics node slowed by a loaded machine still
+#: receives every update (with the nodes' depth 10, a test that publishes 400 updates in a
+#: burst lost some under load, and the levels it asserts came from a shorter history).
+FEEDER_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+
+
 class Feeder:
     """Publishes the estimator topics of linear wear u = 0.05 + 1.5e-4 t.
 
@@ -47,7 +54,7 @@ class Feeder:
     """
 
     def __init__(self, node: Node, utilisation: float = 0.5) -> None:
-        self.pubs = [node.create_publisher(Vector3Stamped, t, OUTPUT_QOS)
+        self.pubs = [node.create_publisher(Vector3Stamped, t, FEEDER_QOS)
                      for t in ESTIMATOR_TOPICS]
         self.utilisation = utilisation
         self.step = 0
