@@ -162,7 +162,10 @@ class HealthAssessor:
             expected = efficiencies_array(columns[:, 0], ratio)[0]
             reported = np.where(np.isfinite(centre), efficiencies_array(centre, ratio)[0],
                                 columns[:, 5])
-            suspect = (np.abs(expected - reported) > RATIO_TOLERANCE).tolist()
+            # u is the opposing reading (eta_D at u), or, from an older estimator, the
+            # midpoint of the two readings: either match clears the ratio
+            suspect = ((np.abs(expected - reported) > RATIO_TOLERANCE)
+                       & ~(np.abs(expected - columns[:, 5]) <= RATIO_TOLERANCE)).tolist()
         readings_of = list(zip(u_d.tolist(), u_i.tolist()))
         return [self._assess(estimate, sigmas[i], readings_of[i], suspect[i])
                 if usable[i] else self._reject('non_finite_estimate')
@@ -243,7 +246,8 @@ class HealthAssessor:
 
         The estimator reports each efficiency as its direction's windows read it (u plus the
         direction's learned bias, :meth:`~gear_phm.estimation.kalman.FrictionFilter.
-        direction_bias`); u itself is the midpoint of the two. ``eta_opposing_min`` is about
+        direction_bias`); u itself is the opposing windows' reading (an older estimator: the
+        midpoint of the two). ``eta_opposing_min`` is about
         the opposing windows' reading, self-locking about the aiding ones', ``u_max`` about u.
         On a plant without mismatch (and for an older stream) the offset is 0. ``u_d``,
         ``u_i``: the readings of u that the reported eta_D and eta_I give (eq 13).
@@ -306,9 +310,10 @@ class HealthAssessor:
     def _ratio_mismatch(self, estimate: FrictionEstimate, centre: float) -> str:
         """'' or why the estimator's ratio differs from this assessor's.
 
-        The estimator reports eta_D and eta_I with its own ratio at u plus and minus its
-        direction bias (0 on a plant without mismatch): with this assessor's ratio, eq 13
-        must map them back to two readings whose midpoint is u. Eq 10 inverted for R gives
+        The estimator reports eta_D at u and eta_I at u plus its direction offset, with its
+        own ratio (an older estimator: at u plus and minus a bias, u the midpoint): with this
+        assessor's ratio eq 10 must give eta_D at u, or eq 13 map the two back to readings
+        whose midpoint is u. Eq 10 inverted for R gives
         the implied ratio R = u / (1 - eta_D (1 + u)) (exact without a bias). End of life is a
         u computed with this assessor's ratio, so two different ratios would put it at the
         wrong u, silently. Not decidable at u ~ 0, where eta_D = 1 for every R. ``centre``: the
@@ -319,7 +324,8 @@ class HealthAssessor:
         reported = efficiencies(centre, ratio)[0] if math.isfinite(centre) \
             else estimate.eta_opposing
         if not (math.isfinite(expected) and math.isfinite(reported)) \
-                or abs(expected - reported) <= RATIO_TOLERANCE:
+                or abs(expected - reported) <= RATIO_TOLERANCE \
+                or abs(expected - estimate.eta_opposing) <= RATIO_TOLERANCE:
             return ''
         denominator = 1.0 - estimate.eta_opposing * (1.0 + estimate.u)
         implied = estimate.u / denominator if denominator != 0.0 else math.inf
