@@ -121,12 +121,12 @@ def test_direction_offset_of_a_spur_gear_plant_is_measured(rate: float) -> None:
     """Spur stage with bearing friction: the direction offset is a learned state.
 
     Its opposing windows read u = 0.180, its aiding ones 0.161 (a 12-sigma disagreement per
-    1 kHz window). u is the opposing reading (0.1799-0.1803), the offset d = aiding minus
-    opposing reading is learned (-0.01859..-0.01886 of -0.01884, sigma 0.00008-0.00016), the
-    variance learned on top is small (sigma <= 0.00035): the offset is not counted twice.
-    Without adaptation (no offset state) the filter re-initialises about every third window
-    (49-53 times in 300 s; adaptive: 0). (Before the offset state: u the midpoint
-    0.1688-0.1709, offset 0.0175-0.0187, re-initialisations 0-4.)
+    1 kHz window). The offset d = aiding minus opposing reading is learned (-0.01859..-0.01887
+    of -0.01884, sigma 0.00008-0.00016), each direction's bias is -/+ d/2, u is the midpoint
+    (0.1706-0.1709), and the variance learned on top is small (sigma <= 0.00035): the offset
+    is not counted twice. Without adaptation (no offset state) the filter re-initialises
+    about every third window (49-53 times in 300 s; adaptive: 0). (Before the offset was a
+    state: offset 0.0175-0.0187 with the other sign, u 0.1688-0.1709, re-initialisations 0-4.)
     """
     for seed in (0, 1):
         run, gap = _spur_run(rate, seed)
@@ -135,9 +135,9 @@ def test_direction_offset_of_a_spur_gear_plant_is_measured(rate: float) -> None:
         offset = summary['direction_offset']
         assert abs(-offset / gap - 1.0) < 0.03, offset
         assert summary['direction_offset_sigma'] < 0.02 * gap
-        assert pipeline.filter.direction_bias(0) == 0.0
-        assert pipeline.filter.direction_bias(1) == offset
-        assert pipeline.filter.x[0] == pytest.approx(0.180, abs=0.001)
+        assert pipeline.filter.direction_bias(0) == -0.5 * offset
+        assert pipeline.filter.direction_bias(1) == 0.5 * offset
+        assert pipeline.filter.x[0] == pytest.approx(0.1705, abs=0.001)
         for name in ('mismatch_sigma_opposing', 'mismatch_sigma_aiding'):
             assert summary[name] < 0.05 * gap, summary
         fixed, _ = _run(run, CONFIG.replace(adaptive=False))

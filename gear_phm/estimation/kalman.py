@@ -1,11 +1,12 @@
 """Kalman filter on the friction parameter: x = [u, du/dt, d], filterpy underneath.
 
-u [-] is the friction parameter the opposing-load (direct, eta_D) windows read; d [-], the
-direction offset, is what the aiding-load (inverse, eta_I) windows read on top of it: they
-measure u + d (docs/estimation.md, "Direction offset"). A gearbox that is not exactly the
-lever model has eta_D and eta_I of two different u; d is a state of the filter, learned from
-the first windows of both directions on, with a slow random walk (:data:`OFFSET_DRIFT`) so
-that a drift of the offset is followed (and reported) instead of being read as wear.
+d [-], the direction offset, is what the aiding-load (inverse, eta_I) windows read of u minus
+what the opposing-load (direct, eta_D) ones read; u [-] is the midpoint: opposing windows
+measure u - d/2, aiding ones u + d/2 (docs/estimation.md, "Direction offset"). A gearbox that
+is not exactly the lever model has eta_D and eta_I of two different u; d is a state of the
+filter, learned from the first windows of both directions on, with a slow random walk
+(:data:`OFFSET_DRIFT`), so that u does not move when the load direction changes and a drift
+of the offset is followed (and reported) instead of being read as wear.
 
 The filter adapts itself to the data (docs/estimation.md, "Adaptation"):
 
@@ -133,9 +134,10 @@ class FrictionFilter:
     """filterpy ``KalmanFilter`` on [u, du/dt, d] with Mahalanobis gating.
 
     ``predict(t)`` moves the state to time ``t`` [s]; ``update(z, r, t, direction)`` gates and
-    fuses a pseudo-measurement ``z`` of u (opposing windows, H = [1, 0, 0]) or of u + d (aiding
-    windows, H = [1, 0, 1]) with variance ``r``. After ``max_consecutive_gated`` rejections in
-    a row the filter re-initialises u on the measurement (a step fault; d is kept). With
+    fuses a pseudo-measurement ``z`` of u - d/2 (opposing windows, H = [1, 0, -1/2]) or of
+    u + d/2 (aiding windows, H = [1, 0, 1/2]) with variance ``r``. After
+    ``max_consecutive_gated`` rejections in a row the filter re-initialises u on the
+    measurement (a step fault; d is kept). With
     ``adaptation.adaptive`` False d stays 0 (its variance 0): the two-state filter.
     """
 
@@ -192,9 +194,10 @@ class FrictionFilter:
     def direction_bias(self, direction: int) -> float:
         """Learned reading of direction 0 (opposing) or 1 (aiding) windows minus u [-].
 
-        0 for opposing windows (u is their reading), the offset d for aiding ones.
+        -d/2 for opposing windows, +d/2 for aiding ones (u is the midpoint).
         """
-        return self.direction_offset if direction else 0.0
+        half = 0.5 * self.direction_offset
+        return half if direction else -half
 
     @property
     def direction_offset(self) -> float:
@@ -272,20 +275,20 @@ class FrictionFilter:
                age: float = 0.0) -> UpdateResult:
         """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
 
-        ``direction``: 0 for an opposing-load window (``z`` measures u), 1 for aiding (or
-        self-locking: ``z`` measures u + d); with adaptation its learned mismatch variance is
+        ``direction``: 0 for an opposing-load window (``z`` measures u - d/2), 1 for aiding (or
+        self-locking: ``z`` measures u + d/2); with adaptation its learned mismatch variance is
         added to ``r``. ``age`` [s]: ``z`` measures u at ``t - age`` (a window's mid-time),
-        H = [1, -age, direction]; without it a window of length T lags growing u by T/2
+        H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
         (docs/estimation.md). Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
                              f'r={r!r}')
         self.predict(t)
-        aiding = 1.0 if direction else 0.0
-        h = np.array([[1.0, -float(age), aiding]])
+        half = 0.5 if direction else -0.5
+        h = np.array([[1.0, -float(age), half]])
         bias = self.direction_bias(direction)
-        bias_variance = float(self.kf.P[2, 2]) if direction else 0.0
+        bias_variance = 0.25 * float(self.kf.P[2, 2])
         y = z - float((h @ self.kf.x)[0, 0])
         p_uu = float((h @ self.kf.P @ h.T)[0, 0])
         r_total = r + self.mismatch_variance(direction)

@@ -46,7 +46,9 @@ class HealthState:
 
     ``rul_operating`` is the RUL in seconds of operation, ``rul`` the same in elapsed (stamp)
     time, ``rul_operating`` / ``utilisation`` [-]; ``operating_time`` [s] is the estimate's
-    (NaN if it had none); see the module docstring.
+    (NaN if it had none); see the module docstring. ``eta_healthy`` [-] is the healthy eta_D
+    learned at the start and ``eta_warn`` [-] the WARN efficiency in force (NaN: not learned
+    yet; :class:`~gear_phm.prognostics.health.LevelTracker`).
     """
 
     stamp_ns: int
@@ -66,6 +68,8 @@ class HealthState:
     rul_operating: RulEstimate = RulEstimate(math.nan, math.nan, math.nan, 'none')
     operating_time: float = math.nan
     utilisation: float = math.nan
+    eta_healthy: float = math.nan
+    eta_warn: float = math.nan
 
     def as_stale(self, silence: float) -> HealthState:
         """This status turned STALE after ``silence`` [s] without input."""
@@ -83,6 +87,8 @@ def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
 _RUL_FIELDS = ('median', 'p5', 'p95')
 _STATE_FLOATS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'u_eol', 'operating_time',
                  'utilisation')
+#: Added later: absent in an older state file (NaN then).
+_STATE_FLOATS_LATER = ('eta_healthy', 'eta_warn')
 _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejected',
                'samples_missing')
 
@@ -90,7 +96,8 @@ _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejec
 def health_state_to_state(state: HealthState) -> dict[str, Any]:
     """A :class:`HealthState` as a JSON-safe dict."""
     out: dict[str, Any] = {key: int(getattr(state, key)) for key in _STATE_INTS}
-    out.update({key: encode_float(getattr(state, key)) for key in _STATE_FLOATS})
+    out.update({key: encode_float(getattr(state, key))
+                for key in _STATE_FLOATS + _STATE_FLOATS_LATER})
     out['message'] = state.message
     for name in ('rul', 'rul_operating'):
         rul = getattr(state, name)
@@ -104,6 +111,7 @@ def health_state_from_state(state: dict[str, Any]) -> HealthState:
     """Inverse of :func:`health_state_to_state`; KeyError/ValueError/TypeError if bad."""
     values: dict[str, Any] = {key: int(state[key]) for key in _STATE_INTS}
     values.update({key: decode_float(state[key]) for key in _STATE_FLOATS})
+    values.update({key: decode_float(state.get(key, 'nan')) for key in _STATE_FLOATS_LATER})
     for name in ('rul', 'rul_operating'):
         rul = state[name]
         values[name] = RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
@@ -127,9 +135,10 @@ class HealthAssessor:
         self.divergence = DivergenceDetector(
             nis_window=config.nis_window, nis_probability=config.nis_probability,
             max_u_sigma=config.max_u_sigma, nis_lost=config.nis_lost)
-        self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
+        self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn(),
                                    config.warn_horizon, level_hysteresis=config.level_hysteresis,
-                                   level_dwell=config.level_dwell)
+                                   level_dwell=config.level_dwell,
+                                   eta_opposing_min=config.eta_opposing_min)
         self.utilisation = Utilisation()
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
@@ -162,10 +171,7 @@ class HealthAssessor:
             expected = efficiencies_array(columns[:, 0], ratio)[0]
             reported = np.where(np.isfinite(centre), efficiencies_array(centre, ratio)[0],
                                 columns[:, 5])
-            # u is the opposing reading (eta_D at u), or, from an older estimator, the
-            # midpoint of the two readings: either match clears the ratio
-            suspect = ((np.abs(expected - reported) > RATIO_TOLERANCE)
-                       & ~(np.abs(expected - columns[:, 5]) <= RATIO_TOLERANCE)).tolist()
+            suspect = (np.abs(expected - reported) > RATIO_TOLERANCE).tolist()
         readings_of = list(zip(u_d.tolist(), u_i.tolist()))
         return [self._assess(estimate, sigmas[i], readings_of[i], suspect[i])
                 if usable[i] else self._reject('non_finite_estimate')
@@ -238,7 +244,7 @@ class HealthAssessor:
                                   estimate.samples_rejected, self.u_eol, trend,
                                   estimate.samples_missing, rul_operating,
                                   operating if self._on_operating_time(estimate) else math.nan,
-                                  utilisation)
+                                  utilisation, self.levels.eta_healthy, self.levels.eta_warn)
         return self.latest
 
     def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:
@@ -246,8 +252,7 @@ class HealthAssessor:
 
         The estimator reports each efficiency as its direction's windows read it (u plus the
         direction's learned bias, :meth:`~gear_phm.estimation.kalman.FrictionFilter.
-        direction_bias`); u itself is the opposing windows' reading (an older estimator: the
-        midpoint of the two). ``eta_opposing_min`` is about
+        direction_bias`); u itself is the midpoint of the two. ``eta_opposing_min`` is about
         the opposing windows' reading, self-locking about the aiding ones', ``u_max`` about u.
         On a plant without mismatch (and for an older stream) the offset is 0. ``u_d``,
         ``u_i``: the readings of u that the reported eta_D and eta_I give (eq 13).
@@ -310,10 +315,9 @@ class HealthAssessor:
     def _ratio_mismatch(self, estimate: FrictionEstimate, centre: float) -> str:
         """'' or why the estimator's ratio differs from this assessor's.
 
-        The estimator reports eta_D at u and eta_I at u plus its direction offset, with its
-        own ratio (an older estimator: at u plus and minus a bias, u the midpoint): with this
-        assessor's ratio eq 10 must give eta_D at u, or eq 13 map the two back to readings
-        whose midpoint is u. Eq 10 inverted for R gives
+        The estimator reports eta_D and eta_I with its own ratio at u plus and minus its
+        direction bias (0 on a plant without mismatch): with this assessor's ratio, eq 13
+        must map them back to two readings whose midpoint is u. Eq 10 inverted for R gives
         the implied ratio R = u / (1 - eta_D (1 + u)) (exact without a bias). End of life is a
         u computed with this assessor's ratio, so two different ratios would put it at the
         wrong u, silently. Not decidable at u ~ 0, where eta_D = 1 for every R. ``centre``: the
@@ -324,8 +328,7 @@ class HealthAssessor:
         reported = efficiencies(centre, ratio)[0] if math.isfinite(centre) \
             else estimate.eta_opposing
         if not (math.isfinite(expected) and math.isfinite(reported)) \
-                or abs(expected - reported) <= RATIO_TOLERANCE \
-                or abs(expected - estimate.eta_opposing) <= RATIO_TOLERANCE:
+                or abs(expected - reported) <= RATIO_TOLERANCE:
             return ''
         denominator = 1.0 - estimate.eta_opposing * (1.0 + estimate.u)
         implied = estimate.u / denominator if denominator != 0.0 else math.inf
