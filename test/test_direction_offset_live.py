@@ -102,7 +102,7 @@ def test_healthy_mismatched_gearbox_stays_ok_with_steady_u(tmp_path: Path) -> No
     print(f'u phase means {min(means):.5f}..{max(means):.5f}, swing {swing:.2e}, '
           f'sigma {sigma:.2e}')
     assert swing <= 2.0 * sigma, (swing, sigma)
-    assert np.max(np.abs(late[:, 1] - U)) < 3.0 * sigma + 0.002
+    assert np.max(np.abs(late[:, 1] - (U + 0.5 * OFFSET))) < 3.0 * sigma + 0.002   # midpoint
 
     # each published efficiency matches its own direction's truth
     efficiency = np.array([(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.vector.x,
