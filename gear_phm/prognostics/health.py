@@ -180,7 +180,7 @@ class LevelTracker:
 
     Every condition is a :class:`Latch`: it is entered when its value crosses the threshold
     and left when the value is back by ``level_hysteresis`` times the threshold's distance
-    from a new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
+    from a new gearbox's value (eta_D 1, or the learned eta_healthy, u 0, RUL 0): eta_D above
     eta_warn + h (1 - eta_warn), u below u_eol (1 - h), RUL p5 above warn_horizon (1 + h).
     The RUL condition is entered on the RUL's median and left on its 5 % bound: a hysteresis
     across the band as well, so that an early, wide band whose lower tail grazes the horizon
