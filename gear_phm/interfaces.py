@@ -267,11 +267,12 @@ def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,
 #: KeyValue keys of the diagnostics node's /diagnostics status, in this order (benches rely
 #: on them). ``rul_*`` are in elapsed (stamp) time, ``rul_operating_*`` in operating time,
 #: ``utilisation`` is their ratio (operating over elapsed time, see
-#: :mod:`gear_phm.prognostics.assessor`).
+#: :mod:`gear_phm.prognostics.assessor`); ``eta_healthy`` is the healthy eta_D learned at the
+#: start and ``eta_warn`` the WARN efficiency in force (``nan`` until learned).
 STATUS_KEYS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
                'power_flow', 'samples_used', 'samples_rejected', 'samples_missing',
                'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
-               'rul_operating_p95_s', 'utilisation')
+               'rul_operating_p95_s', 'utilisation', 'eta_healthy', 'eta_warn')
 
 
 def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
@@ -280,7 +281,7 @@ def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
               state.rul.p5, state.rul.p95, state.power_flow, state.samples_used,
               state.samples_rejected, state.samples_missing, state.operating_time,
               state.rul_operating.median, state.rul_operating.p5, state.rul_operating.p95,
-              state.utilisation)
+              state.utilisation, state.eta_healthy, state.eta_warn)
     return tuple((key, format_value(value)) for key, value in zip(STATUS_KEYS, values))
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+import re
 import subprocess
 import sys
 
@@ -40,10 +41,12 @@ def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> N
 
 
 def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path) -> None:
-    """bags/wearing: eta_D falls below 0.8 then below 0.7333 (EOL): OK -> WARN -> ERROR.
+    """bags/wearing: eta_D falls below 0.784 then below 0.7333 (EOL): OK -> WARN -> ERROR.
 
-    Only --eta-opposing-min is given: eta_warn derives from it (0.8). Each crossing gives one
-    transition. No process noise is given: the filter learns it (the bag wears out in 300 s).
+    Only --eta-opposing-min is given: eta_warn derives from it and the healthy eta_D learned
+    at the start (0.934, true 0.9365): 0.7333 + 0.25 (0.934 - 0.7333) = 0.784. Each crossing
+    gives one transition. No process noise is given: the filter learns it (the bag wears out
+    in 300 s).
     """
     out = tmp_path / 'out'
     assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
@@ -64,12 +67,15 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     assert keys == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                     'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
                     'samples_missing', 'operating_time_s', 'rul_operating_s',
-                    'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation']
+                    'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation',
+                    'eta_healthy', 'eta_warn']
     levels = [s.level for s in statuses]
     changes = [i for i in range(1, len(levels)) if levels[i] != levels[i - 1]]
     assert [levels[i] for i in changes] == [1, 2], levels
-    assert statuses[changes[0]].message.startswith('eta_D 0.79')
-    assert statuses[changes[0]].message.endswith(' < 0.8')
+    assert re.fullmatch(r'eta_D 0\.77\d* < 0\.78\d*', statuses[changes[0]].message)
+    values = {kv.key: float(kv.value) for kv in statuses[-1].values}
+    assert values['eta_healthy'] == pytest.approx(0.9365, abs=0.004)
+    assert values['eta_warn'] == pytest.approx(0.7333 + 0.25 * (values['eta_healthy'] - 0.7333))
     assert 'end of life' in statuses[changes[1]].message
 
 

@@ -31,7 +31,8 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
 KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_p95_s',
         'power_flow', 'samples_used', 'samples_rejected',
         'samples_missing', 'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
-        'rul_operating_p95_s', 'utilisation']
+        'rul_operating_p95_s', 'utilisation',
+        'eta_healthy', 'eta_warn']
 
 
 @pytest.fixture(scope='module')
@@ -111,7 +112,12 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
 
 
 def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
-    """eta_opposing_min 0.9 alone (above the old fixed eta_warn 0.6) starts; WARN at 0.925."""
+    """eta_opposing_min 0.9 alone (above the old fixed eta_warn 0.6) starts.
+
+    The healthy eta_D is learned from the first estimate (u 0.05, eta_D 0.93651; sigma_u 1e-3
+    is within 10 % of u_eol - u = 0.031): eta_warn 0.9 + 0.25 (0.93651 - 0.9) = 0.90913
+    (the old rule gave 0.925), crossed at u 0.0731, 154 s.
+    """
     proc = start('eta_opposing_min:=0.9', 'warn_horizon:=0.0')
     try:
         arrays: list[DiagnosticArray] = []
@@ -125,7 +131,7 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
         eta_warn, warn_horizon = future.result().values
         assert math.isnan(eta_warn.double_value) and warn_horizon.double_value == 0.0
         statuses = []
-        for _ in range(30):              # u 0.05 + 1.5e-4 t: eta_D 0.925 at 64 s, EOL at 207 s
+        for _ in range(30):              # u 0.05 + 1.5e-4 t: eta_warn at 154 s, EOL at 207 s
             last_stamp = feeder.publish()
             wait_for(ros, lambda: stamp_to_ns(arrays[-1].header.stamp) == last_stamp, 10.0,
                      f'estimate {last_stamp} on /diagnostics')
@@ -138,11 +144,16 @@ def test_only_eta_opposing_min_set_eta_warn_derived(ros: Node) -> None:
     changes = [i for i in range(1, 30) if levels[i] != levels[i - 1]]
     # committed after the 5 s dwell: the second 10-s estimate past each threshold; end of
     # life once u - 1.645 sigma_u (sigma_u 1e-3) is past u_eol: 11 s after u, one more step
-    assert [(i, levels[i]) for i in changes] == [(8, b'\x01'), (23, b'\x02')], levels
-    assert statuses[8].message == f'eta_D {(3.0 - 0.062) / (3.0 * 1.062):.4g} < 0.925'  # t 80 s
+    assert [(i, levels[i]) for i in changes] == [(17, b'\x01'), (23, b'\x02')], levels
+    eta_healthy = (3.0 - 0.05) / (3.0 * 1.05)
+    eta_warn = 0.9 + 0.25 * (eta_healthy - 0.9)
+    assert statuses[17].message == f'eta_D {(3.0 - 0.0755) / (3.0 * 1.0755):.4g} < ' \
+                                   f'{eta_warn:.4g}'                          # t 170 s
     assert 'end of life (eta_opposing_min)' in statuses[23].message
     values = {kv.key: kv.value for kv in statuses[-1].values}
     assert values['operating_time_s'] == '145.0' and values['utilisation'] == '0.5'
+    assert float(values['eta_healthy']) == pytest.approx(eta_healthy, rel=1e-9)
+    assert float(values['eta_warn']) == pytest.approx(eta_warn, rel=1e-9)
 
 
 def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,

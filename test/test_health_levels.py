@@ -209,21 +209,66 @@ def test_accelerating_wear_tracked_with_high_nis_is_warn_not_error(nis: float,
 
 
 # --- the derived eta_warn ------------------------------------------------------------------
-def test_eta_warn_derives_from_eta_opposing_min() -> None:
+def test_eta_warn_derives_from_eta_opposing_min_and_the_healthy_efficiency() -> None:
+    """WARN once 75 % of the budget between the healthy eta_D and eta_opposing_min is used."""
     config = HealthConfig(eta_opposing_min=0.7333)
     assert math.isnan(config.eta_warn)
-    assert config.effective_eta_warn == pytest.approx(0.8, abs=1e-4)
-    assert derived_eta_warn(0.5) == 0.625
-    assert HealthConfig().effective_eta_warn == 0.625
-    # any eta_opposing_min works alone, also one above the old fixed default 0.6
-    assert HealthConfig(eta_opposing_min=0.9).effective_eta_warn == pytest.approx(0.925)
-    assert config.replace(eta_opposing_min=0.95).effective_eta_warn == pytest.approx(0.9625)
+    assert math.isnan(config.effective_eta_warn())          # not learned yet: no eta WARN
+    assert config.effective_eta_warn(0.9365) == pytest.approx(0.7841, abs=1e-4)
+    assert derived_eta_warn(0.5) == 0.625                    # a loss-free gearbox: the old rule
+    assert derived_eta_warn(0.92, 0.94) == pytest.approx(0.925)
+    assert derived_eta_warn(0.92, 0.90) == 0.92              # past end of life: eta_min
+    for eta_min, healthy in ((0.9, 0.95), (0.938, 0.940), (0.5, 0.6)):
+        assert eta_min < derived_eta_warn(eta_min, healthy) < healthy
     # an explicit eta_warn is kept and still checked, with a reason naming the default
-    assert HealthConfig(eta_opposing_min=0.7333, eta_warn=0.85).effective_eta_warn == 0.85
+    assert HealthConfig(eta_opposing_min=0.7333, eta_warn=0.85).effective_eta_warn() == 0.85
     with pytest.raises(ValueError, match=r'eta_warn must be > eta_opposing_min \(0.7333\).*'
-                                         r'derived default 0.8'):
+                                         r'at most 0.8'):
         HealthConfig(eta_opposing_min=0.7333, eta_warn=0.7)
-    assert HealthAssessor(config).levels.eta_warn == pytest.approx(0.8, abs=1e-4)
+    assert math.isnan(HealthAssessor(config).levels.eta_warn)
+    assert HealthAssessor(config.replace(eta_warn=0.85)).levels.eta_warn == 0.85
+
+
+def test_healthy_efficiency_is_learned_once_settled_and_survives_a_restart() -> None:
+    """eta_healthy is the first eta_D with sigma_u <= 10 % of u_eol - u; kept over to_state.
+
+    R 3, eta_opposing_min 0.92 (u_eol 0.0638), healthy u 0.05 (eta_D 0.9365): the old derived
+    eta_warn, 0.92 + 0.25 (1 - 0.92) = 0.94, was above the healthy efficiency (WARN from the
+    start); now 0.92 + 0.25 (0.9365 - 0.92) = 0.9241.
+    """
+    config = HealthConfig(eta_opposing_min=0.92, warn_horizon=0.0, mc_samples=200)
+    assessor = HealthAssessor(config)
+    rng = np.random.default_rng(5)
+    levels = []
+    for step, t in enumerate(np.arange(0.0, 60.0, 0.1)):
+        sigma = 0.01 / (1.0 + t)              # settles: 0.00138 (0.1 x 0.0138) at 6.2 s
+        u = 0.05 + rng.normal(0.0, 0.1 * sigma)
+        state = assessor.on_estimate(_lever_estimate(t, u, sigma, 1.0, step))
+        levels.append(state.level)
+        if t < 6.0:
+            assert math.isnan(state.eta_healthy) and math.isnan(state.eta_warn)
+    assert set(levels) == {OK}
+    eta_d = efficiencies(0.05, 3.0)[0]
+    assert state.eta_healthy == pytest.approx(eta_d, abs=5e-4)     # learned at 6.2 s
+    assert state.eta_warn == pytest.approx(0.92 + 0.25 * (state.eta_healthy - 0.92), rel=1e-12)
+    assert state.eta_warn < state.eta_healthy
+    restored = HealthAssessor(config)
+    restored.from_state(assessor.to_state())
+    assert restored.levels.eta_healthy == state.eta_healthy
+    assert restored.levels.eta_warn == state.eta_warn
+    older = assessor.to_state()
+    del older['levels']['eta_healthy']        # a state file from before: learned anew
+    restored.from_state(older)
+    assert math.isnan(restored.levels.eta_healthy)
+    # wear through the share: WARN (eta) once eta_D < eta_warn 0.9241 (u 0.0604), 5 s dwell
+    for step, t in enumerate(np.arange(60.0, 200.0, 0.1)):
+        u = 0.05 + 0.01 * (t - 60.0) / 100.0
+        state = assessor.on_estimate(_lever_estimate(t, u, 0.0002, 1.0, step))
+        levels.append(state.level)
+    assert transitions(levels)[0] == (OK, WARN)
+    first = levels.index(WARN)
+    assert assessor.latest is not None and 'eta_D' in assessor.latest.message
+    assert 0.0604 < 0.05 + 0.01 * ((first - 600) * 0.1) / 100.0 < 0.0612
 
 
 def test_nan_accepted_only_where_it_means_something() -> None:

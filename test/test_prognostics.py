@@ -118,8 +118,13 @@ def test_status_key_values_exact_keys_and_inf() -> None:
     assert list(values) == ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s',
                             'rul_p95_s', 'power_flow', 'samples_used', 'samples_rejected',
                             'samples_missing', 'operating_time_s', 'rul_operating_s',
-                            'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation']
+                            'rul_operating_p5_s', 'rul_operating_p95_s', 'utilisation',
+                            'eta_healthy', 'eta_warn']
     assert values['rul_s'] == 'inf' and values['samples_used'] == '7'
+    # settled (sigma_u 0.01 <= 0.1 (u_eol 0.6 - u 0.1)): the healthy eta_D is this one's
+    eta_healthy = (3.0 - 0.1) / (3.0 * 1.1)
+    assert float(values['eta_healthy']) == pytest.approx(eta_healthy)
+    assert float(values['eta_warn']) == pytest.approx(0.5 + 0.25 * (eta_healthy - 0.5))
     assert values['rul_operating_s'] == 'inf' and values['operating_time_s'] == 'nan'
     assert values['utilisation'] == '1.0'
     assert float(values['u_sigma']) == pytest.approx(0.01)

@@ -56,9 +56,10 @@ def test_api_histories_match_summary_and_outputs(tmp_path: Path) -> None:
     t = e.t - e.t[0]
     assert np.median(e.u[(t > 30) & (t < 55)]) == pytest.approx(0.05, abs=0.005)
     assert np.median(e.u[t > 90]) == pytest.approx(0.20, abs=0.01)
-    # eta_warn derived from eta_opposing_min alone: 0.7333 + 0.25 (1 - 0.7333) = 0.8; u 0.20
-    # gives eta_D 0.778 < 0.8
-    assert 'eta_D 0.77' in h.messages[-1] and h.messages[-1].endswith(' < 0.8')
+    # eta_warn derived from eta_opposing_min and the healthy eta_D learned at the start
+    # (0.939, true 0.937 at u 0.05): 0.7333 + 0.25 (0.939 - 0.7333) = 0.785; u 0.20 gives
+    # eta_D 0.778 < 0.785
+    assert re.search(r'eta_D 0\.77\d* < 0\.78\d*$', h.messages[-1]), h.messages[-1]
 
 
 def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:

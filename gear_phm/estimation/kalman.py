@@ -1,4 +1,12 @@
-"""Kalman filter on the friction parameter: x = [u, du/dt], filterpy underneath.
+"""Kalman filter on the friction parameter: x = [u, du/dt, d], filterpy underneath.
+
+d [-], the direction offset, is what the aiding-load (inverse, eta_I) windows read of u minus
+what the opposing-load (direct, eta_D) ones read; u [-] is the midpoint: opposing windows
+measure u - d/2, aiding ones u + d/2 (docs/estimation.md, "Direction offset"). A gearbox that
+is not exactly the lever model has eta_D and eta_I of two different u; d is a state of the
+filter, learned from the first windows of both directions on, with a slow random walk
+(:data:`OFFSET_DRIFT`), so that u does not move when the load direction changes and a drift
+of the offset is followed (and reported) instead of being read as wear.
 
 The filter adapts itself to the data (docs/estimation.md, "Adaptation"):
 
@@ -8,12 +16,10 @@ The filter adapts itself to the data (docs/estimation.md, "Adaptation"):
   below the wear-law floor ``r^3 / u`` (r: the part of |du/dt| beyond 2 sigma;
   acceleration ~ rate^2/u over a time scale u/rate
   for linear, exponential and power-law wear);
-- measurement side: per power-flow direction, a bias (half the offset between the two
-  directions' mean innovations, shrunk by two standard errors) taken off each measurement,
-  and an additive model-mismatch variance learned by covariance matching on the innovations
-  around it (their mean common to both directions, which is lag, taken out), so a systematic
-  disagreement between opposing and aiding windows becomes a reported bias and variance and
-  not divergence.
+- measurement side: per power-flow direction, an additive model-mismatch variance learned by
+  covariance matching on the innovations (their mean common to both directions, which is
+  lag, taken out); the systematic disagreement between opposing and aiding windows is the
+  state d, so it becomes a reported offset and not divergence.
 """
 from __future__ import annotations
 
@@ -27,13 +33,23 @@ from gear_phm.estimation.config import DEFAULTS
 from gear_phm.estimation.filterpy_light import KalmanFilter
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
+#: Prior standard deviation of the direction offset d [-] (real gearboxes: up to ~25 % of u).
+OFFSET_SIGMA = 0.05
+#: Spectral density of the random walk of d [1/s]: sigma 0.001 over 10 000 s of operation.
+OFFSET_DRIFT = 1e-10
+#: A drift of d from its settled value is reported once beyond this many sigmas.
+OFFSET_DRIFT_Z = 3.0
+#: d is settled (its reference for the drift report taken) once its sigma is below this [-].
+OFFSET_SETTLED_SIGMA = 0.002
+
 
 @dataclass(frozen=True)
 class UpdateResult:
     """Outcome of one pseudo-measurement: innovation y [-], its variance S, NIS [-].
 
-    ``bias`` [-]: the direction's learned systematic error taken off the measurement
-    (:meth:`FrictionFilter.direction_bias`).
+    ``bias`` [-]: the direction's learned offset taken off the measurement
+    (:meth:`FrictionFilter.direction_bias`, before the update), ``bias_variance`` its
+    variance [-^2].
     """
 
     accepted: bool
@@ -42,6 +58,7 @@ class UpdateResult:
     nis: float
     reinitialised: bool = False
     bias: float = 0.0
+    bias_variance: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -114,11 +131,14 @@ def predicted_stacked(x: np.ndarray, p: np.ndarray, t_filter: np.ndarray, q: np.
 
 
 class FrictionFilter:
-    """filterpy ``KalmanFilter`` on [u, du/dt] with H = [1, 0] and Mahalanobis gating.
+    """filterpy ``KalmanFilter`` on [u, du/dt, d] with Mahalanobis gating.
 
-    ``predict(t)`` moves the state to time ``t`` [s]; ``update(z, r, t)`` gates and fuses a
-    pseudo-measurement ``z`` of u with variance ``r``. After ``max_consecutive_gated``
-    rejections in a row the filter re-initialises on the measurement (a step fault).
+    ``predict(t)`` moves the state to time ``t`` [s]; ``update(z, r, t, direction)`` gates and
+    fuses a pseudo-measurement ``z`` of u - d/2 (opposing windows, H = [1, 0, -1/2]) or of
+    u + d/2 (aiding windows, H = [1, 0, 1/2]) with variance ``r``. After
+    ``max_consecutive_gated`` rejections in a row the filter re-initialises u on the
+    measurement (a step fault; d is kept). With
+    ``adaptation.adaptive`` False d stays 0 (its variance 0): the two-state filter.
     """
 
     def __init__(self, initial_u: float, initial_u_sigma: float, initial_rate_sigma: float,
@@ -142,54 +162,76 @@ class FrictionFilter:
         self._mean_den = [0.0, 0.0]
         self.gate_threshold = float(gate_threshold)
         self.max_consecutive_gated = int(max_consecutive_gated)
-        self.kf = KalmanFilter(dim_x=2, dim_z=1)
-        self.kf.H = np.array([[1.0, 0.0]])
+        self.offset_sigma = OFFSET_SIGMA if self.adaptation.adaptive else 0.0
+        self.offset_drift = OFFSET_DRIFT if self.adaptation.adaptive else 0.0
+        #: The settled offset d [-] and its variance, the reference of the drift report
+        #: (:attr:`offset_drift_z`); NaN until d's sigma is below OFFSET_SETTLED_SIGMA.
+        self.offset_reference = (math.nan, math.nan)
+        self.kf = KalmanFilter(dim_x=3, dim_z=1)
+        self.kf.H = np.array([[1.0, 0.0, 0.0]])
         self._initialise(float(initial_u), self.initial_u_sigma ** 2)
+        self.kf.x[2, 0] = 0.0
+        self.kf.P[2, 2] = self.offset_sigma ** 2
         self.t: float | None = None
         self.consecutive_gated = 0
         self.updates = 0
         self.last = UpdateResult(False, math.nan, math.nan, math.nan)
 
     def _initialise(self, u: float, u_variance: float) -> None:
-        self.kf.x = np.array([[u], [0.0]])
-        self.kf.P = np.diag([u_variance, self.initial_rate_sigma ** 2])
+        """Set u and du/dt afresh (variance ``u_variance``, rate prior).
+
+        d and its variance are kept: a step fault changes the friction, not the offset.
+        """
+        x = getattr(self.kf, 'x', np.zeros((3, 1)))
+        p_dd = float(self.kf.P[2, 2]) if self.kf.P.shape == (3, 3) else 0.0
+        self.kf.x = np.array([[u], [0.0], [float(x[2, 0])]])
+        self.kf.P = np.diag([u_variance, self.initial_rate_sigma ** 2, p_dd])
 
     def mismatch_variance(self, direction: int) -> float:
         """Learned model-mismatch variance [-] of direction 0 (opposing) or 1 (aiding)."""
         return max(self._excess[direction], 0.0) if self.adaptation.adaptive else 0.0
 
     def direction_bias(self, direction: int) -> float:
-        """Learned systematic error [-] of direction 0 (opposing) or 1 (aiding) windows.
+        """Learned reading of direction 0 (opposing) or 1 (aiding) windows minus u [-].
 
-        Half the direction offset, signed per direction (opposing +, aiding -), shrunk by two
-        standard errors of the two means towards 0 (so noise on a plant without mismatch
-        moves nothing). Measurements are fused as z - bias: u is the midpoint of the two
-        directions' readings.
+        -d/2 for opposing windows, +d/2 for aiding ones (u is the midpoint).
         """
-        if not (self.adaptation.adaptive and self._n[0] and self._n[1]
-                and self._mean_den[0] > 0.0 and self._mean_den[1] > 0.0):
-            return 0.0
-        half = 0.5 * (self._mean[0] - self._mean[1])
-        error = 0.5 * math.sqrt(1.0 / self._mean_den[0] + 1.0 / self._mean_den[1])
-        bias = math.copysign(max(abs(half) - 2.0 * error, 0.0), half)
-        return bias if direction == 0 else -bias
+        half = 0.5 * self.direction_offset
+        return half if direction else -half
 
     @property
     def direction_offset(self) -> float:
-        """Mean innovation of opposing minus aiding windows [-] (0 until both are seen)."""
-        if not (self.adaptation.adaptive and self._n[0] and self._n[1]):
-            return 0.0
-        return self._mean[0] - self._mean[1]
+        """Return the offset d [-]: aiding windows' reading of u minus the opposing ones'."""
+        return float(self.kf.x[2, 0])
+
+    @property
+    def direction_offset_sigma(self) -> float:
+        """Return the standard deviation of :attr:`direction_offset` [-]."""
+        return math.sqrt(max(float(self.kf.P[2, 2]), 0.0))
+
+    @property
+    def offset_drift_z(self) -> float:
+        """Drift of d from its settled value (:attr:`offset_reference`) in sigmas [-].
+
+        The sigma combines both values' (the reference's is an upper bound, their errors
+        overlap); NaN until d has settled. Beyond :data:`OFFSET_DRIFT_Z` the offset itself
+        changes: one direction wears differently from the other (docs/estimation.md).
+        """
+        d_ref, v_ref = self.offset_reference
+        if not math.isfinite(d_ref):
+            return math.nan
+        sigma = math.sqrt(v_ref + max(float(self.kf.P[2, 2]), 0.0))
+        return (self.direction_offset - d_ref) / sigma if sigma > 0.0 else 0.0
 
     @property
     def x(self) -> np.ndarray:
-        """Posterior state [u, du/dt] (copy, shape (2,))."""
-        return self.kf.x[:, 0].copy()
+        """Posterior state [u, du/dt] (copy, shape (2,)); d is :attr:`direction_offset`."""
+        return self.kf.x[:2, 0].copy()
 
     @property
     def P(self) -> np.ndarray:  # noqa: N802 (filterpy naming)
-        """Posterior covariance (copy, 2x2)."""
-        return self.kf.P.copy()
+        """Posterior covariance of [u, du/dt] (copy, 2x2)."""
+        return self.kf.P[:2, :2].copy()
 
     def predict(self, t: float) -> None:
         """Propagate to time ``t`` [s]; earlier times leave the state unchanged."""
@@ -198,7 +240,12 @@ class FrictionFilter:
             return
         dt = t - self.t
         if dt > 0.0:
-            self.kf.predict(F=transition(dt), Q=process_covariance(dt, self.process_noise))
+            f = np.eye(3)
+            f[0, 1] = dt
+            q = np.zeros((3, 3))
+            q[:2, :2] = process_covariance(dt, self.process_noise)
+            q[2, 2] = self.offset_drift * dt
+            self.kf.predict(F=f, Q=q)
             self.t = t
 
     def predicted(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -207,8 +254,8 @@ class FrictionFilter:
             return self.x, self.P
         dt = t - self.t
         f = transition(dt)
-        x = f @ self.kf.x[:, 0]
-        p = f @ self.kf.P @ f.T + process_covariance(dt, self.process_noise)
+        x = f @ self.kf.x[:2, 0]
+        p = f @ self.kf.P[:2, :2] @ f.T + process_covariance(dt, self.process_noise)
         return x, p
 
     def predicted_many(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -219,7 +266,8 @@ class FrictionFilter:
         """
         t = np.asarray(t, dtype=float)
         n = t.size
-        return predicted_stacked(np.tile(self.kf.x[:, 0], (n, 1)), np.tile(self.kf.P, (n, 1, 1)),
+        return predicted_stacked(np.tile(self.kf.x[:2, 0], (n, 1)),
+                                 np.tile(self.kf.P[:2, :2], (n, 1, 1)),
                                  np.full(n, math.inf if self.t is None else self.t),
                                  np.full(n, self.process_noise), t)
 
@@ -227,42 +275,47 @@ class FrictionFilter:
                age: float = 0.0) -> UpdateResult:
         """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
 
-        ``direction``: 0 for an opposing-load window, 1 for aiding (or self-locking); with
-        adaptation its learned mismatch variance is added to ``r``. ``age`` [s]: ``z``
-        measures u at ``t - age`` (a window's mid-time), H = [1, -age]; without it a window
-        of length T lags growing u by T/2 (docs/estimation.md).
+        ``direction``: 0 for an opposing-load window (``z`` measures u - d/2), 1 for aiding (or
+        self-locking: ``z`` measures u + d/2); with adaptation its learned mismatch variance is
+        added to ``r``. ``age`` [s]: ``z`` measures u at ``t - age`` (a window's mid-time),
+        H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
+        (docs/estimation.md). Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
                              f'r={r!r}')
         self.predict(t)
-        h = np.array([[1.0, -float(age)]])
+        half = 0.5 if direction else -0.5
+        h = np.array([[1.0, -float(age), half]])
         bias = self.direction_bias(direction)
-        raw = z - float((h @ self.kf.x)[0, 0])
-        z, y = z - bias, raw - bias
+        bias_variance = 0.25 * float(self.kf.P[2, 2])
+        y = z - float((h @ self.kf.x)[0, 0])
         p_uu = float((h @ self.kf.P @ h.T)[0, 0])
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
         if self.adaptation.adaptive:
-            self._adapt(raw, bias, p_uu, r, s, direction, nis > self.gate_threshold)
+            self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
         r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1
             if self.consecutive_gated < self.max_consecutive_gated:
-                self.last = UpdateResult(False, y, s, nis, bias=bias)
+                self.last = UpdateResult(False, y, s, nis, bias=bias, bias_variance=bias_variance)
                 return self.last
-            self._initialise(z, r)
+            self._initialise(z - bias, r + bias_variance)
             self._sum, self._power = 0.0, 1.0
             self.consecutive_gated = 0
             self.updates += 1
-            self.last = UpdateResult(True, y, s, nis, reinitialised=True, bias=bias)
+            self.last = UpdateResult(True, y, s, nis, reinitialised=True, bias=bias,
+                                     bias_variance=bias_variance)
             return self.last
         self.consecutive_gated = 0
         self.kf.update(np.array([[z]]), R=r, H=h)
         self.updates += 1
         self.last = UpdateResult(True, float(self.kf.y[0, 0]), float(self.kf.S[0, 0]), nis,
-                                 bias=bias)
+                                 bias=bias, bias_variance=bias_variance)
+        if self.adaptation.adaptive:
+            self._settle_offset()
         if self.adaptation.adaptive:
             u, rate = float(self.kf.x[0, 0]), float(self.kf.x[1, 0])
             # only a significant rate (beyond 2 sigma) sets the floor: no feedback from noise
@@ -271,14 +324,24 @@ class FrictionFilter:
             self.process_noise = min(max(self.q_test, floor), self.adaptation.q_max)
         return self.last
 
+    def _settle_offset(self) -> None:
+        """Take d as the drift report's reference once its sigma is settled.
+
+        That is below :data:`OFFSET_SETTLED_SIGMA` (after both directions have been seen).
+        """
+        if not math.isfinite(self.offset_reference[0]) and \
+                self.direction_offset_sigma < OFFSET_SETTLED_SIGMA:
+            self.offset_reference = (self.direction_offset, float(self.kf.P[2, 2]))
+
     def to_state(self) -> dict[str, Any]:
         """Return what a restart needs to continue (JSON-safe, :mod:`gear_phm.persistence`).
 
-        x, P (row-major), time t [s], q and the adaptation's sums; the settings come from the
-        configuration, not from the state.
+        x = [u, du/dt, d], P (row-major, 3x3), time t [s], q, the adaptation's sums and the
+        settled offset; the settings come from the configuration, not from the state.
         """
         last = self.last
         return {
+            'offset_reference': encode_floats(self.offset_reference),
             'x': encode_floats(self.kf.x[:, 0]), 'P': encode_floats(self.kf.P.ravel()),
             't': None if self.t is None else encode_float(self.t),
             'process_noise': encode_float(self.process_noise),
@@ -294,19 +357,30 @@ class FrictionFilter:
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`to_state`; KeyError/ValueError/TypeError on a malformed dict."""
+        """Restore :meth:`to_state`; KeyError/ValueError/TypeError on a malformed dict.
+
+        A state of the two-state filter (x 2 values, P 4; before the direction offset) is
+        taken with d = 0 at its prior variance.
+        """
         x = decode_floats(state['x'])
         p = decode_floats(state['P'])
-        if len(x) != 2 or len(p) != 4:
-            raise ValueError('filter state: x needs 2 values and P 4')
+        if len(x) == 2 and len(p) == 4:
+            x = [*x, 0.0]
+            p = [p[0], p[1], 0.0, p[2], p[3], 0.0, 0.0, 0.0, self.offset_sigma ** 2]
+        if len(x) != 3 or len(p) != 9:
+            raise ValueError('filter state: x needs 3 values and P 9 (or 2 and 4)')
+        reference = decode_floats(state.get('offset_reference', ['nan', 'nan']))
+        if len(reference) != 2:
+            raise ValueError('filter state: offset_reference needs 2 values')
         pairs = {key: decode_floats(state[key])
                  for key in ('mean', 'excess', 'num', 'den', 'mean_den')}
         n = [int(v) for v in state['n']]
         if len(n) != 2 or any(len(v) != 2 for v in pairs.values()):
             raise ValueError('filter state: per-direction values need 2 entries')
         last = state['last']
-        self.kf.x = np.array(x).reshape(2, 1)
-        self.kf.P = np.array(p).reshape(2, 2)
+        self.kf.x = np.array(x).reshape(3, 1)
+        self.kf.P = np.array(p).reshape(3, 3)
+        self.offset_reference = (reference[0], reference[1])
         self.t = None if state['t'] is None else decode_float(state['t'])
         self.process_noise = decode_float(state['process_noise'])
         self.q_test = decode_float(state['q_test'])
@@ -320,13 +394,13 @@ class FrictionFilter:
         self.last = UpdateResult(bool(last[0]), decode_float(last[1]), decode_float(last[2]),
                                  decode_float(last[3]), bool(last[4]))
 
-    def _adapt(self, y: float, bias: float, p_uu: float, r: float, s: float, direction: int,
+    def _adapt(self, y: float, p_uu: float, r: float, s: float, direction: int,
                gated: bool) -> None:
         """Run one step of both adaptations (before the update).
 
-        ``y`` innovation of the raw measurement, ``bias`` the direction's learned bias,
-        ``p_uu`` prior P_uu, ``r`` base variance, ``s`` innovation variance; ``gated``: the
-        window fails the gate (it still feeds the matching, winsorised).
+        ``y`` innovation, ``p_uu`` its prior variance H P H', ``r`` base variance, ``s``
+        innovation variance; ``gated``: the window fails the gate (it still feeds the
+        matching, winsorised).
         """
         a = self.adaptation
         n, mean = self._n, self._mean
@@ -338,7 +412,7 @@ class FrictionFilter:
             # error, and a mean taken from it stayed in the matching as a persistent
             # "mismatch" of (initial error)^2 (sigma 0.05 on a constant lever plant,
             # docs/estimation.md).
-            self._match(y, p_uu, r, s, direction, common + bias)
+            self._match(y, p_uu, r, s, direction, common)
         if gated:
             return
         e = (y - offset) / math.sqrt(s)

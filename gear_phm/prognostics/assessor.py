@@ -46,7 +46,9 @@ class HealthState:
 
     ``rul_operating`` is the RUL in seconds of operation, ``rul`` the same in elapsed (stamp)
     time, ``rul_operating`` / ``utilisation`` [-]; ``operating_time`` [s] is the estimate's
-    (NaN if it had none); see the module docstring.
+    (NaN if it had none); see the module docstring. ``eta_healthy`` [-] is the healthy eta_D
+    learned at the start and ``eta_warn`` [-] the WARN efficiency in force (NaN: not learned
+    yet; :class:`~gear_phm.prognostics.health.LevelTracker`).
     """
 
     stamp_ns: int
@@ -66,6 +68,8 @@ class HealthState:
     rul_operating: RulEstimate = RulEstimate(math.nan, math.nan, math.nan, 'none')
     operating_time: float = math.nan
     utilisation: float = math.nan
+    eta_healthy: float = math.nan
+    eta_warn: float = math.nan
 
     def as_stale(self, silence: float) -> HealthState:
         """This status turned STALE after ``silence`` [s] without input."""
@@ -83,6 +87,8 @@ def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
 _RUL_FIELDS = ('median', 'p5', 'p95')
 _STATE_FLOATS = ('u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'u_eol', 'operating_time',
                  'utilisation')
+#: Added later: absent in an older state file (NaN then).
+_STATE_FLOATS_LATER = ('eta_healthy', 'eta_warn')
 _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejected',
                'samples_missing')
 
@@ -90,7 +96,8 @@ _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejec
 def health_state_to_state(state: HealthState) -> dict[str, Any]:
     """A :class:`HealthState` as a JSON-safe dict."""
     out: dict[str, Any] = {key: int(getattr(state, key)) for key in _STATE_INTS}
-    out.update({key: encode_float(getattr(state, key)) for key in _STATE_FLOATS})
+    out.update({key: encode_float(getattr(state, key))
+                for key in _STATE_FLOATS + _STATE_FLOATS_LATER})
     out['message'] = state.message
     for name in ('rul', 'rul_operating'):
         rul = getattr(state, name)
@@ -104,6 +111,7 @@ def health_state_from_state(state: dict[str, Any]) -> HealthState:
     """Inverse of :func:`health_state_to_state`; KeyError/ValueError/TypeError if bad."""
     values: dict[str, Any] = {key: int(state[key]) for key in _STATE_INTS}
     values.update({key: decode_float(state[key]) for key in _STATE_FLOATS})
+    values.update({key: decode_float(state.get(key, 'nan')) for key in _STATE_FLOATS_LATER})
     for name in ('rul', 'rul_operating'):
         rul = state[name]
         values[name] = RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
@@ -127,9 +135,10 @@ class HealthAssessor:
         self.divergence = DivergenceDetector(
             nis_window=config.nis_window, nis_probability=config.nis_probability,
             max_u_sigma=config.max_u_sigma, nis_lost=config.nis_lost)
-        self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn,
+        self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn(),
                                    config.warn_horizon, level_hysteresis=config.level_hysteresis,
-                                   level_dwell=config.level_dwell)
+                                   level_dwell=config.level_dwell,
+                                   eta_opposing_min=config.eta_opposing_min)
         self.utilisation = Utilisation()
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
@@ -235,7 +244,7 @@ class HealthAssessor:
                                   estimate.samples_rejected, self.u_eol, trend,
                                   estimate.samples_missing, rul_operating,
                                   operating if self._on_operating_time(estimate) else math.nan,
-                                  utilisation)
+                                  utilisation, self.levels.eta_healthy, self.levels.eta_warn)
         return self.latest
 
     def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:

@@ -13,13 +13,27 @@ from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
 from gear_phm.prognostics.laws import MODELS
 
 TRENDS = ('auto', *MODELS)
-#: The derived eta_warn lies this fraction of the way from eta_opposing_min up to 1 [-].
+#: The derived eta_warn lies this fraction of the degradation budget from eta_opposing_min up
+#: to the gearbox's own healthy eta_D [-]: WARN once 75 % of the budget is used.
 ETA_WARN_MARGIN = 0.25
+#: The healthy eta_D is learned from the first estimate whose sigma_u is at most this share
+#: of the distance from u to u_eol [-]: the filter has settled. An error e in the healthy
+#: eta_D moves eta_warn by ETA_WARN_MARGIN e, so a 2-sigma error moves it by 5 % of the
+#: budget at most.
+HEALTHY_SETTLED_SHARE = 0.1
 
 
-def derived_eta_warn(eta_opposing_min: float) -> float:
-    """Return the default WARN efficiency, eta_min + ETA_WARN_MARGIN (1 - eta_min) [-]."""
-    return eta_opposing_min + ETA_WARN_MARGIN * (1.0 - eta_opposing_min)
+def derived_eta_warn(eta_opposing_min: float, eta_healthy: float = 1.0) -> float:
+    """Return the default WARN efficiency [-].
+
+    eta_min + ETA_WARN_MARGIN (eta_healthy - eta_min): the share 1 - ETA_WARN_MARGIN of the
+    degradation budget between the healthy eta_D (learned at the start, see
+    :class:`~gear_phm.prognostics.health.LevelTracker`; 1, a loss-free gearbox, for the bound
+    in the configuration check) and end of life used. Never above ``eta_healthy``, never
+    below ``eta_opposing_min`` (a gearbox already past it gets eta_min).
+    """
+    budget = max(eta_healthy - eta_opposing_min, 0.0)
+    return eta_opposing_min + ETA_WARN_MARGIN * budget
 
 
 #: The health parameters (diagnostics node parameters of the same names,
@@ -35,7 +49,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               0.0, 1e6),
     ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
               '-', -1.0, 1.0,
-              nan_means='derived: eta_opposing_min + 0.25 (1 - eta_opposing_min)'),
+              nan_means='derived: eta_opposing_min + 0.25 (eta_healthy - eta_opposing_min), '
+                        'eta_healthy the healthy eta_D learned once the filter has settled'),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the RUL median in operating time is below '
               'this; it clears once the RUL 5 % bound is above it (1 + level_hysteresis)',
               's', 0.0, 1e12),
@@ -112,11 +127,16 @@ class HealthConfig:
             raise ValueError(f'unknown health parameter(s): {sorted(unknown)}')
         return HealthConfig(**{**asdict(self), **changes})
 
-    @property
-    def effective_eta_warn(self) -> float:
-        """``eta_warn``, or :func:`derived_eta_warn` when it is NaN (the default) [-]."""
+    def effective_eta_warn(self, eta_healthy: float = math.nan) -> float:
+        """Return ``eta_warn``, or when it is NaN (the default) the derived one [-].
+
+        That is :func:`derived_eta_warn` of the healthy eta_D ``eta_healthy`` (NaN while that
+        is not learned yet: no efficiency WARN).
+        """
         if math.isnan(self.eta_warn):
-            return derived_eta_warn(self.eta_opposing_min)
+            if math.isnan(eta_healthy):
+                return math.nan
+            return derived_eta_warn(self.eta_opposing_min, eta_healthy)
         return self.eta_warn
 
     def as_dict(self) -> dict[str, object]:
@@ -137,7 +157,8 @@ def cross_field_problem(values: dict[str, object]) -> str:
     if not math.isnan(eta_warn) and not eta_warn > eta_min:
         return (f'eta_warn must be > eta_opposing_min ({eta_min!r}) so WARN comes before end '
                 f'of life, got {eta_warn!r}; leave it unset (nan) for the derived default '
-                f'{derived_eta_warn(eta_min):.4g}')
+                f'(eta_min + 0.25 (healthy eta_D - eta_min), at most '
+                f'{derived_eta_warn(eta_min):.4g})')
     if not eta_min > -1.0 / ratio:
         return (f'eta_opposing_min must be > -1/ratio = {-1.0 / ratio:.4g} (no friction '
                 f'parameter reaches it), got {eta_min!r}')

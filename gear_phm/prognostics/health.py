@@ -8,8 +8,9 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
 - WARN: RUL median (operating time) < ``warn_horizon`` [s], cleared only once the RUL's 5 %
-  bound is back above it; eta_D < ``eta_warn``; or a model mismatch (mean NIS above its
-  chi-square bound while the estimate still tracks).
+  bound is back above it; eta_D < ``eta_warn`` (by default derived from the healthy eta_D
+  learned once the filter has settled, :class:`LevelTracker`); or a model mismatch (mean NIS
+  above its chi-square bound while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
   current.
@@ -27,7 +28,7 @@ from statistics import NormalDist
 from typing import Any
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
-from gear_phm.prognostics.config import DEFAULTS
+from gear_phm.prognostics.config import DEFAULTS, derived_eta_warn, HEALTHY_SETTLED_SHARE
 from gear_phm.status import ERROR, OK, WARN
 
 
@@ -179,21 +180,34 @@ class LevelTracker:
 
     Every condition is a :class:`Latch`: it is entered when its value crosses the threshold
     and left when the value is back by ``level_hysteresis`` times the threshold's distance
-    from a new gearbox's value (eta_D 1, u 0, RUL 0): eta_D above
+    from a new gearbox's value (eta_D 1, or the learned eta_healthy, u 0, RUL 0): eta_D above
     eta_warn + h (1 - eta_warn), u below u_eol (1 - h), RUL p5 above warn_horizon (1 + h).
     The RUL condition is entered on the RUL's median and left on its 5 % bound: a hysteresis
     across the band as well, so that an early, wide band whose lower tail grazes the horizon
     (a fast law the data cannot exclude yet) does not warn and then clear.
     Either change must hold for ``level_dwell`` [s] of stamp time first. The filter conditions
     (mismatch, lost) have the dwell only.
+
+    ``eta_warn`` NaN (the default): the threshold is learned. The healthy eta_D,
+    :attr:`eta_healthy`, is the first estimate's eta_D once the filter has settled (sigma_u
+    at most HEALTHY_SETTLED_SHARE of u_eol - u, the filter check not ERROR); eta_warn is then
+    :func:`~gear_phm.prognostics.config.derived_eta_warn` of it and ``eta_opposing_min``
+    (WARN once 75 % of the budget between them is used), and the new gearbox of the
+    hysteresis is eta_healthy. Until then there is no efficiency WARN. An explicit eta_warn is
+    kept; eta_healthy is learned and reported all the same.
     """
 
     def __init__(self, u_eol: float, eol_reason: str, eta_warn: float, warn_horizon: float,
                  level_hysteresis: float = float(DEFAULTS['level_hysteresis']),
-                 level_dwell: float = float(DEFAULTS['level_dwell'])) -> None:
+                 level_dwell: float = float(DEFAULTS['level_dwell']),
+                 eta_opposing_min: float = float(DEFAULTS['eta_opposing_min'])) -> None:
         self.u_eol, self.eol_reason = float(u_eol), eol_reason
         self.eta_warn, self.warn_horizon = float(eta_warn), float(warn_horizon)
         self.level_hysteresis, self.level_dwell = float(level_hysteresis), float(level_dwell)
+        self.eta_opposing_min = float(eta_opposing_min)
+        #: Whether eta_warn is learned (given as NaN); the healthy eta_D [-] (NaN until then).
+        self.learns_eta_warn = math.isnan(self.eta_warn)
+        self.eta_healthy = math.nan
         self.eta_clear = self.eta_warn + self.level_hysteresis * (1.0 - self.eta_warn)
         self.u_clear = self.u_eol * (1.0 - self.level_hysteresis)
         self.rul_clear = self.warn_horizon * (1.0 + self.level_hysteresis)
@@ -201,21 +215,41 @@ class LevelTracker:
                         for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
 
     def reset(self) -> None:
-        """Back to OK with nothing pending (a replay restarted)."""
+        """Back to OK with nothing pending (a replay restarted); eta_healthy is learned anew."""
         for latch in self.latches.values():
             latch.reset()
+        self._learn(math.nan)
+
+    def _learn(self, eta_healthy: float) -> None:
+        """Set the healthy eta_D [-] (NaN: not known) and, unless given, eta_warn from it."""
+        self.eta_healthy = eta_healthy
+        if not self.learns_eta_warn:
+            return
+        if math.isnan(eta_healthy):
+            self.eta_warn = self.eta_clear = math.nan
+            return
+        self.eta_warn = derived_eta_warn(self.eta_opposing_min, eta_healthy)
+        self.eta_clear = self.eta_warn + self.level_hysteresis * max(
+            eta_healthy - self.eta_warn, 0.0)
 
     def to_state(self) -> dict[str, Any]:
-        """Every latch's state (JSON-safe)."""
-        return {name: latch.to_state() for name, latch in self.latches.items()}
+        """Every latch's state and the learned healthy eta_D (JSON-safe)."""
+        state: dict[str, Any] = {name: latch.to_state() for name, latch in self.latches.items()}
+        state['eta_healthy'] = encode_float(self.eta_healthy)
+        return state
 
     def from_state(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`to_state`; KeyError if a latch is missing."""
+        """Restore :meth:`to_state`; KeyError if a latch is missing.
+
+        A state without ``eta_healthy`` (before it was learned) learns it anew.
+        """
         for name in self.latches:            # check all before changing any
             if not isinstance(state[name], dict):
                 raise ValueError(f'latch {name} state must be an object')
+        eta_healthy = decode_float(state.get('eta_healthy', 'nan'))
         for name, latch in self.latches.items():
             latch.from_state(state[name])
+        self._learn(eta_healthy)
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
                filter_check: tuple[int, str] = (OK, ''), u_sigma: float = 0.0,
@@ -239,8 +273,13 @@ class LevelTracker:
         lost = latch['lost'].update(t, filter_level == ERROR, filter_level == ERROR)
         mismatch = latch['mismatch'].update(t, filter_level >= WARN, filter_level >= WARN)
         sigma = u_sigma if math.isfinite(u_sigma) and u_sigma > 0.0 else 0.0
+        if math.isnan(self.eta_healthy) and filter_level != ERROR \
+                and math.isfinite(eta_opposing) and math.isfinite(u_sigma) \
+                and u_sigma <= HEALTHY_SETTLED_SHARE * (self.u_eol - u):
+            self._learn(eta_opposing)
         eol = latch['eol'].update(t, u - EOL_Z * sigma >= self.u_eol or law_past_eol,
                                   u >= self.u_clear or law_past_eol)
+        # NaN thresholds (not learned yet) compare False: no efficiency WARN
         eta = latch['eta'].update(t, eta_opposing < self.eta_warn, eta_opposing < self.eta_clear)
         rul = latch['rul'].update(t, median < self.warn_horizon, rul_p5 < self.rul_clear)
         errors = []
