@@ -171,7 +171,7 @@ def test_a_healthy_gearbox_stays_ok_from_start_to_end(tmp_path: Path) -> None:
     """bags/healthy (constant u = 0.05) with defaults only: never WARN, RUL inf throughout.
 
     The filter settling from its prior wanders by about 2 of its sigmas in the first seconds;
-    that is not growth (prognostics/rul.py, detection).
+    that is not growth (prognostics/predictor.py, detection).
     """
     out = tmp_path / 'out'
     assert main(['analyze', str(REPO / 'bags' / 'healthy'), '--ratio', '3.0', '--out',

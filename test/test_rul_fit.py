@@ -7,8 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from gear_phm.prognostics.rul import (crossing_offsets, crossing_slopes, fit_laws, fit_trend,
-                                      rise, rise_sigma, RulPredictor, Trend, WearHistory)
+from gear_phm.prognostics.changepoint import rise, rise_sigma
+from gear_phm.prognostics.fits import (crossing_offsets, crossing_slopes, fit_laws, fit_trend,
+                                       Trend)
+from gear_phm.prognostics.history import WearHistory
+from gear_phm.prognostics.predictor import RulPredictor
 from gear_phm.simulation.wear import Wear
 
 LIFE, U0, U_EOL = 3000.0, 0.05, 0.6
