@@ -18,6 +18,7 @@ points. The rise of each law over the span T: r T (linear), r (1 - exp(-k T)) / 
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import math
 
 import numpy as np
@@ -84,3 +85,87 @@ def fitted_rise(law: Trend) -> float:
     if law.model == POWER and law.shape > 0.0:
         return law.slope * span / law.shape
     return law.slope * span
+
+
+#: Exponents p of the hinge's wear part a max(t - tau, 0)^p (:func:`regime_start`).
+HINGE_EXPONENTS = np.array([1.0, 1.5, 2.0, 3.0])
+#: At most this many candidate regime starts tau, evenly over the history's bins.
+HINGE_CANDIDATES = 48
+#: The current regime holds at least this fraction of the history's bins (and min_points).
+REGIME_MIN_SHARE = 0.125
+
+
+@dataclass(frozen=True)
+class RegimeStart:
+    """Start of the current wear regime in a history (:func:`regime_start`).
+
+    ``index``: its first bin; ``t`` [s]: its time (that bin's, on the history's axis);
+    ``exponent``: the hinge's p; ``improvement``: how much the wear part improves the fit,
+    (rss without it - rss with it) / residual scale [-] (0 when no rising regime was found).
+    """
+
+    index: int = 0
+    t: float = 0.0
+    exponent: float = 1.0
+    improvement: float = 0.0
+
+
+def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
+                 min_points: int = 8) -> RegimeStart:
+    """Return where the current wear regime starts: a segmented (hinge) regression.
+
+    u = c + d min(t - tau, 0) + a max(t - tau, 0)^p, continuous at tau, with the level c, the
+    slope d before tau (a plateau, d = 0, or a running-in, d < 0) and the wear part a > 0 in
+    closed form (weighted least squares with the bins' ``precision``), for each candidate tau
+    (a bin time, :data:`HINGE_CANDIDATES` of them, leaving at least
+    max(``min_points``, :data:`REGIME_MIN_SHARE` n) bins after it) and p in
+    :data:`HINGE_EXPONENTS`. The regime starts at the earliest tau whose best fit is within
+    one residual scale of the best of all (a straight history fits equally with any tau: its
+    regime is the whole of it). No candidate with a > 0: the whole history (index 0).
+    """
+    n = t.size
+    last = n - max(int(min_points), int(math.ceil(REGIME_MIN_SHARE * n)))
+    if last <= 0:
+        return RegimeStart(0, float(t[0]) if n else 0.0)
+    index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
+                      .astype(int))
+    d = t[None, :] - t[index][:, None]                      # (m, n)
+    pre = np.minimum(d, 0.0)
+    post = np.maximum(d, 0.0)
+    w = precision
+    ones = np.ones_like(d)
+    # the model without the wear part: c + d min(t - tau, 0)
+    rss0 = _wls_rss(np.stack([ones, pre], axis=-1), u, w)[0]
+    wear = post[:, None, :] ** HINGE_EXPONENTS[None, :, None]          # (m, e, n)
+    m, e = wear.shape[:2]
+    design = np.stack([np.broadcast_to(ones[:, None, :], wear.shape),
+                       np.broadcast_to(pre[:, None, :], wear.shape), wear], axis=-1)
+    rss, beta = _wls_rss(design.reshape(m * e, n, 3), u, w)
+    rss = np.where(beta[:, 2] > 0.0, rss, np.inf).reshape(m, e)
+    best_per_tau = rss.min(axis=1)
+    best = float(best_per_tau.min())
+    if not math.isfinite(best):
+        return RegimeStart(0, float(t[0]))
+    scale = max(best / max(n - 4, 1), 1.0)
+    chosen = int(np.flatnonzero(best_per_tau <= best + scale)[0])
+    exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
+    improvement = max(float(rss0[chosen] - best_per_tau[chosen]) / scale, 0.0)
+    return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
+
+
+def _wls_rss(design: np.ndarray, u: np.ndarray, w: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Return the weighted rss and coefficients of u ~ design (k, n, q) for each of k designs.
+
+    A column that is zero throughout (tau at the first bin: no 'before') gets a coefficient 0.
+    """
+    weighted = design * w[None, :, None]
+    gram = np.einsum('kni,knj->kij', weighted, design)
+    right = np.einsum('kni,n->ki', weighted, u)
+    diagonal = np.einsum('kii->ki', gram)
+    ridge = 1e-12 * diagonal.max(axis=1, keepdims=True) + (diagonal == 0.0)
+    gram = gram + ridge[:, :, None] * np.eye(design.shape[2])[None, :, :]
+    beta = np.linalg.solve(gram, right[:, :, None])[:, :, 0]
+    fitted = np.einsum('kni,ki->kn', design, beta)
+    rss = ((u[None, :] - fitted) ** 2 * w[None, :]).sum(axis=1)
+    return rss, beta

@@ -29,7 +29,8 @@ from typing import Any
 
 from gear_phm.persistence import decode_floats, encode_floats
 from gear_phm.prognostics.calibration import crossing_quantiles, Draws
-from gear_phm.prognostics.changepoint import DETECT_MIN_POINTS, rise, rise_sigma
+from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
+                                              rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
 from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, ShapePrior, Trend,
                                        trend_from_state, trend_to_state)
@@ -79,7 +80,8 @@ class RulPredictor:
                  mc_samples: int = int(DEFAULTS['mc_samples']),
                  seed: int = int(DEFAULTS['seed']), trend: str = str(DEFAULTS['trend']),
                  max_points: int = 256, min_points: int = 8, refit_fraction: int = 16,
-                 prior: ShapePrior | None = None, u_systematic: float = 0.0) -> None:
+                 prior: ShapePrior | None = None, u_systematic: float = 0.0,
+                 regimes: bool = True) -> None:
         if not math.isfinite(u_eol):
             raise ValueError(f'u_eol must be finite, got {u_eol!r}')
         if mc_samples < 2:
@@ -96,6 +98,9 @@ class RulPredictor:
         self.prior = prior
         self.min_points = int(min_points)
         self.refit_fraction = int(refit_fraction)
+        #: fit from the start of the current wear regime (:func:`regime_start`), else the
+        #: whole history
+        self.regimes = bool(regimes)
         self.history = WearHistory(max_points)
         self._draws = Draws.seeded(seed, int(mc_samples))
         #: number of fits so far (the cost is bounded: tests count them)
@@ -110,6 +115,8 @@ class RulPredictor:
         self._fitted_at = 0
         self._due = 1
         self.detected = False
+        #: the start of the current wear regime found by the last fit
+        self.regime = RegimeStart()
         #: curved laws in the last fit's mixture (their admission has a hysteresis)
         self._curved: frozenset[str] = frozenset()
 
@@ -175,8 +182,17 @@ class RulPredictor:
         if t.size < self.min_points:
             return
         self.fits += 1
+        if self.regimes:
+            # fit the current wear regime only: from its start on (a plateau, a running-in or
+            # an earlier regime before it is not the law that will reach u_eol)
+            self.regime = regime_start(t, u, precision, self.min_points)
+            start = self.regime.index
+            origin = float(t[start])
+            t, u, precision = t[start:] - origin, u[start:], precision[start:]
+        else:
+            origin = 0.0
         held: list[Trend] = []
-        laws = tuple(replace(law, t_end=law.t_end + history.t_start)
+        laws = tuple(replace(law, t_end=law.t_end + history.t_start + origin)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
                                          self.prior, self._curved, held))
         # a law extrapolates only once its own slope now is significant (a curved law's slope
@@ -202,7 +218,7 @@ class RulPredictor:
             # their Akaike weights over all the laws (module docstring)
             share = 1.0 - sum(law.weight for law in held)
             every = tuple(replace(law, weight=law.weight * share) for law in laws) + tuple(
-                replace(law, t_end=law.t_end + history.t_start) for law in held)
+                replace(law, t_end=law.t_end + history.t_start + origin) for law in held)
             p5 = self._crossing_quantiles(_renormalised(every))[0]
             self._crossing = (min(self._crossing[0], p5), self._crossing[1], self._crossing[2])
 
