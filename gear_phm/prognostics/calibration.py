@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from gear_phm.prognostics.fits import (crossing_offsets, crossing_slopes, P_FLOOR, Trend)
+from gear_phm.prognostics.fits import crossing_offsets, crossing_slopes, fit_laws, P_FLOOR, Trend
 from gear_phm.prognostics.laws import LINEAR, POWER, PROPORTIONAL
 
 
@@ -43,6 +43,8 @@ class Draws:
     uniforms: np.ndarray
     phases: np.ndarray
     systematic: np.ndarray
+    #: uniform in [0, 1): which rolling-origin forecast error a draw takes
+    errors: np.ndarray
 
     @classmethod
     def seeded(cls, seed: int, samples: int) -> Draws:
@@ -51,7 +53,8 @@ class Draws:
         normals = rng.standard_normal((3, samples))
         uniforms = rng.random(samples)
         phases = rng.random(samples) - 0.5
-        return cls(normals, uniforms, phases, rng.standard_normal(samples))
+        systematic = rng.standard_normal(samples)
+        return cls(normals, uniforms, phases, systematic, rng.random(samples))
 
 
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
@@ -67,12 +70,18 @@ def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
 
 
 def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_systematic: float,
-                   spacing: float) -> np.ndarray:
+                   spacing: float, errors: np.ndarray | None = None) -> np.ndarray:
     """Return each draw's absolute time [s] of reaching ``u_eol`` (inf: never).
 
     Over the laws' parameter draws, each law taking its Akaike weight's share of the draws;
     ``u_systematic`` [-] and the history's mean ``spacing`` [s] as in the module docstring.
+    ``errors``: the history's own relative forecast errors (:func:`forecast_errors`); each
+    draw takes one of them, rho, and its time to u_eol is divided by 1 + rho.
     """
+    if errors is not None and errors.size:
+        rho = errors[np.minimum((draws.errors * errors.size).astype(int), errors.size - 1)]
+    else:
+        rho = None
     crossing = np.empty(draws.uniforms.size)
     edges = np.cumsum([law.weight for law in laws])
     edges[-1] = 1.0
@@ -97,6 +106,8 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
             rate = (law.u_end + drawn[0]) * shape
         offsets = crossing_offsets(
             law.model, u_eol - (law.u_end + drawn[0]), rate, shape, law.span)
+        if rho is not None:
+            offsets = np.where(offsets > 0.0, offsets / (1.0 + rho[chosen]), offsets)
         if u_systematic > 0.0:
             with np.errstate(invalid='ignore'):
                 offsets = offsets + u_systematic * draws.systematic[chosen] \
@@ -109,8 +120,52 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
 
 
 def crossing_quantiles(laws: tuple[Trend, ...], draws: Draws, u_eol: float,
-                       u_systematic: float, spacing: float) -> tuple[float, float, float]:
+                       u_systematic: float, spacing: float, errors: np.ndarray | None = None
+                       ) -> tuple[float, float, float]:
     """Return the 5/50/95 % quantiles [s] of :func:`crossing_draws` (inf: never)."""
     p5, median, p95 = inverted_cdf_quantiles(
-        crossing_draws(laws, draws, u_eol, u_systematic, spacing), (0.05, 0.5, 0.95))
+        crossing_draws(laws, draws, u_eol, u_systematic, spacing, errors), (0.05, 0.5, 0.95))
     return (p5, median, p95)
+
+
+#: Forecast origins of :func:`forecast_errors`, as fractions of the regime's span.
+ORIGINS = (0.4, 0.5, 0.6, 0.7, 0.8)
+#: Limits of a relative forecast error rho: a time to u_eol is divided by 1 + rho, so at most
+#: 4 times longer, and at most 5 times shorter.
+RHO_LIMITS = (-0.75, 4.0)
+
+
+def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Trend,
+                    min_points: int = 8) -> np.ndarray:
+    """Return the history's own relative forecast errors rho [-], rolling origin.
+
+    At each origin (:data:`ORIGINS` of the span of ``t`` [s, from the regime's start]) the
+    law of ``law.model`` is fitted to the points up to it, and its time to reach the level
+    the present fit ``law`` has now (u_end at t[-1]) is compared with the time that took:
+    rho = forecast / actual - 1 (> 0: the forecast came too late, optimistic). Each error
+    and its mirror 1 / (1 + rho) - 1 (a forecast as much too early) is one draw's
+    (:func:`crossing_draws`), with rho = 0, the present fit as it is, once too.
+    An origin with too few points or no growth in its fit gives none.
+    """
+    errors = [0.0]
+    span = float(t[-1] - t[0]) if t.size else 0.0
+    for fraction in ORIGINS:
+        k = int(np.searchsorted(t, t[0] + fraction * span, side='right'))
+        if k < min_points or k >= t.size:
+            continue
+        past = fit_laws(t[:k], u[:k], precision[:k], law.model, min_points)
+        if not past or not past[0].slope > 0.0:
+            continue
+        earlier = past[0]
+        actual = float(t[-1]) - earlier.t_end
+        if not actual > 0.0:
+            continue
+        forecast = float(crossing_offsets(
+            earlier.model, np.array([law.u_end - earlier.u_end]), np.array([earlier.slope]),
+            np.array([earlier.shape]), earlier.span)[0])
+        forecast = max(forecast, 0.0)
+        rho = forecast / actual - 1.0 if math.isfinite(forecast) else RHO_LIMITS[1]
+        rho = min(max(rho, RHO_LIMITS[0]), RHO_LIMITS[1])
+        # as likely either way: the band widens both ways, the median stays the fit's
+        errors.extend((rho, 1.0 / (1.0 + rho) - 1.0))
+    return np.array(errors)

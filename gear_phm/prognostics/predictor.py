@@ -27,8 +27,10 @@ from dataclasses import dataclass, replace
 import math
 from typing import Any
 
+import numpy as np
+
 from gear_phm.persistence import decode_floats, encode_floats
-from gear_phm.prognostics.calibration import crossing_quantiles, Draws
+from gear_phm.prognostics.calibration import crossing_quantiles, Draws, forecast_errors
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
@@ -81,7 +83,7 @@ class RulPredictor:
                  seed: int = int(DEFAULTS['seed']), trend: str = str(DEFAULTS['trend']),
                  max_points: int = 256, min_points: int = 8, refit_fraction: int = 16,
                  prior: ShapePrior | None = None, u_systematic: float = 0.0,
-                 regimes: bool = True) -> None:
+                 regimes: bool = True, calibrated: bool = True) -> None:
         if not math.isfinite(u_eol):
             raise ValueError(f'u_eol must be finite, got {u_eol!r}')
         if mc_samples < 2:
@@ -101,6 +103,9 @@ class RulPredictor:
         #: fit from the start of the current wear regime (:func:`regime_start`), else the
         #: whole history
         self.regimes = bool(regimes)
+        #: widen the band by the history's own rolling-origin forecast errors
+        self.calibrated = bool(calibrated)
+        self._errors: np.ndarray | None = None
         self.history = WearHistory(max_points)
         self._draws = Draws.seeded(seed, int(mc_samples))
         #: number of fits so far (the cost is bounded: tests count them)
@@ -211,8 +216,16 @@ class RulPredictor:
             z *= max(DETECT_MIN_POINTS / laws[0].effective_points, 1.0)
         self.detected = bool(laws) and rise(laws[0], t, u, precision) > z * rise_sigma(
             t, precision, history.independent, laws[0].scale)
+        self._errors = forecast_errors(t, u, precision, laws[0], self.min_points) \
+            if self.detected and self.calibrated else None
         self._crossing = self._crossing_quantiles(laws) if self.detected \
             else (math.inf, math.inf, math.inf)
+        if self._errors is not None and self._errors.size > 1:
+            # the band also holds the history's own forecast errors; the median is the fit's
+            p5, _, p95 = crossing_quantiles(laws, self._draws, self.u_eol, self.u_systematic,
+                                            self.history.spacing, self._errors)
+            self._crossing = (min(self._crossing[0], p5), self._crossing[1],
+                              max(self._crossing[2], p95))
         if self.detected and held:
             # the band's lower bound also counts the curved laws held out of the median, with
             # their Akaike weights over all the laws (module docstring)
