@@ -136,7 +136,7 @@ RHO_LIMITS = (-0.75, 4.0)
 
 
 def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Trend,
-                    min_points: int = 8) -> np.ndarray:
+                    min_points: int = 8, horizon: float = 0.0) -> np.ndarray:
     """Return the history's own relative forecast errors rho [-], rolling origin.
 
     At each origin (:data:`ORIGINS` of the span of ``t`` [s, from the regime's start]) the
@@ -145,7 +145,9 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
     rho = forecast / actual - 1 (> 0: the forecast came too late, optimistic). Each error
     and its mirror 1 / (1 + rho) - 1 (a forecast as much too early) is one draw's
     (:func:`crossing_draws`), with rho = 0, the present fit as it is, once too.
-    An origin with too few points or no growth in its fit gives none.
+    An origin with too few points or no growth in its fit gives none. An error measured over
+    a time h shorter than the ``horizon`` [s] the band is for (the RUL median) grows to it as
+    a diffusion does: log(1 + rho) times sqrt(horizon / h).
     """
     errors = [0.0]
     span = float(t[-1] - t[0]) if t.size else 0.0
@@ -166,6 +168,9 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
         forecast = max(forecast, 0.0)
         rho = forecast / actual - 1.0 if math.isfinite(forecast) else RHO_LIMITS[1]
         rho = min(max(rho, RHO_LIMITS[0]), RHO_LIMITS[1])
+        if horizon > actual and math.isfinite(horizon):
+            rho = math.expm1(math.log1p(rho) * math.sqrt(horizon / actual))
+            rho = min(max(rho, RHO_LIMITS[0]), RHO_LIMITS[1])
         # as likely either way: the band widens both ways, the median stays the fit's
         errors.extend((rho, 1.0 / (1.0 + rho) - 1.0))
     return np.array(errors)

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from gear_phm.prognostics.fits import Trend
+from gear_phm.prognostics.fits import _effective_points, Trend
 from gear_phm.prognostics.laws import EXPONENTIAL_FORM, POWER
 
 #: Effective points (n_eff) of a history of measurements below which growth is first
@@ -88,11 +88,16 @@ def fitted_rise(law: Trend) -> float:
 
 
 #: Exponents p of the hinge's wear part a max(t - tau, 0)^p (:func:`regime_start`).
-HINGE_EXPONENTS = np.array([1.0, 1.5, 2.0, 3.0])
+HINGE_EXPONENTS = np.array([1.0, 2.0, 3.0])
 #: At most this many candidate regime starts tau, evenly over the history's bins.
-HINGE_CANDIDATES = 48
+HINGE_CANDIDATES = 32
 #: The current regime holds at least this fraction of the history's bins (and min_points).
 REGIME_MIN_SHARE = 0.125
+#: A regime starts later than the history's first bin only where the hinge there fits better
+#: than one from the first bin by this many residual scales (a likelihood ratio: 3 sigma;
+#: taking the earliest start within 1 of the best, noise on a straight history moved the
+#: start back and forth, and the RUL by 40 %).
+REGIME_MARGIN = 9.0
 
 
 @dataclass(frozen=True)
@@ -119,9 +124,10 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     closed form (weighted least squares with the bins' ``precision``), for each candidate tau
     (a bin time, :data:`HINGE_CANDIDATES` of them, leaving at least
     max(``min_points``, :data:`REGIME_MIN_SHARE` n) bins after it) and p in
-    :data:`HINGE_EXPONENTS`. The regime starts at the earliest tau whose best fit is within
-    one residual scale of the best of all (a straight history fits equally with any tau: its
-    regime is the whole of it). No candidate with a > 0: the whole history (index 0).
+    :data:`HINGE_EXPONENTS`. The regime starts at the best tau if its fit beats the one from
+    the first bin by :data:`REGIME_MARGIN` residual scales, else at the first bin (a straight
+    history fits equally with any tau: its regime is the whole of it); the best candidate is
+    refined to the bin. No candidate with a > 0: the whole history (index 0).
     """
     n = t.size
     last = n - max(int(min_points), int(math.ceil(REGIME_MIN_SHARE * n)))
@@ -129,10 +135,46 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
         return RegimeStart(0, float(t[0]) if n else 0.0)
     index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
                       .astype(int))
+    rss, rss0 = _hinge_rss(t, u, precision, index)
+    best_per_tau = rss.min(axis=1)
+    coarse = int(np.argmin(best_per_tau))
+    if not math.isfinite(best_per_tau[coarse]):
+        return RegimeStart(0, float(t[0]))
+    # refined: every bin between the best candidate's neighbours
+    low = int(index[max(coarse - 1, 0)])
+    high = int(index[min(coarse + 1, index.size - 1)])
+    fine = np.arange(low, high + 1)
+    fine_rss, fine_rss0 = _hinge_rss(t, u, precision, fine)
+    index = np.concatenate((index, fine))
+    rss, rss0 = np.concatenate((rss, fine_rss)), np.concatenate((rss0, fine_rss0))
+    best_per_tau = rss.min(axis=1)
+    chosen = int(np.argmin(best_per_tau))
+    best = float(best_per_tau[chosen])
+    # the residual scale: reduced chi-square (>= 1) times n / n_eff, the residuals'
+    # autocorrelation (correlated residuals make a kink of noise look significant)
+    exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
+    d = t - t[index[chosen]]
+    design = np.stack([np.ones_like(d), np.minimum(d, 0.0), np.maximum(d, 0.0) ** exponent],
+                      axis=-1)[None]
+    beta = _wls_rss(design, u, precision)[1]
+    residuals = np.sqrt(precision) * (u - design[0] @ beta[0])
+    scale = max(best / max(n - 4, 1), 1.0) * n / _effective_points(residuals)
+    if best_per_tau[0] <= best + REGIME_MARGIN * scale:
+        chosen = 0                  # no significant change point: the whole history
+        exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
+    improvement = max(float(rss0[chosen] - best_per_tau[chosen]) / scale, 0.0)
+    return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
+
+
+def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Return the hinge's rss per (tau = t[index], p), and without its wear part per tau.
+
+    inf where the wear part a <= 0 (:func:`regime_start`).
+    """
     d = t[None, :] - t[index][:, None]                      # (m, n)
     pre = np.minimum(d, 0.0)
     post = np.maximum(d, 0.0)
-    w = precision
     ones = np.ones_like(d)
     # the model without the wear part: c + d min(t - tau, 0)
     rss0 = _wls_rss(np.stack([ones, pre], axis=-1), u, w)[0]
@@ -140,17 +182,8 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     m, e = wear.shape[:2]
     design = np.stack([np.broadcast_to(ones[:, None, :], wear.shape),
                        np.broadcast_to(pre[:, None, :], wear.shape), wear], axis=-1)
-    rss, beta = _wls_rss(design.reshape(m * e, n, 3), u, w)
-    rss = np.where(beta[:, 2] > 0.0, rss, np.inf).reshape(m, e)
-    best_per_tau = rss.min(axis=1)
-    best = float(best_per_tau.min())
-    if not math.isfinite(best):
-        return RegimeStart(0, float(t[0]))
-    scale = max(best / max(n - 4, 1), 1.0)
-    chosen = int(np.flatnonzero(best_per_tau <= best + scale)[0])
-    exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
-    improvement = max(float(rss0[chosen] - best_per_tau[chosen]) / scale, 0.0)
-    return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
+    rss, beta = _wls_rss(design.reshape(m * e, t.size, 3), u, w)
+    return np.where(beta[:, 2] > 0.0, rss, np.inf).reshape(m, e), rss0
 
 
 def _wls_rss(design: np.ndarray, u: np.ndarray, w: np.ndarray

@@ -81,7 +81,7 @@ class RulPredictor:
     def __init__(self, u_eol: float, detect_z: float = float(DEFAULTS['detect_z']),
                  mc_samples: int = int(DEFAULTS['mc_samples']),
                  seed: int = int(DEFAULTS['seed']), trend: str = str(DEFAULTS['trend']),
-                 max_points: int = 256, min_points: int = 8, refit_fraction: int = 16,
+                 max_points: int = 256, min_points: int = 8, refit_fraction: int = 64,
                  prior: ShapePrior | None = None, u_systematic: float = 0.0,
                  regimes: bool = True, calibrated: bool = True) -> None:
         if not math.isfinite(u_eol):
@@ -187,9 +187,11 @@ class RulPredictor:
         if t.size < self.min_points:
             return
         self.fits += 1
-        if self.regimes:
+        if self.regimes and history.independent:
             # fit the current wear regime only: from its start on (a plateau, a running-in or
-            # an earlier regime before it is not the law that will reach u_eol)
+            # an earlier regime before it is not the law that will reach u_eol). Measurements
+            # only: a history of posteriors has kinks of its own, the filter's lag and
+            # catching up, that are no change of regime
             self.regime = regime_start(t, u, precision, self.min_points)
             start = self.regime.index
             origin = float(t[start])
@@ -216,10 +218,13 @@ class RulPredictor:
             z *= max(DETECT_MIN_POINTS / laws[0].effective_points, 1.0)
         self.detected = bool(laws) and rise(laws[0], t, u, precision) > z * rise_sigma(
             t, precision, history.independent, laws[0].scale)
-        self._errors = forecast_errors(t, u, precision, laws[0], self.min_points) \
-            if self.detected and self.calibrated else None
         self._crossing = self._crossing_quantiles(laws) if self.detected \
             else (math.inf, math.inf, math.inf)
+        # the history's own forecast errors, grown to the horizon of the median
+        self._errors = forecast_errors(
+            t, u, precision, laws[0], self.min_points,
+            self._crossing[1] - laws[0].t_end) \
+            if self.detected and self.calibrated and history.independent else None
         if self._errors is not None and self._errors.size > 1:
             # the band also holds the history's own forecast errors; the median is the fit's
             p5, _, p95 = crossing_quantiles(laws, self._draws, self.u_eol, self.u_systematic,
