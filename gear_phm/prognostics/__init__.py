@@ -8,9 +8,10 @@ from gear_phm.prognostics.assessor import HealthAssessor, HealthState, waiting_s
 from gear_phm.prognostics.config import (cross_field_problem, derived_eta_warn, HealthConfig,
                                          PARAMETERS)
 from gear_phm.prognostics.end_of_life import end_of_life_thresholds, end_of_life_u
+from gear_phm.prognostics.fits import fit_trend, ShapePrior, Trend
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import (fit_trend, RulEstimate, RulPredictor, ShapePrior, Trend,
-                                      Utilisation, WearHistory)
+from gear_phm.prognostics.history import Utilisation, WearHistory
+from gear_phm.prognostics.predictor import RulEstimate, RulPredictor
 
 __all__ = [
     'PARAMETERS', 'DivergenceDetector', 'HealthAssessor', 'HealthConfig', 'HealthState',

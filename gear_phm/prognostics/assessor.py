@@ -12,7 +12,7 @@ it, e.g. from an older recording, uses its stamp time). That RUL, ``rul_operatin
 seconds of operation, and the level's WARN horizon applies to it. ``rul`` is the same RUL in
 elapsed (stamp) time at the utilisation seen so far: rul_operating / utilisation, utilisation
 = operating time / elapsed stamp time accumulated over the history
-(:class:`~gear_phm.prognostics.rul.Utilisation`), about 1 with continuous motion.
+(:class:`~gear_phm.prognostics.history.Utilisation`), about 1 with continuous motion.
 """
 from __future__ import annotations
 
@@ -28,9 +28,10 @@ from gear_phm.models.lever import efficiencies, efficiencies_array, readings, re
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
+from gear_phm.prognostics.fits import ShapePrior, Trend, trend_from_state, trend_to_state
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
-from gear_phm.prognostics.rul import (RulEstimate, RulPredictor, ShapePrior, Trend,
-                                      trend_from_state, trend_to_state, Utilisation)
+from gear_phm.prognostics.history import Utilisation
+from gear_phm.prognostics.predictor import RulEstimate, RulPredictor
 from gear_phm.status import ERROR, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise

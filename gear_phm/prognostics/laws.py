@@ -1,4 +1,4 @@
-"""Names of the wear laws the RUL fits (:mod:`gear_phm.prognostics.rul`, docs/prognostics.md).
+"""Names of the wear laws the RUL fits (:mod:`gear_phm.prognostics.fits`, docs/prognostics.md).
 
 Their own module so that the parameters (:mod:`gear_phm.prognostics.config`, the ``trend``
 choices) and the RUL predictor (which takes its defaults from those parameters) both import
