@@ -262,7 +262,7 @@ class LevelTracker:
         is entered on u - EOL_Z u_sigma), the RUL's median [s of operating time; None: a
         RUL without a band, the median is ``rul_p5``] and ``law_past_eol``: the wear law
         fitted to the measurements has crossed u_eol in 95 % of its draws
-        (:meth:`~gear_phm.prognostics.rul.RulPredictor.law_past_eol`), which also enters end
+        (:meth:`~gear_phm.prognostics.predictor.RulPredictor.law_past_eol`), which also enters end
         of life (the filter's u lags accelerating wear that its measurements show).
         """
         median = rul_p5 if rul_median is None else rul_median
