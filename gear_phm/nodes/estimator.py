@@ -35,6 +35,8 @@ from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.drives import declare_drives, declare_transmissions
+from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
@@ -86,7 +88,17 @@ class EstimatorNode(Node):
 
     def __init__(self) -> None:
         super().__init__('estimator')
+        names = declare_transmissions(self)
         values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.values = values
+        self.drives: DrivesEstimator | None = None
+        if names:                   # many drives: gear_phm.nodes.estimator_drives
+            drives = declare_drives(self, names, PARAMETERS, values)
+            first = drives[0]
+            _warm_up(first.estimator_config(), first.motor_joint, first.load_joint)
+            self.drives = DrivesEstimator(self, drives, values)
+            self.add_on_set_parameters_callback(_read_only)
+            return
         problem = joint_names_problem(values)
         try:
             if problem:
@@ -95,7 +107,6 @@ class EstimatorNode(Node):
         except ValueError as exc:
             raise ConfigError(f'estimator parameters: {exc}') from None
         self.pipeline = EstimatorPipeline(self.config)
-        self.values = values
         self.state = StateKeeper(self, values, 'estimator', state_identity(values),
                                  self._current_state)
         self.state.load(self.pipeline.from_state)
@@ -135,6 +146,10 @@ class EstimatorNode(Node):
     def destroy_node(self) -> None:
         """Process the buffer without publishing (the context may be shut down), save the
         state (SIGINT/SIGTERM and normal exits pass here), then destroy."""
+        if self.drives is not None:
+            self.drives.close()
+            super().destroy_node()
+            return
         if self.state.enabled and self.stamps:
             stamps, rows = self.stamps, self.rows
             self.stamps, self.rows = [], []
@@ -274,6 +289,13 @@ class EstimatorNode(Node):
             self.destroy_timer(self.watchdog)
             self.watchdog = self._make_watchdog()
         return SetParametersResult(successful=True)
+
+
+def _read_only(params: Sequence[Any]) -> SetParametersResult:
+    """Many drives: parameters are read at start only."""
+    names = ', '.join(p.name for p in params)
+    return SetParametersResult(successful=False, reason=f'{names}: with transmissions the '
+                               f'parameters are read at start only; restart the node')
 
 
 def make_executor(kind: str) -> Executor:
