@@ -11,11 +11,11 @@ stops the node at start with the reason (:class:`~gear_phm.nodes.common.ConfigEr
 """
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -96,3 +96,10 @@ def _check_overrides(node: Node, names: list[str]) -> None:
         if drive not in drives and rest in (MOTOR_JOINT.name, LOAD_JOINT.name, RATIO.name):
             msg = f'parameter {key} names no drive of {TRANSMISSIONS} {names}'
             raise ConfigError(msg)
+
+
+def refuse_changes(params: Sequence[Any]) -> SetParametersResult:
+    """On-set callback of a node serving many drives: its parameters are read at start only."""
+    names = ', '.join(p.name for p in params)
+    return SetParametersResult(successful=False, reason=f'{names}: with {TRANSMISSIONS} the '
+                               f'parameters are read at start only; restart the node')

@@ -35,7 +35,7 @@ from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
-from gear_phm.nodes.drives import declare_drives, declare_transmissions
+from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
@@ -97,7 +97,7 @@ class EstimatorNode(Node):
             first = drives[0]
             _warm_up(first.estimator_config(), first.motor_joint, first.load_joint)
             self.drives = DrivesEstimator(self, drives, values)
-            self.add_on_set_parameters_callback(_read_only)
+            self.add_on_set_parameters_callback(refuse_changes)
             return
         problem = joint_names_problem(values)
         try:
@@ -289,13 +289,6 @@ class EstimatorNode(Node):
             self.destroy_timer(self.watchdog)
             self.watchdog = self._make_watchdog()
         return SetParametersResult(successful=True)
-
-
-def _read_only(params: Sequence[Any]) -> SetParametersResult:
-    """Many drives: parameters are read at start only."""
-    names = ', '.join(p.name for p in params)
-    return SetParametersResult(successful=False, reason=f'{names}: with transmissions the '
-                               f'parameters are read at start only; restart the node')
 
 
 def make_executor(kind: str) -> Executor:

@@ -29,7 +29,7 @@ from gear_phm.codec import decode_joint_state_pairs
 from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
-from gear_phm.nodes.state import drives_restorer, drives_state, StateKeeper, DRIVES_IDENTITY
+from gear_phm.nodes.state import DRIVES_IDENTITY, drives_restorer, drives_state, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.status import WARN

@@ -137,8 +137,10 @@ DRIVES_IDENTITY: dict[str, Any] = {'transmissions': True}
 
 def drives_state(parts: Mapping[str, tuple[Mapping[str, Any], dict[str, Any], int | None]]
                  ) -> tuple[dict[str, Any], int | None]:
-    """Return (state, newest stamp [ns]) of many drives from ``{drive: (identity, state,
-    newest stamp)}``, for :class:`StateKeeper`'s ``get_state``."""
+    """Return (state, newest stamp [ns]) of many drives for :class:`StateKeeper`.
+
+    ``parts``: ``{drive: (identity, state, newest stamp [ns] or None)}``.
+    """
     stamps = [stamp for _, _, stamp in parts.values() if stamp is not None]
     return ({'drives': {name: {'identity': dict(identity), 'state': state}
                         for name, (identity, state, _) in parts.items()}},
