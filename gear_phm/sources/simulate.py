@@ -68,3 +68,46 @@ class SimulateSource:
 
     def describe(self) -> Sequence[tuple[str, Any]]:
         return [('rate_hz', self.rate)]
+
+
+class SimulateDrivesSource(SimulateSource):
+    """Many drives in one stream: one :class:`Sample` per instant holds every drive's pairs.
+
+    ``configs``: one simulation per drive (each its own simulator, all sharing the sample
+    times), as ``gear-phm simulate --transmissions`` writes them.
+    """
+
+    def __init__(self, configs: Sequence[SimulationConfig], rate: float,
+                 duration: float) -> None:
+        if not configs:
+            raise SourceError('no drive to simulate')
+        for config in configs:
+            super().__init__(config, rate, duration)
+        self.configs = list(configs)
+
+    def items(self) -> Generator[tuple[int, Item], None, None]:
+        """One :class:`Sample` of all drives per sample time."""
+        simulators = [Simulator(config) for config in self.configs]
+        rate = self.rate
+        total = int(math.floor(self.duration * rate + 1e-9)) if self.duration > 0 else None
+        chunk = max(1, int(round(SIM_CHUNK_S * rate)))
+        index = 0
+        while total is None or index < total:
+            count = chunk if total is None else min(chunk, total - index)
+            t = np.arange(index, index + count) / rate
+            runs = [simulator.sample(t) for simulator in simulators]
+
+            def rows(*names: str) -> list[tuple[float, ...]]:
+                table = np.column_stack([getattr(r, name) for r in runs for name in names])
+                return [tuple(row) for row in table.tolist()]
+            columns = zip(rows('position_motor', 'position_load'),
+                          rows('velocity_motor', 'velocity_load'),
+                          rows('effort_motor', 'effort_load'), rows('u', 'friction'),
+                          rows('eta_opposing', 'eta_aiding'))
+            for i, (position, velocity, effort, friction, efficiency) in enumerate(columns):
+                elapsed_ns = int(round((index + i) * 1e9 / rate))
+                yield elapsed_ns, Sample(position, velocity, effort, friction, efficiency)
+            index += count
+
+    def describe(self) -> Sequence[tuple[str, Any]]:
+        return [('rate_hz', self.rate), ('drives', len(self.configs))]
