@@ -8,7 +8,8 @@ processed when a sample crosses the earliest drive's publish_rate grid, ``batch_
 after its first sample, or at 200 samples (so a drive's outputs leave at most about
 ``batch_period`` after the sample that closed a window). Outputs are each drive's, on
 ``gear_phm/<drive>/...`` with the single transmission's layouts; the /diagnostics array holds
-one status per drive, ``gear_phm estimator: <node>/<drive>`` (``hardware_id`` the drive),
+one status per drive, ``gear_phm estimator: <drive>`` (``hardware_id`` the drive; as
+``gear-phm analyze --transmissions``),
 whose counters are that drive's alone (a missing, short or NaN joint of one drive counts
 against it only). A drive with no sample for its ``sensor_timeout`` is flagged on its own.
 The per-drive parameters are read-only (restart the node to change them).
@@ -51,7 +52,7 @@ class _Drive:
             raise ConfigError(f'drive {drive.name}: {exc}') from None
         self.outputs = EstimatePublisher(node, frame_id, drive.name)
         self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
-        self.status_name = f'gear_phm estimator: {node.get_name()}/{drive.name}'
+        self.status_name = f'gear_phm estimator: {drive.name}'
         self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]
 
     @property
@@ -110,7 +111,8 @@ class DrivesEstimator:
 
     def _on_message(self, raw: bytes) -> None:
         """One serialized JointState: buffer it; process the buffer when an output is due."""
-        self.raws.append(raw)
+        self.messages_received += 1         # counted on arrival (a buffer waits up to
+        self.raws.append(raw)               # batch_period)
         due = self._due
         if due is not None and len(raw) >= 12:
             sec, nanosec = _STAMP(raw, 4)
@@ -134,7 +136,6 @@ class DrivesEstimator:
         if not raws:
             return
         self.raws = []
-        self.messages_received += len(raws)
         now = self.node.get_clock().now().nanoseconds
         lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
         offsets = np.zeros(len(raws), dtype=np.int64)

@@ -1,0 +1,198 @@
+"""Many drives in one stream through the node executables (issue 25), over real DDS.
+
+One estimator and one diagnostics node serve 8 drives whose 16 joints come with 4 unrelated
+ones in one JointState at 1 kHz: no sample lost, each drive's u near its truth, one status per
+drive; one drive's joints cut mid-run make that drive alone WARN then STALE. Bad
+``transmissions`` parameters are refused with the reason; the state file of many drives
+survives a drive added and one removed, and refuses a drive whose ratio changed.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+import subprocess
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
+from sensor_msgs.msg import JointState  # noqa: E402
+import yaml  # noqa: E402
+
+from gear_phm.nodes.common import stamp  # noqa: E402
+from gear_phm.simulation import config_from_parameters, Simulator  # noqa: E402
+from gear_phm.transmissions import parse_transmissions  # noqa: E402
+from helpers.live import Driver, publish_acked, RELIABLE  # noqa: E402
+from helpers.processes import BIN, stop  # noqa: E402
+
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
+RATE = 1000.0
+#: 8 drives: ratios, initial friction, wear rate [1/s]
+BENCH = [(3.0, 0.08, 2e-4), (5.0, 0.05, 1e-4), (8.0, 0.04, 2e-4), (12.0, 0.03, 1e-4),
+         (16.0, 0.06, 0.0), (20.0, 0.02, 2e-4), (25.0, 0.05, 1e-4), (30.0, 0.02, 2e-4)]
+EXTRA = ['brake_a', 'brake_b', 'hyd_p', 'tank_t']
+LEVEL = {b'\x00': 'OK', b'\x01': 'WARN', b'\x02': 'ERROR', b'\x03': 'STALE'}
+
+
+def bench_parameters(drives: int = 8) -> dict[str, Any]:
+    """Return the node parameters (``/**``) of a bench of ``drives`` drives d0, d1, ..."""
+    parameters: dict[str, Any] = {'transmissions': [f'd{k}' for k in range(drives)]}
+    for k, (ratio, initial, rate) in enumerate(BENCH[:drives]):
+        parameters[f'd{k}'] = {
+            'motor_joint': f'm{k}', 'load_joint': f'l{k}', 'ratio': ratio,
+            'simulation': {'wear': 'linear' if rate else 'constant',
+                           'friction_initial': initial, 'wear_rate': rate or 1e-4}}
+    return parameters
+
+
+def write_parameters(path: Path, parameters: dict[str, Any]) -> Path:
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}}))
+    return path
+
+
+def start(exe: str, params_file: Path | None, *params: str) -> subprocess.Popen:
+    """Start a node executable with a parameters file and ``-p`` parameters."""
+    args = [str(BIN / exe), '--ros-args']
+    if params_file is not None:
+        args += ['--params-file', str(params_file)]
+    for param in params:
+        args += ['-p', param]
+    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def bench_messages(parameters: dict[str, Any], seconds: float, cut: int, cut_at: float
+                   ) -> tuple[list[JointState], list[np.ndarray]]:
+    """Return the JointState stream and each drive's true u per sample.
+
+    Drive ``cut``'s joints are left out of the messages from ``cut_at`` [s] on.
+    """
+    drives = parse_transmissions({'n': {'ros__parameters': _flat(parameters)}})
+    t = np.arange(int(seconds * RATE)) / RATE
+    runs = [Simulator(config_from_parameters(d.simulation_values({'seed': 7}, k))).sample(t)
+            for k, d in enumerate(drives)]
+    names = [EXTRA[0], EXTRA[1]] + [j for d in drives for j in (d.motor_joint, d.load_joint)]
+    names += EXTRA[2:]
+    cut_names = {drives[cut].motor_joint, drives[cut].load_joint}
+
+    values = {}
+    for d, r in zip(drives, runs):
+        values[d.motor_joint] = (r.position_motor, r.velocity_motor, r.effort_motor)
+        values[d.load_joint] = (r.position_load, r.velocity_load, r.effort_load)
+    zeros = np.zeros(t.size)
+    for joint in EXTRA:
+        values[joint] = (zeros, zeros, zeros)
+    table = [np.column_stack([values[j][a] for j in names]) for a in range(3)]
+    keep = [i for i, j in enumerate(names) if j not in cut_names]
+    messages = []
+    for i in range(t.size):
+        cols = slice(None) if t[i] < cut_at else keep
+        msg = JointState(name=names if t[i] < cut_at else [names[c] for c in keep])
+        msg.header.stamp = stamp(10**9 + int(round(t[i] * 1e9)))
+        msg.position, msg.velocity, msg.effort = (table[a][i, cols].tolist() for a in range(3))
+        messages.append(msg)
+    return messages, [r.u for r in runs]
+
+
+def _flat(parameters: dict[str, Any], prefix: str = '') -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in parameters.items():
+        if isinstance(value, dict):
+            flat.update(_flat(value, f'{prefix}{key}.'))
+        else:
+            flat[f'{prefix}{key}'] = value
+    return flat
+
+
+class Statuses:
+    """Every /diagnostics status by name: (monotonic arrival, level, message, values)."""
+
+    def __init__(self, driver: Driver) -> None:
+        self.by_name: dict[str, list[tuple[float, str, str, dict[str, str]]]] = {}
+        self.arrays: list[tuple[str, ...]] = []
+        driver.node.create_subscription(DiagnosticArray, '/diagnostics', self._on, RELIABLE)
+
+    def _on(self, msg: DiagnosticArray) -> None:
+        now = time.monotonic()
+        self.arrays.append(tuple(s.name for s in msg.status))
+        for s in msg.status:
+            values = {kv.key: kv.value for kv in s.values}
+            values['hardware_id'] = s.hardware_id
+            self.by_name.setdefault(s.name, []).append((now, LEVEL[s.level], s.message,
+                                                        values))
+
+    def latest(self, name: str) -> dict[str, str]:
+        return self.by_name[name][-1][3] if name in self.by_name else {}
+
+    def levels(self, name: str, since: float = 0.0, until: float = float('inf')) -> list[str]:
+        return [level for t, level, _, _ in self.by_name.get(name, []) if since <= t <= until]
+
+
+def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_stale(
+        tmp_path: Path) -> None:
+    parameters = bench_parameters(8)
+    params_file = write_parameters(tmp_path / 'bench.yaml', parameters)
+    seconds, cut, cut_at = 12.0, 7, 8.0
+    messages, truth = bench_messages(parameters, seconds, cut, cut_at)
+    state_file = tmp_path / 'estimator.json'
+    estimator = start('estimator', params_file, 'diagnostics_period:=0.05',
+                      f'state_file:={state_file}')
+    diagnostics = start('diagnostics', params_file, 'rate:=4.0', 'stale_timeout:=2.0')
+    driver = Driver('bench_driver')
+    statuses = Statuses(driver)
+    names = [f'd{k}' for k in range(8)]
+    try:
+        driver.wait(lambda: driver.pub.get_subscription_count() > 0
+                    and all(f'gear_phm: {n}' in statuses.by_name for n in names)
+                    and all(f'gear_phm estimator: {n}' in statuses.by_name for n in names),
+                    60.0, 'both nodes and their 8 statuses')
+        begin = time.monotonic()
+        publish_acked(driver, messages, RATE)     # never more than 80 ahead of the estimator
+        end = time.monotonic()
+        driver.wait(lambda: all(int(statuses.latest(f'gear_phm estimator: {n}').get(
+            'messages_received', 0)) >= len(messages) for n in names), 30.0, 'every message')
+        driver.spin(0.5)
+        settled = {n: statuses.latest(f'gear_phm estimator: {n}') for n in names}
+        health = {n: statuses.latest(f'gear_phm: {n}') for n in names}
+    finally:
+        driver.close()
+        codes = [stop(estimator), stop(diagnostics)]
+    rate = len(messages) / (end - begin)
+    print(f'8 drives: {len(messages)} messages at {rate:.0f} Hz in {end - begin:.1f} s')
+    assert codes == [0, 0], (estimator.stderr.read(), diagnostics.stderr.read())   # type: ignore
+    sent = len(messages)
+    after_cut = sent - int(cut_at * RATE)
+    for k, name in enumerate(names):
+        s = settled[name]
+        assert s['hardware_id'] == name
+        assert int(s['messages_received']) == sent, (name, s)
+        assert int(s['samples_missing']) == 0, (name, s)
+        last = int(cut_at * RATE) - 1 if k == cut else sent - 1
+        assert abs(float(s['u']) - truth[k][last]) < 0.01, (name, s['u'], truth[k][last])
+        assert abs(float(health[name]['u']) - truth[k][last]) < 0.01, (name, health[name])
+        assert int(s['samples_used']) + int(s['samples_rejected']) == sent, (name, s)
+        assert int(s['dropped_missing_joint']) == (after_cut if k == cut else 0), (name, s)
+    # one status per drive in each array of each node
+    for array in statuses.arrays:
+        if array[0].startswith('gear_phm: '):
+            assert sorted(array) == sorted(f'gear_phm: {n}' for n in names)
+        elif array[0].startswith('gear_phm estimator: '):
+            assert sorted(array) == sorted(f'gear_phm estimator: {n}' for n in names)
+    # the cut drive alone: WARN, then STALE, while the others' input flows and they stay OK
+    cut_wall = next(t for t, _, _, values in statuses.by_name[f'gear_phm estimator: d{cut}']
+                    if int(values.get('dropped_missing_joint', 0)) > 0)
+    cut_levels = statuses.levels(f'gear_phm: d{cut}', cut_wall, end)
+    assert 'WARN' in cut_levels and 'STALE' in cut_levels, cut_levels
+    assert cut_levels.index('WARN') < cut_levels.index('STALE'), cut_levels
+    assert set(statuses.levels(f'gear_phm: d{cut}', begin, cut_wall)) == {'OK'}
+    for name in names[:cut]:
+        assert set(statuses.levels(f'gear_phm: {name}', begin, end)) == {'OK'}, name
+    assert 'WARN' in statuses.levels(f'gear_phm estimator: d{cut}', cut_wall, end)
+    # one state file of the 8 drives
+    saved = json.loads(state_file.read_text())['state']['drives']
+    assert sorted(saved) == names
+    assert saved['d3']['identity'] == {'ratio': 12.0, 'motor_joint': 'm3', 'load_joint': 'l3'}
