@@ -196,3 +196,131 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
     saved = json.loads(state_file.read_text())['state']['drives']
     assert sorted(saved) == names
     assert saved['d3']['identity'] == {'ratio': 12.0, 'motor_joint': 'm3', 'load_joint': 'l3'}
+
+
+def two_drives(tmp_path: Path, name: str, drives: dict[str, dict[str, Any]],
+               **globals_: Any) -> Path:
+    parameters: dict[str, Any] = {'transmissions': list(drives), **drives, **globals_}
+    return write_parameters(tmp_path / name, parameters)
+
+
+BAD = [  # (executable, drives, global parameters, what stderr must say)
+    ('estimator', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3.0},
+                   'b': {'motor_joint': 'j1', 'load_joint': 'j3', 'ratio': 12.0}}, {},
+     "joint 'j1' is used by a and b: each joint belongs to one drive"),
+    ('diagnostics', {'a': {'motor_joint': 'j1', 'ratio': 3.0}}, {}, 'drive a: missing load_joint'),
+    ('estimator', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3.0, 'bogus': 1.0}},
+     {}, "parameter a.bogus: unknown key 'bogus' of drive a"),
+    ('diagnostics', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3.0}},
+     {'c': {'ratio': 2.0}}, "parameter c.ratio names no drive of transmissions ['a']"),
+    ('publisher', {'1a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3.0}}, {},
+     "drive name '1a' must be a letter then letters, digits or _"),
+    ('estimator', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3.0,
+                         'window': 0.1}}, {}, 'drive a: min_window must be < window'),
+    ('diagnostics', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': -1.0}}, {},
+     'parameter a.ratio: Invalid parameter value (-1.0)'),
+    ('estimator', {'a': {'motor_joint': 'j1', 'load_joint': 'j2', 'ratio': 3}}, {},
+     "parameter a.ratio: Trying to set parameter 'a.ratio' to '3' of type 'INTEGER'"),
+]
+
+
+def test_bad_transmissions_parameters_are_refused_at_start_with_the_reason(
+        tmp_path: Path) -> None:
+    procs = [start(exe, two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_))
+             for i, (exe, drives, globals_, _) in enumerate(BAD)]
+    try:
+        results = [(proc.wait(timeout=60), proc.stderr.read()) for proc in procs]  # type: ignore
+    finally:
+        for proc in procs:
+            stop(proc)
+    for (exe, _, _, reason), (code, stderr) in zip(BAD, results):
+        assert code == 2, (exe, reason, stderr)
+        assert reason in stderr, (exe, reason, stderr)
+        assert stderr.strip().count('\n') == 0, stderr        # one line, no traceback
+
+
+DRIVE_A = {'motor_joint': 'ma', 'load_joint': 'la', 'ratio': 3.0}
+DRIVE_B = {'motor_joint': 'mb', 'load_joint': 'lb', 'ratio': 12.0, 'eta_opposing_min': 0.6}
+DRIVE_C = {'motor_joint': 'mc', 'load_joint': 'lc', 'ratio': 5.0}
+
+
+def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
+        tmp_path: Path) -> None:
+    from geometry_msgs.msg import Vector3Stamped
+
+    from gear_phm.interfaces import drive_topic, ESTIMATOR_TOPICS, HEALTH_RUL
+    from rclpy.parameter_client import AsyncParameterClient
+
+    from gear_phm.nodes.common import OUTPUT_QOS
+    from helpers.diagnostics import Feeder, wait_for
+    state_file = tmp_path / 'diagnostics.json'
+    common = ('rate:=20.0', f'state_file:={state_file}', 'state_save_period:=60.0')
+    rclpy.init()
+    node = rclpy.create_node('state_feeder')
+    received: dict[str, int] = {'a': 0, 'b': 0}
+    for drive in received:
+        node.create_subscription(Vector3Stamped, drive_topic(drive, HEALTH_RUL),
+                                 lambda _, d=drive: received.__setitem__(d, received[d] + 1),
+                                 OUTPUT_QOS)
+    feeders = {}
+    for drive in ('a', 'b'):
+        feeders[drive] = Feeder(node)
+        feeders[drive].pubs = [node.create_publisher(Vector3Stamped, drive_topic(drive, t),
+                                                     OUTPUT_QOS) for t in ESTIMATOR_TOPICS]
+    try:
+        first = start('diagnostics', two_drives(tmp_path, 'ab.yaml', {'a': DRIVE_A,
+                                                                      'b': DRIVE_B},
+                                                eta_opposing_min=0.7), *common)
+        wait_for(node, lambda: all(f.matched() for f in feeders.values()), 30.0, 'matched')
+        # each drive's parameters: declared with descriptors, the global value by default
+        client = AsyncParameterClient(node, 'diagnostics')
+        assert client.wait_for_services(timeout_sec=30.0)
+        names = ['a.eta_opposing_min', 'b.eta_opposing_min', 'eta_opposing_min', 'b.ratio']
+        future = client.get_parameters(names)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+        assert [v.double_value for v in future.result().values] == [0.7, 0.6, 0.7, 12.0]
+        future = client.describe_parameters(['b.ratio', 'b.eta_opposing_min'])
+        rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+        ratio, eta = future.result().descriptors
+        assert ratio.description.startswith('b: ideal torque gain') and ratio.read_only
+        assert ratio.floating_point_range[0].from_value == 1e-6 and eta.read_only
+        for _ in range(12):
+            for feeder in feeders.values():
+                feeder.publish()
+            time.sleep(0.02)
+        wait_for(node, lambda: min(received.values()) >= 10, 30.0, 'health outputs')
+        assert stop(first) == 0, first.stderr.read()          # type: ignore[union-attr]
+        saved = json.loads(state_file.read_text())
+        assert saved['identity'] == {'transmissions': True}
+        assert sorted(saved['state']['drives']) == ['a', 'b']
+        b_state = saved['state']['drives']['b']['state']
+        assert saved['state']['drives']['b']['identity'] == {
+            'ratio': 12.0, 'motor_joint': 'mb', 'load_joint': 'lb'}
+        # b kept, a removed, c added
+        second = start('diagnostics', two_drives(tmp_path, 'bc.yaml', {'b': DRIVE_B,
+                                                                       'c': DRIVE_C}), *common)
+        time.sleep(3.0)
+        assert stop(second) == 0
+        log = second.stderr.read()                          # type: ignore[union-attr]
+        assert 'state of drive a dropped: no longer in transmissions' in log, log
+        assert f'drive c starts fresh: not in {state_file}' in log, log
+        saved = json.loads(state_file.read_text())['state']['drives']
+        assert sorted(saved) == ['b', 'c']
+        assert saved['b']['state'] == b_state               # restored, saved unchanged
+        # b's ratio changed: refused, the file kept; with state_reset b starts fresh
+        changed = two_drives(tmp_path, 'b13.yaml',
+                             {'b': {**DRIVE_B, 'ratio': 13.0}, 'c': DRIVE_C})
+        third = start('diagnostics', changed, *common)
+        assert third.wait(timeout=60) == 2
+        error = third.stderr.read()                         # type: ignore[union-attr]
+        assert 'is for other gearboxes (b: ratio 12.0 in the file, 13.0 now)' in error, error
+        assert json.loads(state_file.read_text())['state']['drives']['b']['state'] == b_state
+        fourth = start('diagnostics', changed, *common, 'state_reset:=true')
+        time.sleep(3.0)
+        assert stop(fourth) == 0
+        assert len(list(tmp_path.glob('diagnostics.json.old-*'))) == 1
+        saved = json.loads(state_file.read_text())['state']['drives']
+        assert saved['b']['identity']['ratio'] == 13.0 and saved['b']['state'] != b_state
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
