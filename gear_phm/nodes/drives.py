@@ -34,14 +34,31 @@ _REQUIRED = (MOTOR_JOINT, LOAD_JOINT, RATIO)
 
 
 def declare_transmissions(node: Node) -> list[str]:
-    """Declare the read-only ``transmissions`` string array; return the names (may be [])."""
-    descriptor = ParameterDescriptor(description=TRANSMISSIONS_TEXT, read_only=True)
+    """Declare the ``transmissions`` string array (read at start only); return its names."""
+    return declare_string_array(node, TRANSMISSIONS, TRANSMISSIONS_TEXT)
+
+
+def declare_string_array(node: Node, name: str, description: str) -> list[str]:
+    """Declare a string array parameter, default empty, read at start only; its value.
+
+    rclpy types an empty default as a byte array, so the parameter is declared by type and
+    set to an empty string array when not given; changes after start are refused.
+    """
+    descriptor = ParameterDescriptor(description=f'{description} (read at start only)')
     try:
-        value = node.declare_parameter(TRANSMISSIONS, Parameter.Type.STRING_ARRAY,
-                                       descriptor).value
+        value = node.declare_parameter(name, Parameter.Type.STRING_ARRAY, descriptor).value
+        if value is None:
+            node.set_parameters([Parameter(name, Parameter.Type.STRING_ARRAY, [])])
     except ParameterException as exc:
-        msg = f'parameter {TRANSMISSIONS}: {" ".join(str(exc).split())}'
+        msg = f'parameter {name}: {" ".join(str(exc).split())}'
         raise ConfigError(msg) from None
+
+    def refuse(params: Sequence[Any]) -> SetParametersResult:
+        if any(p.name == name for p in params):
+            return SetParametersResult(successful=False,
+                                       reason=f'{name}: read at start only; restart the node')
+        return SetParametersResult(successful=True)
+    node.add_on_set_parameters_callback(refuse)
     return list(value or [])
 
 

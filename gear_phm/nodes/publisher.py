@@ -31,11 +31,10 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
@@ -45,7 +44,7 @@ from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, drive_topic, JOINT_STATES, 
                                  TRUTH_FRICTION)
 from gear_phm.nodes.common import (ConfigError, declare_parameters, declare_required,
                                    DropCounter, OUTPUT_QOS, run_node, stamp, status_msg)
-from gear_phm.nodes.drives import declare_drives, declare_transmissions
+from gear_phm.nodes.drives import declare_drives, declare_string_array, declare_transmissions
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.simulation import config_from_parameters, PARAMETERS
 from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
@@ -205,11 +204,9 @@ class PublisherNode(Node):
 
     def _declare_extra_joints(self, used: list[str]) -> list[str]:
         """Declare ``extra_joints``: joints of no drive, published with zeros."""
-        descriptor = ParameterDescriptor(
-            description='simulate with transmissions: more joints in each JointState, of no '
-            'drive (position, velocity and effort 0.0)', read_only=True)
-        extra = list(self.declare_parameter('extra_joints', Parameter.Type.STRING_ARRAY,
-                                            descriptor).value or [])
+        extra = declare_string_array(self, 'extra_joints', 'simulate with transmissions: more '
+                                     'joints in each JointState, of no drive (position, '
+                                     'velocity and effort 0.0)')
         clash = sorted(set(extra) & set(used)) or sorted(j for j in extra if extra.count(j) > 1)
         if clash:
             raise ConfigError(f'parameter extra_joints: {clash} named twice')
