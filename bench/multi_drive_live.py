@@ -94,17 +94,16 @@ def main() -> int:
            f'{per[1]:.0f}', f'{per[0] / per[1]:.2f}', f'{got[0]} / {got[1]} / {sent}']
     print(f'{args.drives} drives: {per[0]:.0f} us/msg; one drive: {per[1]:.0f} us/msg; ratio '
           f'{per[0] / per[1]:.2f}; received {got[0]} / {got[1]} of {sent} ({elapsed:.1f} s)')
-    if not args.no_append:
-        note = (f'Command: `.venv/bin/python bench/multi_drive_live.py --rate {args.rate:g} '
-                f'--duration {args.duration:g} --drives {args.drives}`. The stream: the '
-                f'publisher node simulating the drives plus 4 unrelated joints in one '
-                f'JointState. Load average before the run: {load_before}; after: '
-                f'{load_average()} (2 cores, shared with other jobs).')
-        append_section('Live: one estimator serving many drives, CPU per message against '
-                       'a one-drive estimator on the same stream',
-                       [['drives', 'rate [Hz]', 'duration [s]', 'many drives [us/msg]',
-                         'one drive [us/msg]', 'ratio', 'received many / one / sent'], row],
-                       note, out=BENCHMARKS_MD)
+    note = (f'Command: `.venv/bin/python bench/multi_drive_live.py --rate {args.rate:g} '
+            f'--duration {args.duration:g} --drives {args.drives}`. The stream: the '
+            f'publisher node simulating the drives plus 4 unrelated joints in one '
+            f'JointState. Load average before the run: {load_before}; after: '
+            f'{load_average()} (2 cores, shared with other jobs).')
+    append_section('Live: one estimator serving many drives, CPU per message against '
+                   'a one-drive estimator on the same stream',
+                   [['drives', 'rate [Hz]', 'duration [s]', 'many drives [us/msg]',
+                     'one drive [us/msg]', 'ratio', 'received many / one / sent'], row],
+                   note, out=None if args.no_append else BENCHMARKS_MD)
     return 0
 
 
