@@ -324,3 +324,36 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+
+
+def test_nan_and_short_joints_of_one_drive_count_against_that_drive_only(
+        tmp_path: Path) -> None:
+    parameters = bench_parameters(2)
+    params_file = write_parameters(tmp_path / 'two.yaml', parameters)
+    messages, _ = bench_messages(parameters, 4.0, cut=1, cut_at=99.0)    # nothing cut
+    for i in range(1000, 1010):                 # d0's motor speed NaN in 10 messages
+        messages[i].velocity[messages[i].name.index('m0')] = float('nan')
+    for i in range(2000, 2005):                 # arrays too short for d1's load joint
+        index = messages[i].name.index('l1')
+        messages[i].velocity = messages[i].velocity[:index]
+        messages[i].effort = messages[i].effort[:index]
+    estimator = start('estimator', params_file, 'diagnostics_period:=0.05')
+    driver = Driver('faults_driver')
+    statuses = Statuses(driver)
+    try:
+        driver.wait(lambda: driver.pub.get_subscription_count() > 0
+                    and 'gear_phm estimator: d1' in statuses.by_name, 60.0, 'estimator')
+        publish_acked(driver, messages, RATE)
+        driver.wait(lambda: all(int(statuses.latest(f'gear_phm estimator: {n}').get(
+            'messages_received', 0)) >= len(messages) for n in ('d0', 'd1')), 30.0, 'all')
+        driver.spin(0.3)
+        d0, d1 = (statuses.latest(f'gear_phm estimator: {n}') for n in ('d0', 'd1'))
+    finally:
+        driver.close()
+        assert stop(estimator) == 0
+    assert int(d0['dropped_nonfinite']) == 10 and int(d1['dropped_nonfinite']) == 0
+    assert int(d1['dropped_short_arrays']) == 5 and int(d0['dropped_short_arrays']) == 0
+    # the 5 messages without d1's samples leave a gap in d1's stamps, as for one transmission
+    assert int(d0['samples_missing']) == 0 and int(d1['samples_missing']) == 5
+    for status in (d0, d1):
+        assert int(status['samples_used']) + int(status['samples_rejected']) == len(messages)
