@@ -357,3 +357,32 @@ def test_nan_and_short_joints_of_one_drive_count_against_that_drive_only(
     assert int(d0['samples_missing']) == 0 and int(d1['samples_missing']) == 5
     for status in (d0, d1):
         assert int(status['samples_used']) + int(status['samples_rejected']) == len(messages)
+
+
+def test_publisher_simulates_the_drives_in_one_stream_with_each_drive_s_truth(
+        tmp_path: Path) -> None:
+    from geometry_msgs.msg import Vector3Stamped
+
+    from gear_phm.interfaces import drive_topic, TRUTH_FRICTION
+    params_file = write_parameters(tmp_path / 'two.yaml', bench_parameters(2))
+    driver = Driver('publisher_listener')
+    joints: list[JointState] = []
+    truth: dict[str, list[float]] = {'d0': [], 'd1': []}
+    driver.node.create_subscription(JointState, 'joint_states', joints.append, RELIABLE)
+    for drive, values in truth.items():
+        driver.node.create_subscription(Vector3Stamped, drive_topic(drive, TRUTH_FRICTION),
+                                        lambda m, v=values: v.append(m.vector.x), RELIABLE)
+    publisher = start('publisher', params_file, 'rate:=200.0', 'duration:=2.0',
+                      'truth_every:=10', 'extra_joints:=[hyd_p]')
+    try:
+        driver.wait(lambda: publisher.poll() is not None and len(joints) >= 400
+                    and min(map(len, truth.values())) >= 40, 60.0, 'the whole stream')
+    finally:
+        driver.close()
+        assert stop(publisher) == 0
+    assert len(joints) == 400 and all(len(v) == 40 for v in truth.values())
+    assert list(joints[0].name) == ['m0', 'l0', 'm1', 'l1', 'hyd_p']
+    assert joints[0].velocity[4] == joints[-1].effort[4] == 0.0
+    # d0 wears linearly from 0.08, d1 from 0.05 (bench_parameters): each its own truth
+    assert truth['d0'][0] == pytest.approx(0.08, abs=1e-3)
+    assert truth['d1'][0] == pytest.approx(0.05, abs=1e-3)
