@@ -251,6 +251,7 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
     from gear_phm.interfaces import drive_topic, ESTIMATOR_TOPICS, HEALTH_RUL
     from rclpy.parameter_client import AsyncParameterClient
 
+    from gear_phm.bagio import BagReader
     from gear_phm.nodes.common import OUTPUT_QOS
     from helpers.diagnostics import Feeder, wait_for
     state_file = tmp_path / 'diagnostics.json'
@@ -270,7 +271,8 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
     try:
         first = start('diagnostics', two_drives(tmp_path, 'ab.yaml', {'a': DRIVE_A,
                                                                       'b': DRIVE_B},
-                                                eta_opposing_min=0.7), *common)
+                                                eta_opposing_min=0.7), *common,
+                      f'record_path:={tmp_path / "record"}', 'record_inputs:=true')
         wait_for(node, lambda: all(f.matched() for f in feeders.values()), 30.0, 'matched')
         # each drive's parameters: declared with descriptors, the global value by default
         client = AsyncParameterClient(node, 'diagnostics')
@@ -290,6 +292,11 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
             time.sleep(0.02)
         wait_for(node, lambda: min(received.values()) >= 10, 30.0, 'health outputs')
         assert stop(first) == 0, first.stderr.read()          # type: ignore[union-attr]
+        with BagReader(tmp_path / 'record') as bag:         # one recording of both drives
+            topics = bag.topics
+            assert bag.message_count('/gear_phm/b/health/rul') >= received['b'] >= 10
+        assert {f'/gear_phm/{d}/{t}' for d in 'ab' for t in ('health/rul', 'friction')} \
+            | {'/diagnostics'} <= set(topics)
         saved = json.loads(state_file.read_text())
         assert saved['identity'] == {'transmissions': True}
         assert sorted(saved['state']['drives']) == ['a', 'b']

@@ -17,6 +17,10 @@ window length, gap); otherwise ``batch_period`` after its first sample, or at 20
 So the batch cost is paid about publish_rate times a second whatever the input rate, and
 outputs leave as soon as their sample arrives. Timers run only while samples flow: idle, the
 node wakes only for its status.
+
+With the ``transmissions`` parameter non-empty the node serves many drives in one stream
+(:mod:`gear_phm.nodes.estimator_drives`; parameters :mod:`gear_phm.nodes.drives`); empty (the
+default), it is the single transmission above, unchanged.
 """
 from __future__ import annotations
 
