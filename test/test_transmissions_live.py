@@ -136,12 +136,12 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
         tmp_path: Path) -> None:
     parameters = bench_parameters(8)
     params_file = write_parameters(tmp_path / 'bench.yaml', parameters)
-    seconds, cut, cut_at = 12.0, 7, 8.0
+    seconds, cut, cut_at = 14.0, 7, 8.0
     messages, truth = bench_messages(parameters, seconds, cut, cut_at)
     state_file = tmp_path / 'estimator.json'
     estimator = start('estimator', params_file, 'diagnostics_period:=0.05',
                       f'state_file:={state_file}')
-    diagnostics = start('diagnostics', params_file, 'rate:=4.0', 'stale_timeout:=2.0')
+    diagnostics = start('diagnostics', params_file, 'rate:=4.0', 'stale_timeout:=4.0')
     driver = Driver('bench_driver')
     statuses = Statuses(driver)
     names = [f'd{k}' for k in range(8)]
@@ -263,6 +263,9 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         node.create_subscription(Vector3Stamped, drive_topic(drive, HEALTH_RUL),
                                  lambda _, d=drive: received.__setitem__(d, received[d] + 1),
                                  OUTPUT_QOS)
+    seen: set[str] = set()                  # status names on /diagnostics
+    node.create_subscription(DiagnosticArray, '/diagnostics',
+                             lambda m: seen.update(st.name for st in m.status), RELIABLE)
     feeders = {}
     for drive in ('a', 'b'):
         feeders[drive] = Feeder(node)
@@ -304,9 +307,10 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         assert saved['state']['drives']['b']['identity'] == {
             'ratio': 12.0, 'motor_joint': 'mb', 'load_joint': 'lb'}
         # b kept, a removed, c added
+        seen.clear()
         second = start('diagnostics', two_drives(tmp_path, 'bc.yaml', {'b': DRIVE_B,
                                                                        'c': DRIVE_C}), *common)
-        time.sleep(3.0)
+        wait_for(node, lambda: 'gear_phm: c' in seen, 60.0, 'the node with b and c')
         assert stop(second) == 0
         log = second.stderr.read()                          # type: ignore[union-attr]
         assert 'state of drive a dropped: no longer in transmissions' in log, log
@@ -322,8 +326,9 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         error = third.stderr.read()                         # type: ignore[union-attr]
         assert 'is for other gearboxes (b: ratio 12.0 in the file, 13.0 now)' in error, error
         assert json.loads(state_file.read_text())['state']['drives']['b']['state'] == b_state
+        seen.clear()
         fourth = start('diagnostics', changed, *common, 'state_reset:=true')
-        time.sleep(3.0)
+        wait_for(node, lambda: 'gear_phm: c' in seen, 60.0, 'the node after state_reset')
         assert stop(fourth) == 0
         assert len(list(tmp_path.glob('diagnostics.json.old-*'))) == 1
         saved = json.loads(state_file.read_text())['state']['drives']
