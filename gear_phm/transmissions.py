@@ -85,6 +85,17 @@ class Transmission:
         """Return the drive's validated health parameters (ValueError if inconsistent)."""
         return HealthConfig(ratio=self.ratio, **self.health)
 
+    def simulation_values(self, shared: Mapping[str, Value], index: int) -> dict[str, Value]:
+        """Return this drive's simulation parameter values, its ratio included.
+
+        ``shared``: the global simulation values (with ``seed``); the drive's own keys
+        override them and its seed is ``shared['seed'] + index`` (``index``: its place in the
+        list), as ``gear-phm simulate --transmissions`` and the publisher node simulate it.
+        """
+        seed = shared.get('seed', 0)
+        assert isinstance(seed, int)
+        return {**shared, 'seed': seed + index, **self.simulation, RATIO.name: self.ratio}
+
     def offline_options(self) -> dict[str, Value]:
         """Return the estimator and health values the offline tools take.
 

@@ -244,3 +244,13 @@ def test_bench_multi_drive_tiny() -> None:
     assert '2 drives in one JointState stream (4 joints), 1,000 messages' in out
     worst = float(out.split('and its single run: u ')[1].split()[0].rstrip(','))
     assert 0.0 <= worst <= 1e-9
+
+
+@pytest.mark.integration
+def test_bench_multi_drive_live_tiny() -> None:
+    out = run('multi_drive_live.py', '--drives', '2', '--duration', '2', '--rate', '200')
+    [row] = table(out, 'drives')
+    assert row['drives'] == '2' and row['rate [Hz]'] == '200'
+    assert_ratio(row['ratio'], row['many drives [us/msg]'], row['one drive [us/msg]'])
+    many, one, sent = (int(v) for v in row['received many / one / sent'].split(' / '))
+    assert sent == 400 and 0 < many <= sent and 0 < one <= sent

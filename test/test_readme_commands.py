@@ -262,7 +262,8 @@ def test_quick_start_commands(workdir: Path) -> None:
 
 
 def test_bench_commands(workdir: Path) -> None:
-    assert run_section_one_shots('Bench: many drives in one stream', workdir) == []
+    nodes = run_section_one_shots('Bench: many drives in one stream', workdir)
+    assert len(nodes) == 3          # the live bench: test_bench_node_commands
 
 
 @pytest.mark.parametrize('chain', [name for name, _ in OFFLINE_CHAINS])
@@ -280,6 +281,8 @@ class Seen:
         self.lock = threading.Lock()
         self.joint_states = 0
         self.health: list[dict[str, str]] = []
+        #: values of the newest status of each name
+        self.statuses: dict[str, dict[str, str]] = {}
 
     def on_joint_state(self, msg: Any) -> None:
         with self.lock:
@@ -289,6 +292,8 @@ class Seen:
         with self.lock:
             self.health += [{kv.key: kv.value for kv in s.values} for s in msg.status
                             if s.name == 'gear_phm: gearbox']
+            self.statuses.update({s.name: {kv.key: kv.value for kv in s.values}
+                                  for s in msg.status})
 
     def estimate_reported(self) -> bool:
         with self.lock:
@@ -358,6 +363,23 @@ def test_offline_node_commands(workdir: Path) -> None:
     with listening() as seen:
         run_until_stopped(commands, workdir, lambda: seen.joint_states >= 100,
                           '100 joint_states messages')
+
+
+@pytest.mark.integration
+def test_bench_node_commands(workdir: Path) -> None:
+    """The live bench: each node reports an estimate of every drive, one status each."""
+    commands = [c for c in readme_commands('Bench: many drives in one stream')
+                if NODE_COMMANDS.match(c)]
+    assert [c.split()[0] for c in commands] == ['.venv/bin/publisher', '.venv/bin/estimator',
+                                                '.venv/bin/diagnostics']
+
+    def every_drive() -> bool:
+        with seen.lock:
+            return all(math.isfinite(float(seen.statuses.get(f'{prefix}{drive}', {}).get(
+                'u', 'nan'))) for drive in BENCH_DRIVES
+                for prefix in ('gear_phm: ', 'gear_phm estimator: '))
+    with listening() as seen:
+        run_until_stopped(commands, workdir, every_drive, 'an estimate of every drive')
 
 
 @pytest.mark.integration

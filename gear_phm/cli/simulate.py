@@ -32,7 +32,7 @@ from gear_phm.cli.main import CliError
 from gear_phm.codec import joint_state_rows
 from gear_phm.interfaces import (drive_topic, JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
                                  TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
-from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, RATIO
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
 from gear_phm.simulation.lives import random_life
@@ -140,8 +140,7 @@ def _drive_configs(args: argparse.Namespace) -> list[_Drive]:
     shared = {spec.name: getattr(args, spec.name) for spec in PARAMETERS}
     configs = []
     for index, drive in enumerate(drives):
-        values = {**shared, 'seed': args.seed + index, **drive.simulation,
-                  RATIO.name: drive.ratio}
+        values = drive.simulation_values(shared, index)
         try:
             config = config_from_parameters(values)
         except ValueError as exc:

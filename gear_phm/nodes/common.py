@@ -15,6 +15,7 @@ import rclpy
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 
 from gear_phm.errors import GearPhmError
@@ -48,11 +49,12 @@ class ConfigError(GearPhmError):
 
 def declare(node: Node, name: str, default: Any, description: str, *,
             low: float | int | None = None, high: float | int | None = None,
-            constraints: str = '', read_only: bool = False) -> Any:
+            constraints: str = '', read_only: bool = False, required: bool = False) -> Any:
     """Declare a parameter with a ParameterDescriptor (description, range) and return its value.
 
     ``low``/``high`` set a FloatingPointRange for floats or an IntegerRange for ints (step 0).
-    A value outside the range is refused by rclpy with its own reason.
+    A value outside the range is refused by rclpy with its own reason. ``required``: declared
+    with the type of ``default`` and no value (None unless set by the user).
     """
     descriptor = ParameterDescriptor(description=description, read_only=read_only,
                                      additional_constraints=constraints)
@@ -67,6 +69,8 @@ def declare(node: Node, name: str, default: Any, description: str, *,
             descriptor.integer_range = [IntegerRange(
                 from_value=int(-2**62 if low is None else low),
                 to_value=int(2**62 if high is None else high), step=0)]
+    if required:
+        return node.declare_parameter(name, _TYPES[type(default)], descriptor).value
     return node.declare_parameter(name, default, descriptor).value
 
 
@@ -77,24 +81,41 @@ def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]
     rclpy refuses, or one outside the spec's choices, raises :class:`ConfigError` naming the
     parameter.
     """
-    values: dict[str, Any] = {}
-    for spec in specs:
-        low, high = spec.low, spec.high
-        if spec.kind is float and high is not None:
-            high = min(high, 1e300)              # a FloatingPointRange holds no inf
-        constraints = f'one of {", ".join(map(repr, spec.choices))}' if spec.choices else ''
-        if spec.nan_means:                    # a FloatingPointRange would refuse the NaN
-            span = (-math.inf if low is None else low, math.inf if high is None else high)
-            constraints = f'nan ({spec.nan_means}) or in [{span[0]:g}, {span[1]:g}]'
-            low = high = None
-        try:
-            value = declare(node, spec.name, spec.default, spec.text, low=low, high=high,
-                            constraints=constraints, read_only=spec.read_only)
-            values[spec.name] = spec.check(value)
-        except (ParameterException, ValueError) as exc:
-            raise ConfigError(f'parameter {spec.name}: {" ".join(str(exc).split())}') \
-                from None
-    return values
+    return {spec.name: _declare_spec(node, spec, required=False) for spec in specs}
+
+
+def declare_required(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
+    """Declare specs that have no default (``spec.default`` gives the type only).
+
+    Return ``{name: value}`` of those set (by a parameters file or ``-p``); one left unset is
+    absent. Raises :class:`ConfigError` as :func:`declare_parameters`.
+    """
+    values = {spec.name: _declare_spec(node, spec, required=True) for spec in specs}
+    return {name: value for name, value in values.items() if value is not None}
+
+
+_TYPES = {bool: Parameter.Type.BOOL, int: Parameter.Type.INTEGER,
+          float: Parameter.Type.DOUBLE, str: Parameter.Type.STRING}
+
+
+def _declare_spec(node: Node, spec: ParamSpec, required: bool) -> Any:
+    """Declare one spec (its default, or its type only if ``required``); its checked value."""
+    low, high = spec.low, spec.high
+    if spec.kind is float and high is not None:
+        high = min(high, 1e300)              # a FloatingPointRange holds no inf
+    constraints = f'one of {", ".join(map(repr, spec.choices))}' if spec.choices else ''
+    if spec.nan_means:                    # a FloatingPointRange would refuse the NaN
+        span = (-math.inf if low is None else low, math.inf if high is None else high)
+        constraints = f'nan ({spec.nan_means}) or in [{span[0]:g}, {span[1]:g}]'
+        low = high = None
+    try:
+        value = declare(node, spec.name, spec.default, spec.text, low=low, high=high,
+                        constraints=constraints, read_only=spec.read_only,
+                        required=required)
+        return None if value is None else spec.check(value)
+    except (ParameterException, ValueError) as exc:
+        raise ConfigError(f'parameter {spec.name}: {" ".join(str(exc).split())}') \
+            from None
 
 
 def stamp(stamp_ns: int) -> Time:

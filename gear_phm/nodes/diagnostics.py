@@ -37,16 +37,18 @@ from rclpy.serialization import serialize_message
 
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
-                                 ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL, health_status,
-                                 SAMPLE_LOSS, VECTOR3_STAMPED_TYPE)
+                                 ESTIMATOR_TOPICS, health_status, SAMPLE_LOSS,
+                                 VECTOR3_STAMPED_TYPE)
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
-from gear_phm.nodes.state import state_parameters, StateKeeper
-from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
+from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
+from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
+                                  state_parameters, StateKeeper)
+from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher, topic_of
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
                                  TRANSMISSION_NAME)
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
-from gear_phm.status import STALE, WARN
+from gear_phm.status import OK, STALE, StatusOut, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -127,65 +129,195 @@ class Recorder:
         self.writer.close()
 
 
-class DiagnosticsNode(Node):
-    """The diagnostics node; configuration errors at start raise ConfigError (one line)."""
+class Channel:
+    """One transmission's health: its estimator inputs, assessor, health topics and status.
 
-    def __init__(self) -> None:
-        super().__init__('diagnostics')
-        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
-        self.transmission_name: str = values['transmission_name']
-        self.hardware_id: str = values['hardware_id']
-        try:
-            self.health_config = HealthConfig(**{k: values[k] for k in HEALTH_FIELDS})
-        except ValueError as exc:
-            raise ConfigError(f'invalid health parameters: {exc}') from None
-        self.assessor = HealthAssessor(self.health_config)
-        self.state = StateKeeper(self, values, 'diagnostics', self._identity(),
-                                 self._current_state)
-        self.state.load(self.assessor.from_state)
+    ``drive`` None: the single transmission (today's topics); else a drive of
+    ``transmissions`` (topics ``gear_phm/<drive>/...``, status ``gear_phm: <drive>``).
+    """
+
+    def __init__(self, node: DiagnosticsNode, config: HealthConfig, name: str,
+                 hardware_id: str, drive: str | None = None) -> None:
+        self.node = node
+        self.drive = drive
+        self.transmission_name = name
+        self.hardware_id = hardware_id
+        self.health_config = config
+        self.assessor = HealthAssessor(config)
         self.assembler = EstimateAssembler()
         self.last_arrival_ns: int | None = None
-        self.received = 0
-        self.status_count = 0
-        self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, OUTPUT_QOS)
-        self.health_pub = HealthPublisher(self, self._record)
-        self.recorder: Recorder | None = None
-        self._record_names: dict[str, str] = {}
-        if values['record_path']:
-            self._start_recorder(values)
         self.samples_missing = 0          # from the estimator's gear_phm/sample_loss
         self._stale_published = False
+        self.health_pub = HealthPublisher(node, node._record, drive)
         self.stale_timer = self._make_stale_timer()
-        self.assembler.subscribe(self, INPUT_QOS, self._on_estimates, self._on_message)
-        self.create_subscription(Vector3Stamped, SAMPLE_LOSS, self._on_sample_loss, INPUT_QOS)
-        self.add_on_set_parameters_callback(self._check_parameters)
-        self.add_post_set_parameters_callback(self._apply_parameters)
-        self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
-        self.state.start_timer()
+        self.assembler.subscribe(node, INPUT_QOS, self._on_estimates, self._on_message, drive)
+        node.create_subscription(Vector3Stamped, topic_of(drive, SAMPLE_LOSS),
+                                 self._on_sample_loss, INPUT_QOS)
 
-    def _identity(self) -> dict[str, Any]:
+    def identity(self) -> dict[str, Any]:
         """Return what a state_file must match: the ratio (this node knows no joint names)."""
         return {'ratio': float(self.health_config.ratio)}
 
-    def _current_state(self) -> tuple[dict[str, Any], int | None]:
+    def current_state(self) -> tuple[dict[str, Any], int | None]:
         latest = self.assessor.latest
         return self.assessor.to_state(), None if latest is None else latest.stamp_ns
 
     def _make_stale_timer(self) -> Any:
         """One-shot: fires stale_timeout after the last arrival (restarted by each)."""
-        timer = self.create_timer(self.health_config.stale_timeout, self._on_stale_timer)
+        timer = self.node.create_timer(self.health_config.stale_timeout, self._on_stale_timer)
         timer.cancel()
         return timer
+
+    def reconfigure(self, changed: dict[str, Any]) -> None:
+        """Apply new health parameters; the assessor restarts."""
+        self.health_config = self.health_config.replace(**changed)
+        self.assessor = HealthAssessor(self.health_config)
+        if 'stale_timeout' in changed:
+            self.node.destroy_timer(self.stale_timer)
+            self.stale_timer = self._make_stale_timer()
 
     @property
     def dropped(self) -> dict[str, int]:
         """Unusable estimator inputs by reason."""
         return {**self.assembler.dropped, **self.assessor.rejected}
 
-    # -- parameters -------------------------------------------------------------------------
+    def _on_message(self, topic: str, msg: Any) -> None:
+        node = self.node
+        node.received += 1
+        self.last_arrival_ns = node.last_arrival_ns = node.get_clock().now().nanoseconds
+        self.stale_timer.reset()
+        self._stale_published = False
+        node._record(topic, msg)
+
+    def _on_sample_loss(self, msg: Vector3Stamped) -> None:
+        if math.isfinite(msg.vector.x) and msg.vector.x >= 0.0:
+            self.samples_missing = int(msg.vector.x)
+
+    def _on_stale_timer(self) -> None:
+        self.stale_timer.cancel()
+        self.node._publish_diagnostics()
+
+    def _on_estimates(self, estimates: list[Any]) -> None:
+        for estimate in estimates:
+            state = self.assessor.on_estimate(estimate)
+            if state is not None:
+                self.health_pub.publish(state)
+
+    def current_status(self, now_ns: int) -> HealthState:
+        """Latest state, turned STALE when the last input is older than stale_timeout.
+
+        Before any input: OK "waiting for data" (nothing is known to be wrong). STALE only
+        once input has been seen and has stopped. A drive of many whose input stopped for
+        half its stale_timeout while another drive's still arrives is WARN first.
+        """
+        latest = self.assessor.latest
+        if self.last_arrival_ns is None:
+            return latest if latest is not None else waiting_state(now_ns, self.assessor.u_eol)
+        if latest is None:
+            latest = waiting_state(now_ns, self.assessor.u_eol)
+        silence = (now_ns - self.last_arrival_ns) * 1e-9
+        timeout = self.health_config.stale_timeout
+        if silence >= timeout:
+            return latest.as_stale(silence)
+        others = self.node.last_arrival_ns
+        if self.drive is not None and silence >= timeout / 2 and others is not None \
+                and (now_ns - others) * 1e-9 < timeout / 2:
+            return replace(latest, level=max(latest.level, WARN),
+                           message=f'no estimator input for {silence:.3g} s while other '
+                                   f'drives have input (last: {latest.message})')
+        return latest
+
+    def status(self, now_ns: int, problems: Sequence[tuple[int, str]]
+               ) -> tuple[StatusOut, HealthState]:
+        """Return this transmission's DiagnosticStatus and the state behind it.
+
+        ``problems``: the node's (level, text) (recording, state file).
+        """
+        state = self.current_status(now_ns)
+        if self.samples_missing > state.samples_missing:
+            state = replace(state, samples_missing=self.samples_missing)
+        dropped = self.dropped
+        if dropped:
+            drops = ', '.join(f'{k}={v}' for k, v in sorted(dropped.items()))
+            state = replace(state, message=f'{state.message}; dropped {drops}')
+        for level, problem in problems:
+            state = replace(state, level=max(state.level, level),
+                            message=f'{state.message}; {problem}')
+        return health_status(state, self.transmission_name, self.hardware_id), state
+
+    def mark_stale(self, state: HealthState) -> None:
+        """After a STALE status: the STALE marker on the health topic, once per outage."""
+        if state.level == STALE and self.assessor.latest is not None \
+                and not self._stale_published and self.last_arrival_ns is not None:
+            # z = 3 shows STALE too, once per outage, stamped with the last estimate's stamp
+            # plus the silence (an output about no input carries no input's stamp)
+            self._stale_published = True
+            silence_ns = max(self.node.get_clock().now().nanoseconds - self.last_arrival_ns,
+                             1)
+            self.health_pub.publish(replace(state, stamp_ns=state.stamp_ns + silence_ns),
+                                    efficiency_only=True)
+
+
+class DiagnosticsNode(Node):
+    """The diagnostics node; configuration errors at start raise ConfigError (one line).
+
+    ``transmissions`` non-empty: one :class:`Channel` per drive (parameters
+    ``<drive>.<health parameter>``, default the global one; read-only), one status per drive
+    in each /diagnostics array; else one channel of the global parameters.
+    """
+
+    def __init__(self) -> None:
+        super().__init__('diagnostics')
+        names = declare_transmissions(self)
+        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.received = 0
+        self.status_count = 0
+        self.last_arrival_ns: int | None = None   # of any channel's input
+        self.recorder: Recorder | None = None
+        self._record_names: dict[str, str] = {}
+        self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, OUTPUT_QOS)
+        if names:
+            drives = declare_drives(self, names, PARAMETERS, values)
+            self.channels = [Channel(self, drive.health_config(), drive.name, drive.name,
+                                     drive.name) for drive in drives]
+            identities = {d.name: {'ratio': d.ratio, 'motor_joint': d.motor_joint,
+                                   'load_joint': d.load_joint} for d in drives}
+            self.state = StateKeeper(self, values, 'diagnostics', DRIVES_IDENTITY,
+                                     self._current_state)
+            self.state.load(drives_restorer(self.state, identities, {
+                channel.transmission_name: channel.assessor.from_state
+                for channel in self.channels}))
+            self._identities = identities
+            self.add_on_set_parameters_callback(refuse_changes)
+        else:
+            try:
+                config = HealthConfig(**{k: values[k] for k in HEALTH_FIELDS})
+            except ValueError as exc:
+                raise ConfigError(f'invalid health parameters: {exc}') from None
+            self.channels = [Channel(self, config, values['transmission_name'],
+                                     values['hardware_id'])]
+            self.state = StateKeeper(self, values, 'diagnostics', self.channels[0].identity(),
+                                     self.channels[0].current_state)
+            self.state.load(self.channels[0].assessor.from_state)
+            self.add_on_set_parameters_callback(self._check_parameters)
+            self.add_post_set_parameters_callback(self._apply_parameters)
+        if values['record_path']:
+            self._start_recorder(values)
+        self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
+        self.state.start_timer()
+
+    def _current_state(self) -> tuple[dict[str, Any], int | None]:
+        parts = {}
+        for channel in self.channels:
+            state, stamp_ns = channel.current_state()
+            parts[channel.transmission_name] = (self._identities[channel.transmission_name],
+                                                state, stamp_ns)
+        return drives_state(parts)
+
+    # -- parameters (one transmission; with transmissions they are read-only) ----------------
     def _check_parameters(self, params: Sequence[Any]) -> SetParametersResult:
         """On-set: types, choices and cross-field rules of the whole resulting config."""
-        merged = self.health_config.as_dict()
+        merged = self.channels[0].health_config.as_dict()
         for param in params:
             if param.name in merged:
                 merged[param.name] = param.value
@@ -196,34 +328,32 @@ class DiagnosticsNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, params: Sequence[Any]) -> None:
+        channel = self.channels[0]
         changed = {p.name: p.value for p in params if p.name in HEALTH_FIELDS}
         for param in params:
             if param.name == 'transmission_name':
-                self.transmission_name = param.value
+                channel.transmission_name = param.value
             elif param.name == 'hardware_id':
-                self.hardware_id = param.value
+                channel.hardware_id = param.value
         if changed:
-            self.health_config = self.health_config.replace(**changed)
-            self.assessor = HealthAssessor(self.health_config)
-            self.state.identity = self._identity()
-            if 'stale_timeout' in changed:
-                self.destroy_timer(self.stale_timer)
-                self.stale_timer = self._make_stale_timer()
+            channel.reconfigure(changed)
+            self.state.identity = channel.identity()
             self.get_logger().info(f'health parameters changed: {changed}; assessor restarted')
 
     # -- recording --------------------------------------------------------------------------
     def _start_recorder(self, values: dict[str, Any]) -> None:
-        health_names = self.health_pub.topic_names()
-        topics = [(self.diag_pub.topic_name, DIAGNOSTIC_ARRAY_TYPE),
-                  (health_names[HEALTH_RUL], VECTOR3_STAMPED_TYPE),
-                  (health_names[HEALTH_EFFICIENCY], VECTOR3_STAMPED_TYPE)]
-        self._record_names = {DIAGNOSTICS: topics[0][0], HEALTH_RUL: topics[1][0],
-                              HEALTH_EFFICIENCY: topics[2][0]}
-        if values['record_inputs']:
-            for topic in ESTIMATOR_TOPICS:
-                name = self.resolve_topic_name(topic)
+        topics = [(self.diag_pub.topic_name, DIAGNOSTIC_ARRAY_TYPE)]
+        self._record_names = {DIAGNOSTICS: topics[0][0]}
+        for channel in self.channels:
+            for topic, name in channel.health_pub.topic_names().items():
                 self._record_names[topic] = name
                 topics.append((name, VECTOR3_STAMPED_TYPE))
+            if values['record_inputs']:
+                for topic in ESTIMATOR_TOPICS:
+                    topic = topic_of(channel.drive, topic)
+                    name = self.resolve_topic_name(topic)
+                    self._record_names[topic] = name
+                    topics.append((name, VECTOR3_STAMPED_TYPE))
         try:
             self.recorder = Recorder(values['record_path'], topics,
                                      values['record_compression'],
@@ -247,73 +377,22 @@ class DiagnosticsNode(Node):
             self.recorder = None
         super().destroy_node()
 
-    # -- inputs -----------------------------------------------------------------------------
-    def _on_message(self, topic: str, msg: Any) -> None:
-        self.received += 1
-        self.last_arrival_ns = self.get_clock().now().nanoseconds
-        self.stale_timer.reset()
-        self._stale_published = False
-        self._record(topic, msg)
-
-    def _on_sample_loss(self, msg: Vector3Stamped) -> None:
-        if math.isfinite(msg.vector.x) and msg.vector.x >= 0.0:
-            self.samples_missing = int(msg.vector.x)
-
-    def _on_stale_timer(self) -> None:
-        self.stale_timer.cancel()
-        self._publish_diagnostics()
-
-    def _on_estimates(self, estimates: list[Any]) -> None:
-        for estimate in estimates:
-            state = self.assessor.on_estimate(estimate)
-            if state is not None:
-                self.health_pub.publish(state)
-
     # -- /diagnostics -----------------------------------------------------------------------
-    def current_status(self) -> HealthState:
-        """Latest state, turned STALE when the last input is older than stale_timeout.
-
-        Before any input: OK "waiting for data" (nothing is known to be wrong). STALE only
-        once input has been seen and has stopped.
-        """
-        now_ns = self.get_clock().now().nanoseconds
-        latest = self.assessor.latest
-        if self.last_arrival_ns is None:
-            return latest if latest is not None else waiting_state(now_ns, self.assessor.u_eol)
-        if latest is None:
-            latest = waiting_state(now_ns, self.assessor.u_eol)
-        silence = (now_ns - self.last_arrival_ns) * 1e-9
-        if silence >= self.health_config.stale_timeout:
-            return latest.as_stale(silence)
-        return latest
-
     def _publish_diagnostics(self) -> None:
-        state = self.current_status()
-        if self.samples_missing > state.samples_missing:
-            state = replace(state, samples_missing=self.samples_missing)
-        dropped = self.dropped
-        if dropped:
-            drops = ', '.join(f'{k}={v}' for k, v in sorted(dropped.items()))
-            state = replace(state, message=f'{state.message}; dropped {drops}')
+        now_ns = self.get_clock().now().nanoseconds
+        problems = []
         if self.recorder is not None and self.recorder.error is not None:
-            state = replace(state, message=f'{state.message}; recording failed: '
-                                           f'{self.recorder.error}')
+            problems.append((OK, f'recording failed: {self.recorder.error}'))
         if self.state.problem:
-            state = replace(state, level=max(state.level, WARN),
-                            message=f'{state.message}; {self.state.problem}')
-        status = health_status(state, self.transmission_name, self.hardware_id)
-        msg = to_rclpy(DiagnosticsOut(state.stamp_ns, (status,)))
+            problems.append((WARN, self.state.problem))
+        statuses = [channel.status(now_ns, problems) for channel in self.channels]
+        stamp_ns = statuses[0][1].stamp_ns if len(statuses) == 1 else now_ns
+        msg = to_rclpy(DiagnosticsOut(stamp_ns, tuple(status for status, _ in statuses)))
         self.diag_pub.publish(msg)
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1
-        if state.level == STALE and self.assessor.latest is not None \
-                and not self._stale_published and self.last_arrival_ns is not None:
-            # z = 3 shows STALE too, once per outage, stamped with the last estimate's stamp
-            # plus the silence (an output about no input carries no input's stamp)
-            self._stale_published = True
-            silence_ns = max(self.get_clock().now().nanoseconds - self.last_arrival_ns, 1)
-            self.health_pub.publish(replace(state, stamp_ns=state.stamp_ns + silence_ns),
-                                    efficiency_only=True)
+        for channel, (_, state) in zip(self.channels, statuses):
+            channel.mark_stale(state)
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -17,6 +17,10 @@ window length, gap); otherwise ``batch_period`` after its first sample, or at 20
 So the batch cost is paid about publish_rate times a second whatever the input rate, and
 outputs leave as soon as their sample arrives. Timers run only while samples flow: idle, the
 node wakes only for its status.
+
+With the ``transmissions`` parameter non-empty the node serves many drives in one stream
+(:mod:`gear_phm.nodes.estimator_drives`; parameters :mod:`gear_phm.nodes.drives`); empty (the
+default), it is the single transmission above, unchanged.
 """
 from __future__ import annotations
 
@@ -35,6 +39,8 @@ from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
+from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.state import state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
@@ -86,7 +92,17 @@ class EstimatorNode(Node):
 
     def __init__(self) -> None:
         super().__init__('estimator')
+        names = declare_transmissions(self)
         values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.values = values
+        self.drives: DrivesEstimator | None = None
+        if names:                   # many drives: gear_phm.nodes.estimator_drives
+            drives = declare_drives(self, names, PARAMETERS, values)
+            first = drives[0]
+            _warm_up(first.estimator_config(), first.motor_joint, first.load_joint)
+            self.drives = DrivesEstimator(self, drives, values)
+            self.add_on_set_parameters_callback(refuse_changes)
+            return
         problem = joint_names_problem(values)
         try:
             if problem:
@@ -95,7 +111,6 @@ class EstimatorNode(Node):
         except ValueError as exc:
             raise ConfigError(f'estimator parameters: {exc}') from None
         self.pipeline = EstimatorPipeline(self.config)
-        self.values = values
         self.state = StateKeeper(self, values, 'estimator', state_identity(values),
                                  self._current_state)
         self.state.load(self.pipeline.from_state)
@@ -135,6 +150,10 @@ class EstimatorNode(Node):
     def destroy_node(self) -> None:
         """Process the buffer without publishing (the context may be shut down), save the
         state (SIGINT/SIGTERM and normal exits pass here), then destroy."""
+        if self.drives is not None:
+            self.drives.close()
+            super().destroy_node()
+            return
         if self.state.enabled and self.stamps:
             stamps, rows = self.stamps, self.rows
             self.stamps, self.rows = [], []

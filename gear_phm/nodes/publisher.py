@@ -40,15 +40,19 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from gear_phm.interfaces import CLOCK, DIAGNOSTICS, JOINT_STATES, TRUTH_EFFICIENCY, TRUTH_FRICTION
-from gear_phm.nodes.common import (ConfigError, declare_parameters, DropCounter, OUTPUT_QOS,
-                                   run_node, stamp, status_msg)
+from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, drive_topic, JOINT_STATES, TRUTH_EFFICIENCY,
+                                 TRUTH_FRICTION)
+from gear_phm.nodes.common import (ConfigError, declare_parameters, declare_required,
+                                   DropCounter, OUTPUT_QOS, run_node, stamp, status_msg)
+from gear_phm.nodes.drives import declare_drives, declare_string_array, declare_transmissions
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
-from gear_phm.simulation import PARAMETERS
+from gear_phm.simulation import config_from_parameters, PARAMETERS
 from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
 from gear_phm.sources.replay import ReplaySource
-from gear_phm.sources.simulate import SimulateSource
+from gear_phm.sources.simulate import SimulateDrivesSource, SimulateSource
 from gear_phm.status import OK, WARN
+from gear_phm.transmissions import (from_parameters, SIMULATION, Transmission, TRANSMISSIONS,
+                                    TransmissionsError)
 
 MODES = ('simulate', 'replay')
 #: Jitter samples kept for the percentiles.
@@ -79,6 +83,8 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'the first message', '-', 0, 1000),
     ParamSpec('wait_timeout', 10.0, 'give up waiting for subscribers after this long and '
               'start anyway; 0 waits forever', 's', 0.0),
+    ParamSpec('truth_every', 1, 'simulate: publish the truth topics every this many samples',
+              '-', 1, 1_000_000),
 )
 #: Every parameter of the node, read-only.
 ALL_PARAMETERS: tuple[ParamSpec, ...] = tuple(
@@ -112,7 +118,9 @@ class PublisherNode(Node):
 
     def __init__(self) -> None:
         super().__init__('publisher')
+        names = declare_transmissions(self)
         p = self._declare_all()
+        self.drives = self._declare_drives(names, p) if names else ()
         self.mode: str = p['mode']
         self.motor_joint: str = p['motor_joint']
         self.load_joint: str = p['load_joint']
@@ -120,7 +128,14 @@ class PublisherNode(Node):
         self.wait_timeout: float = p['wait_timeout']
         self.publish_clock: bool = p['publish_clock']
         self.restamp: bool = p['restamp']
-        if self.motor_joint == self.load_joint or not self.motor_joint or not self.load_joint:
+        self.truth_every: int = p['truth_every']
+        self.joint_names = [joint for d in self.drives for joint in (d.motor_joint, d.load_joint)]
+        self.joint_names += self._declare_extra_joints(self.joint_names)
+        if self.drives and self.mode != 'simulate':
+            raise ConfigError(f'{TRANSMISSIONS} is for mode simulate (a replay publishes the '
+                              f'bag as it is)')
+        if not self.drives and (self.motor_joint == self.load_joint or not self.motor_joint
+                                or not self.load_joint):
             raise ConfigError(f'motor_joint and load_joint must be two different non-empty '
                               f'names, got {self.motor_joint!r} and {self.load_joint!r}')
         try:
@@ -133,7 +148,11 @@ class PublisherNode(Node):
             'truth_friction': self.create_publisher(Vector3Stamped, TRUTH_FRICTION, OUTPUT_QOS),
             'truth_efficiency': self.create_publisher(Vector3Stamped, TRUTH_EFFICIENCY,
                                                       OUTPUT_QOS),
-        }
+        } if not self.drives else {}
+        #: (friction, efficiency) truth publishers of each drive of many
+        self.drive_truth_pubs = [tuple(self.create_publisher(
+            Vector3Stamped, drive_topic(d.name, topic), OUTPUT_QOS)
+            for topic in (TRUTH_FRICTION, TRUTH_EFFICIENCY)) for d in self.drives]
         self.clock_pub = self.create_publisher(
             Clock, CLOCK, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)) \
             if self.publish_clock else None
@@ -161,8 +180,48 @@ class PublisherNode(Node):
         return SetParametersResult(successful=False,
                                    reason=f'{names}: read at start only; restart the node')
 
+    def _declare_drives(self, names: list[str], p: dict[str, Any]) -> tuple[Transmission, ...]:
+        """Declare the drives' joints, ratios and the simulation keys set for them.
+
+        ``<drive>.simulation.<key>`` (any simulation parameter but the ratio; the global one
+        otherwise, with seed + the drive's index) is declared when given.
+        """
+        overrides = getattr(self, '_parameter_overrides', {})
+        specs = {spec.name: spec for spec in PARAMETERS}
+        given = [replace(specs[key], name=name, read_only=True)
+                 for name in sorted(overrides)
+                 for drive, _, key in [name.partition(f'.{SIMULATION}.')]
+                 if drive in names and key in specs]
+        drives = declare_drives(self, names, (), p)
+        set_values = declare_required(self, given)
+        try:
+            return from_parameters(names, {**set_values, **{
+                f'{d.name}.{key}': value for d in drives for key, value in (
+                    ('motor_joint', d.motor_joint), ('load_joint', d.load_joint),
+                    ('ratio', d.ratio))}})
+        except TransmissionsError as exc:
+            raise ConfigError(f'parameter {TRANSMISSIONS}: {exc}') from None
+
+    def _declare_extra_joints(self, used: list[str]) -> list[str]:
+        """Declare ``extra_joints``: joints of no drive, published with zeros."""
+        extra = declare_string_array(self, 'extra_joints', 'simulate with transmissions: more '
+                                     'joints in each JointState, of no drive (position, '
+                                     'velocity and effort 0.0)')
+        clash = sorted(set(extra) & set(used)) or sorted(j for j in extra if extra.count(j) > 1)
+        if clash:
+            raise ConfigError(f'parameter extra_joints: {clash} named twice')
+        return extra
+
     def _make_source(self, p: dict[str, Any]) -> Source:
         """Build the source of ``mode``; SourceError (one line) if it cannot be built."""
+        if self.drives:
+            shared = {spec.name: p[spec.name] for spec in PARAMETERS}
+            try:
+                configs = [config_from_parameters(d.simulation_values(shared, index))
+                           for index, d in enumerate(self.drives)]
+            except ValueError as exc:
+                raise SourceError(f'parameter {one_line(exc)}') from None
+            return SimulateDrivesSource(configs, rate=p['rate'], duration=p['duration'])
         if self.mode == 'simulate':
             return SimulateSource.from_parameters(p, rate=p['rate'], duration=p['duration'])
         return ReplaySource(p['bag_path'], motor_joint=self.motor_joint,
@@ -260,19 +319,41 @@ class PublisherNode(Node):
 
         Return False if asked to stop first.
         """
+        if self.drives:
+            return self._publish_drives(sample, stamp_ns, scheduled)
         msg = JointState()
         msg.header.stamp = stamp(stamp_ns)
         msg.name = [self.motor_joint, self.load_joint]
         msg.position = list(sample.position)
         msg.velocity = list(sample.velocity)
         msg.effort = list(sample.effort)
-        friction = _vector(stamp_ns, *sample.friction, 0.0)
-        efficiency = _vector(stamp_ns, *sample.efficiency, 0.0)
+        friction = _truth(stamp_ns, sample.friction, 0)
+        efficiency = _truth(stamp_ns, sample.efficiency, 0)
         if not self._sleep_until(scheduled):
             return False
         self._send(self.joint_pub, msg, scheduled)
         self.truth_pubs['truth_friction'].publish(friction)
         self.truth_pubs['truth_efficiency'].publish(efficiency)
+        self.counter.received += 1
+        self.published += 1
+        return True
+
+    def _publish_drives(self, sample: Sample, stamp_ns: int, scheduled: float) -> bool:
+        """Many drives: one JointState of all joints, each drive's truth every truth_every."""
+        extra = [0.0] * (len(self.joint_names) - len(sample.velocity))
+        msg = JointState()
+        msg.header.stamp = stamp(stamp_ns)
+        msg.name = self.joint_names
+        msg.position = [*sample.position, *extra]
+        msg.velocity = [*sample.velocity, *extra]
+        msg.effort = [*sample.effort, *extra]
+        if not self._sleep_until(scheduled):
+            return False
+        self._send(self.joint_pub, msg, scheduled)
+        if self.published % self.truth_every == 0:
+            for k, (friction_pub, efficiency_pub) in enumerate(self.drive_truth_pubs):
+                friction_pub.publish(_truth(stamp_ns, sample.friction, k))
+                efficiency_pub.publish(_truth(stamp_ns, sample.efficiency, k))
         self.counter.received += 1
         self.published += 1
         return True
@@ -307,7 +388,8 @@ class PublisherNode(Node):
 
     def _flush(self) -> None:
         """Wait until reliable subscribers acknowledged everything (bounded)."""
-        for publisher in (self.joint_pub, *self.truth_pubs.values()):
+        for publisher in (self.joint_pub, *self.truth_pubs.values(),
+                          *(pub for pair in self.drive_truth_pubs for pub in pair)):
             publisher.wait_for_all_acked(Duration(seconds=5.0))
 
     # -- diagnostics --------------------------------------------------------------------------
@@ -336,6 +418,11 @@ def _vector(t_ns: int, x: float, y: float, z: float) -> Vector3Stamped:
     msg.header.stamp = stamp(t_ns)
     msg.vector.x, msg.vector.y, msg.vector.z = float(x), float(y), float(z)
     return msg
+
+
+def _truth(t_ns: int, pairs: tuple[float, ...], k: int) -> Vector3Stamped:
+    """Return the truth of drive ``k`` (pair k of ``pairs``; z = 0)."""
+    return _vector(t_ns, pairs[2 * k], pairs[2 * k + 1], 0.0)
 
 
 def _spin(node: PublisherNode) -> None:

@@ -25,8 +25,8 @@ from rclpy.node import Node
 
 from gear_phm.nodes.common import ConfigError
 from gear_phm.parameters import ParamSpec
-from gear_phm.persistence import (load_state, save_state, set_aside_corrupt, StateCorrupt,
-                                  StateMismatch)
+from gear_phm.persistence import (identity_difference, load_state, save_state, set_aside,
+                                  set_aside_corrupt, StateCorrupt, StateMismatch)
 
 
 def state_parameters(what: str) -> tuple[ParamSpec, ...]:
@@ -128,3 +128,57 @@ class StateKeeper:
         self.save_problem = ''
         self.saves += 1
         return True
+
+
+#: The identity of a state file of many drives (``transmissions``); each drive's own identity
+#: (ratio, joints) is kept beside its state, so a drive may be added or removed.
+DRIVES_IDENTITY: dict[str, Any] = {'transmissions': True}
+
+
+def drives_state(parts: Mapping[str, tuple[Mapping[str, Any], dict[str, Any], int | None]]
+                 ) -> tuple[dict[str, Any], int | None]:
+    """Return (state, newest stamp [ns]) of many drives for :class:`StateKeeper`.
+
+    ``parts``: ``{drive: (identity, state, newest stamp [ns] or None)}``.
+    """
+    stamps = [stamp for _, _, stamp in parts.values() if stamp is not None]
+    return ({'drives': {name: {'identity': dict(identity), 'state': state}
+                        for name, (identity, state, _) in parts.items()}},
+            max(stamps) if stamps else None)
+
+
+def drives_restorer(keeper: StateKeeper, identities: Mapping[str, Mapping[str, Any]],
+                    restores: Mapping[str, Callable[[dict[str, Any]], None]]
+                    ) -> Callable[[dict[str, Any]], None]:
+    """Return the ``restore`` of a state of many drives for :meth:`StateKeeper.load`.
+
+    A drive in the file and in the list is restored; a drive new to the list starts fresh and
+    one no longer listed is dropped, each with a log line. A drive whose ratio or joints
+    changed raises :class:`ConfigError` (the file is kept), or with ``state_reset`` starts
+    fresh (the file is kept aside as ``<name>.old-<UTC time>``, the other drives restored).
+    """
+    def restore(state: dict[str, Any]) -> None:
+        saved = state['drives']
+        if not isinstance(saved, dict):
+            raise TypeError(f'drives is {type(saved).__name__}, not an object')
+        logger = keeper.node.get_logger()
+        changed = {name: identity_difference(saved[name]['identity'], identity)
+                   for name, identity in identities.items() if name in saved}
+        changed = {name: why for name, why in changed.items() if why}
+        if changed:
+            reasons = '; '.join(f'{name}: {why}' for name, why in sorted(changed.items()))
+            if not keeper.reset:
+                raise ConfigError(f'state file {keeper.path} is for other gearboxes ({reasons}); '
+                                  f'set state_reset to true to start these drives fresh (the '
+                                  f'file is kept aside)')
+            assert keeper.path is not None
+            kept = set_aside(keeper.path, 'old')
+            logger.warn(f'state file kept as {kept}; starting fresh: {reasons}')
+        for name in sorted(set(saved) - set(identities)):
+            logger.info(f'state of drive {name} dropped: no longer in transmissions')
+        for name in sorted(set(identities) - set(saved)):
+            logger.info(f'drive {name} starts fresh: not in {keeper.path}')
+        for name in identities:
+            if name in saved and name not in changed:
+                restores[name](saved[name]['state'])
+    return restore

@@ -39,12 +39,21 @@ def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) 
                                     SENSOR_QOS, raw=True)
 
 
-class EstimatePublisher:
-    """Publishes estimates on the six estimator topics (reliable, depth 10)."""
+def topic_of(drive: str | None, topic: str) -> str:
+    """Return ``topic`` itself (one transmission) or ``drive``'s (``gear_phm/<drive>/...``)."""
+    return topic if drive is None else interfaces.drive_topic(drive, topic)
 
-    def __init__(self, node: Node, frame_id: str = '') -> None:
+
+class EstimatePublisher:
+    """Publishes estimates on the six estimator topics (reliable, depth 10).
+
+    ``drive``: a drive of many (``transmissions``): its topics ``gear_phm/<drive>/...``.
+    """
+
+    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None) -> None:
         self.frame_id = frame_id
-        self._publishers = {topic: node.create_publisher(Vector3Stamped, topic, OUTPUT_QOS)
+        self._publishers = {topic: node.create_publisher(Vector3Stamped,
+                                                         topic_of(drive, topic), OUTPUT_QOS)
                             for topic in interfaces.ESTIMATOR_TOPICS}
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
@@ -57,12 +66,13 @@ class EstimatePublisher:
 
 class SampleLossPublisher:
     """Publishes the estimator's loss count on ``gear_phm/sample_loss`` once per status
-    period, stamped with the newest accepted sample (nothing when no new sample came)."""
+    period, stamped with the newest accepted sample (nothing when no new sample came).
+    ``drive``: as :class:`EstimatePublisher`."""
 
-    def __init__(self, node: Node, frame_id: str = '') -> None:
+    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None) -> None:
         self.frame_id = frame_id
-        self._publisher = node.create_publisher(Vector3Stamped, interfaces.SAMPLE_LOSS,
-                                                OUTPUT_QOS)
+        self._publisher = node.create_publisher(
+            Vector3Stamped, topic_of(drive, interfaces.SAMPLE_LOSS), OUTPUT_QOS)
         self._last_stamp: int | None = None
 
     def publish(self, pipeline: Any) -> None:
@@ -81,12 +91,15 @@ class SampleLossPublisher:
 
 class HealthPublisher:
     """Publishes health states on ``gear_phm/health/rul`` and ``gear_phm/health/efficiency``;
-    ``record`` (optional) also gets each message with its topic."""
+    ``record`` (optional) also gets each message with its topic; ``drive``: as
+    :class:`EstimatePublisher` (``record`` gets the drive's topic)."""
 
-    def __init__(self, node: Node,
-                 record: Callable[[str, Any], None] | None = None) -> None:
-        self._publishers = {topic: node.create_publisher(Vector3Stamped, topic, OUTPUT_QOS)
-                            for topic in (interfaces.HEALTH_RUL, interfaces.HEALTH_EFFICIENCY)}
+    def __init__(self, node: Node, record: Callable[[str, Any], None] | None = None,
+                 drive: str | None = None) -> None:
+        self._publishers = {topic_of(drive, topic): node.create_publisher(
+            Vector3Stamped, topic_of(drive, topic), OUTPUT_QOS)
+            for topic in (interfaces.HEALTH_RUL, interfaces.HEALTH_EFFICIENCY)}
+        self._drive = drive
         self._record = record
 
     def topic_names(self) -> dict[str, str]:
@@ -97,9 +110,10 @@ class HealthPublisher:
         rul, efficiency = interfaces.health_outputs(state)
         for output in (efficiency,) if efficiency_only else (rul, efficiency):
             msg = to_rclpy(output)
-            self._publishers[output.topic].publish(msg)
+            topic = topic_of(self._drive, output.topic)
+            self._publishers[topic].publish(msg)
             if self._record is not None:
-                self._record(output.topic, msg)
+                self._record(topic, msg)
 
 
 class EstimateAssembler:
@@ -129,18 +143,20 @@ class EstimateAssembler:
 
     def subscribe(self, node: Node, qos: QoSProfile,
                   on_estimates: Callable[[list[FrictionEstimate]], None],
-                  on_message: Callable[[str, Vector3Stamped], None] | None = None) -> None:
-        """Subscribe the six topics; ``on_estimates`` gets each completed update,
-        ``on_message`` (optional) every raw message first (e.g. to record it)."""
+                  on_message: Callable[[str, Vector3Stamped], None] | None = None,
+                  drive: str | None = None) -> None:
+        """Subscribe the six topics (``drive``'s: as :class:`EstimatePublisher`);
+        ``on_estimates`` gets each completed update, ``on_message`` (optional) every raw
+        message first with its topic (the drive's), e.g. to record it."""
         for topic in interfaces.ESTIMATOR_TOPICS:
             def callback(msg: Vector3Stamped, topic: str = topic) -> None:
                 if on_message is not None:
-                    on_message(topic, msg)
+                    on_message(topic_of(drive, topic), msg)
                 estimates = self.add(topic, interfaces.stamp_to_ns(msg.header.stamp),
                                      msg.vector)
                 if estimates:
                     on_estimates(estimates)
-            node.create_subscription(Vector3Stamped, topic, callback, qos)
+            node.create_subscription(Vector3Stamped, topic_of(drive, topic), callback, qos)
 
     def add(self, topic: str, stamp_ns: int, vector: Any) -> list[FrictionEstimate]:
         """One estimator message (``vector`` has .x .y .z); the updates it completes."""

@@ -45,14 +45,16 @@ class Sample:
     """One simulated instant: (motor, load) joint states and the truth at the same time.
 
     position [rad], velocity [rad/s], effort [N m]; friction = (lever u [-], plant friction
-    value [-]); efficiency = (eta_D, eta_I) [-].
+    value [-]); efficiency = (eta_D, eta_I) [-]. Many drives
+    (:class:`~gear_phm.sources.simulate.SimulateDrivesSource`): each tuple holds every
+    drive's pair, in the drives' order.
     """
 
-    position: tuple[float, float]
-    velocity: tuple[float, float]
-    effort: tuple[float, float]
-    friction: tuple[float, float]
-    efficiency: tuple[float, float]
+    position: tuple[float, ...]
+    velocity: tuple[float, ...]
+    effort: tuple[float, ...]
+    friction: tuple[float, ...]
+    efficiency: tuple[float, ...]
 
 
 @dataclass(frozen=True, slots=True)

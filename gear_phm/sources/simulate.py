@@ -49,22 +49,63 @@ class SimulateSource:
     def items(self) -> Generator[tuple[int, Item], None, None]:
         """One :class:`Sample` per sample time; a jam of an unbounded run raises ValueError."""
         simulator = Simulator(self.config)
+        for index, t in self._chunks():
+            r = simulator.sample(t)
+            columns = zip(r.position_motor.tolist(), r.position_load.tolist(),
+                          r.velocity_motor.tolist(), r.velocity_load.tolist(),
+                          r.effort_motor.tolist(), r.effort_load.tolist(), r.u.tolist(),
+                          r.friction.tolist(), r.eta_opposing.tolist(), r.eta_aiding.tolist())
+            for i, (pm, pl, vm, vl, em, el, u, friction, eta_d, eta_i) in enumerate(columns):
+                elapsed_ns = int(round((index + i) * 1e9 / self.rate))
+                yield elapsed_ns, Sample((pm, pl), (vm, vl), (em, el), (u, friction),
+                                         (eta_d, eta_i))
+
+    def _chunks(self) -> Generator[tuple[int, np.ndarray], None, None]:
+        """Yield (index of the first sample, sample times [s]) of each simulation chunk."""
         rate = self.rate
         total = int(math.floor(self.duration * rate + 1e-9)) if self.duration > 0 else None
         chunk = max(1, int(round(SIM_CHUNK_S * rate)))
         index = 0
         while total is None or index < total:
             count = chunk if total is None else min(chunk, total - index)
-            r = simulator.sample(np.arange(index, index + count) / rate)
-            columns = zip(r.position_motor.tolist(), r.position_load.tolist(),
-                          r.velocity_motor.tolist(), r.velocity_load.tolist(),
-                          r.effort_motor.tolist(), r.effort_load.tolist(), r.u.tolist(),
-                          r.friction.tolist(), r.eta_opposing.tolist(), r.eta_aiding.tolist())
-            for i, (pm, pl, vm, vl, em, el, u, friction, eta_d, eta_i) in enumerate(columns):
-                elapsed_ns = int(round((index + i) * 1e9 / rate))
-                yield elapsed_ns, Sample((pm, pl), (vm, vl), (em, el), (u, friction),
-                                         (eta_d, eta_i))
+            yield index, np.arange(index, index + count) / rate
             index += count
 
     def describe(self) -> Sequence[tuple[str, Any]]:
         return [('rate_hz', self.rate)]
+
+
+class SimulateDrivesSource(SimulateSource):
+    """Many drives in one stream: one :class:`Sample` per instant holds every drive's pairs.
+
+    ``configs``: one simulation per drive (each its own simulator, all sharing the sample
+    times), as ``gear-phm simulate --transmissions`` writes them.
+    """
+
+    def __init__(self, configs: Sequence[SimulationConfig], rate: float,
+                 duration: float) -> None:
+        if not configs:
+            raise SourceError('no drive to simulate')
+        for config in configs:
+            super().__init__(config, rate, duration)
+        self.configs = list(configs)
+
+    def items(self) -> Generator[tuple[int, Item], None, None]:
+        """One :class:`Sample` of all drives per sample time."""
+        simulators = [Simulator(config) for config in self.configs]
+        for index, t in self._chunks():
+            runs = [simulator.sample(t) for simulator in simulators]
+
+            def rows(*names: str) -> list[tuple[float, ...]]:
+                table = np.column_stack([getattr(r, name) for r in runs for name in names])
+                return [tuple(row) for row in table.tolist()]
+            columns = zip(rows('position_motor', 'position_load'),
+                          rows('velocity_motor', 'velocity_load'),
+                          rows('effort_motor', 'effort_load'), rows('u', 'friction'),
+                          rows('eta_opposing', 'eta_aiding'))
+            for i, (position, velocity, effort, friction, efficiency) in enumerate(columns):
+                elapsed_ns = int(round((index + i) * 1e9 / self.rate))
+                yield elapsed_ns, Sample(position, velocity, effort, friction, efficiency)
+
+    def describe(self) -> Sequence[tuple[str, Any]]:
+        return [('rate_hz', self.rate), ('drives', len(self.configs))]

@@ -1,0 +1,180 @@
+"""The estimator node serving many drives (``transmissions`` non-empty; issue 25).
+
+One JointState stream carries every drive's joints. Each serialized message is buffered as it
+arrives (its stamp read with one ``struct`` call); a buffer is decoded once for all drives by
+:func:`gear_phm.codec.decode_joint_state_pairs` (each layout parsed once) and each drive's
+columns go to its own :class:`~gear_phm.estimation.EstimatorPipeline`. The buffer is
+processed when a sample crosses the earliest drive's publish_rate grid, ``batch_period``
+after its first sample, or at 200 samples (so a drive's outputs leave at most about
+``batch_period`` after the sample that closed a window). Outputs are each drive's, on
+``gear_phm/<drive>/...`` with the single transmission's layouts; the /diagnostics array holds
+one status per drive, ``gear_phm estimator: <drive>`` (``hardware_id`` the drive; as
+``gear-phm analyze --transmissions``),
+whose counters are that drive's alone (a missing, short or NaN joint of one drive counts
+against it only). A drive with no sample for its ``sensor_timeout`` is flagged on its own.
+The per-drive parameters are read-only (restart the node to change them).
+"""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import replace
+import struct
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray
+import numpy as np
+from rclpy.node import Node
+
+from gear_phm import interfaces
+from gear_phm.codec import decode_joint_state_pairs
+from gear_phm.estimation import EstimatorPipeline
+from gear_phm.interfaces import DiagnosticsOut
+from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
+from gear_phm.nodes.state import DRIVES_IDENTITY, drives_restorer, drives_state, StateKeeper
+from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
+                                      subscribe_joint_states_raw)
+from gear_phm.status import WARN
+from gear_phm.transmissions import Transmission
+
+#: A buffer this long is processed at once.
+MAX_BUFFER = 200
+_STAMP = struct.Struct('<iI').unpack_from
+
+
+class _Drive:
+    """One drive's pipeline, publishers and silence watch."""
+
+    def __init__(self, node: Node, drive: Transmission, frame_id: str) -> None:
+        self.drive = drive
+        try:
+            self.pipeline = EstimatorPipeline(drive.estimator_config())
+        except ValueError as exc:
+            raise ConfigError(f'drive {drive.name}: {exc}') from None
+        self.outputs = EstimatePublisher(node, frame_id, drive.name)
+        self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
+        self.status_name = f'gear_phm estimator: {drive.name}'
+        self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]
+
+    @property
+    def identity(self) -> dict[str, Any]:
+        """Return what the state file must match for this drive."""
+        return {'ratio': self.drive.ratio, 'motor_joint': self.drive.motor_joint,
+                'load_joint': self.drive.load_joint}
+
+    def watch(self, now_ns: int) -> None:
+        """Flag a sensor timeout once this drive has had no sample for its sensor_timeout."""
+        if self.last_sample_ns is not None:
+            self.pipeline.on_silence((now_ns - self.last_sample_ns) * 1e-9)
+
+
+class DrivesEstimator:
+    """The estimator of many drives inside ``node`` (module docstring)."""
+
+    def __init__(self, node: Node, drives: tuple[Transmission, ...],
+                 values: dict[str, Any]) -> None:
+        self.node = node
+        self.drives = [_Drive(node, drive, values['frame_id']) for drive in drives]
+        self.pairs = [(d.motor_joint, d.load_joint) for d in drives]
+        self.state = StateKeeper(node, values, 'estimator', DRIVES_IDENTITY,
+                                 self._current_state)
+        self.state.load(drives_restorer(self.state, {d.drive.name: d.identity
+                                                     for d in self.drives},
+                                        {d.drive.name: d.pipeline.from_state
+                                         for d in self.drives}))
+        self.diag_pub = node.create_publisher(DiagnosticArray, interfaces.DIAGNOSTICS,
+                                              OUTPUT_QOS)
+        self.messages_received = 0
+        self.raws: list[bytes] = []
+        self._due: int | None = None
+        self.batch_timer = node.create_timer(values['batch_period'], self.flush)
+        self.batch_timer.cancel()
+        node.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
+        self.subscription = subscribe_joint_states_raw(node, self._on_message)
+        self.state.start_timer(self._save_state)
+
+    def _current_state(self) -> tuple[dict[str, Any], int | None]:
+        parts = {}
+        for d in self.drives:
+            state = d.pipeline.to_state()
+            parts[d.drive.name] = (d.identity, state, state['last_stamp'])
+        return drives_state(parts)
+
+    def _save_state(self) -> None:
+        self.flush()
+        self.state.save()
+
+    def close(self) -> None:
+        """Process the buffer without publishing and save the state (before destroy_node)."""
+        if self.state.enabled:
+            self._process(publish=False)
+        self.state.save()
+
+    def _on_message(self, raw: bytes) -> None:
+        """One serialized JointState: buffer it; process the buffer when an output is due."""
+        self.messages_received += 1         # counted on arrival (a buffer waits up to
+        self.raws.append(raw)               # batch_period)
+        due = self._due
+        if due is not None and len(raw) >= 12:
+            sec, nanosec = _STAMP(raw, 4)
+            if sec * 1_000_000_000 + nanosec >= due:
+                self.flush()
+                return
+        if len(self.raws) >= MAX_BUFFER:
+            self.flush()
+        elif len(self.raws) == 1:
+            self.batch_timer.reset()
+
+    def flush(self) -> None:
+        """Process the buffer and publish what is due."""
+        self.batch_timer.cancel()
+        self._process(publish=True)
+        dues = [due for d in self.drives if (due := d.pipeline.next_output_stamp()) is not None]
+        self._due = min(dues) if dues else None
+
+    def _process(self, publish: bool) -> None:
+        raws = self.raws
+        if not raws:
+            return
+        self.raws = []
+        now = self.node.get_clock().now().nanoseconds
+        lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
+        offsets = np.zeros(len(raws), dtype=np.int64)
+        np.cumsum(lengths[:-1], out=offsets[1:])
+        batches = decode_joint_state_pairs(b''.join(raws), offsets, lengths, self.pairs)
+        for d, batch in zip(self.drives, batches):
+            pipeline = d.pipeline
+            for reason, count in Counter(reason for _, reason in batch.rejected_at).items():
+                pipeline.reject_message(reason, count)
+            if not len(batch):
+                d.watch(now)
+                continue
+            d.last_sample_ns = now
+            try:
+                outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
+                                            batch.motor_effort, batch.load_velocity,
+                                            batch.load_effort)
+            except Exception as exc:  # never die on data; count it
+                pipeline.reject_message('bad_message', len(batch))
+                self.node.get_logger().warn(
+                    f'{d.drive.name}: dropped {len(batch)} joint_states sample(s): {exc}',
+                    throttle_duration_sec=5.0)
+                continue
+            if publish:
+                d.outputs.publish(outputs)
+
+    def _on_diagnostics_timer(self) -> None:
+        now = self.node.get_clock().now().nanoseconds
+        self.flush()
+        statuses = []
+        problem = self.state.problem
+        for d in self.drives:
+            d.watch(now)
+            status = d.pipeline.status(d.status_name, self.messages_received)
+            status = replace(status, hardware_id=d.drive.name)
+            if problem:
+                status = replace(status, level=max(status.level, WARN),
+                                 message=f'{status.message}; {problem}')
+            statuses.append(status)
+        self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
+        for d in self.drives:
+            d.loss_outputs.publish(d.pipeline)
