@@ -23,7 +23,7 @@ chi-square, at least 1). dJ is applied once ``MIN_BLOCKS`` blocks put it at
 
 Until then the inertia is in the windows unremoved, and :meth:`InertiaLearner.left_variance`
 tells the measurement model how much: the mean square of what the correction leaves,
-(fitted dJ - applied dJ)^2 + var(dJ), from the blocks or, before ``MIN_BLOCKS`` blocks, from
+from the blocks or, before ``MIN_BLOCKS`` blocks, from
 a provisional fit of each open block of at least ``PROVISIONAL`` windows; before any fit, the
 prior that the rotor's kinetic energy at the largest |K| seen could be as large as the
 window's motor energy. Without it a window that accelerates or decelerates the rotor was
@@ -135,19 +135,34 @@ class InertiaLearner:
     def left_variance(self, motor_energy: float, kinetic: float) -> float:
         """Mean square [kg^2 m^4] of the inertia the correction leaves in a window.
 
-        (fitted dJ - applied dJ)^2 + var(dJ) (the module docstring): the blocks' fit from
+        Applied: (fitted dJ - applied dJ)^2 + var(dJ); none applied yet: fitted dJ^2 - var(dJ)
+        (at least 0), the unbiased estimate of dJ^2. The fit is the blocks' from
         ``MIN_BLOCKS`` blocks on, before that combined with the provisional fits of the open
         blocks; with no fit at all, the prior (E_m / max(|K|, largest |K| seen))^2 of a window
         of motor energy ``motor_energy`` [J] and ``kinetic`` K [rad^2/s^2].
         """
         applied = self.correction[0]
         total, weight = self._sums
+        prior = self.prior(motor_energy, kinetic)
+        if prior is not None:
+            return prior
         if self.blocks < MIN_BLOCKS:
             for fit in self._provisional:
                 if fit is not None and fit[1] > 0.0:
                     total, weight = total + fit[0] / fit[1], weight + 1.0 / fit[1]
         if weight > 0.0:
-            return (total / weight - applied) ** 2 + 1.0 / weight
+            fitted, variance = total / weight, 1.0 / weight
+            if applied != 0.0:      # what the applied correction leaves: its error
+                return (fitted - applied) ** 2 + variance
+            # none applied: dJ^2 estimated without bias (E fitted^2 = dJ^2 + var), so a drive
+            # without inertia left is not made conservative by the fit's own noise
+            return max(fitted * fitted - variance, 0.0)
+        return self.prior(motor_energy, kinetic)
+
+    def prior(self, motor_energy: float, kinetic: float) -> float | None:
+        """Return :meth:`left_variance`'s prior [kg^2 m^4], or None once dJ has a fit."""
+        if self._sums[1] > 0.0 or any(fit is not None for fit in self._provisional):
+            return None
         scale = max(abs(kinetic), self.kinetic_max)
         return (motor_energy / scale) ** 2 if scale > 0.0 else 0.0
 

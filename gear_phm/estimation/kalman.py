@@ -272,14 +272,18 @@ class FrictionFilter:
                                  np.full(n, self.process_noise), t)
 
     def update(self, z: float, r: float, t: float, direction: int = 0,
-               age: float = 0.0) -> UpdateResult:
+               age: float = 0.0, informative: bool = True) -> UpdateResult:
         """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
 
         ``direction``: 0 for an opposing-load window (``z`` measures u - d/2), 1 for aiding (or
         self-locking: ``z`` measures u + d/2); with adaptation its learned mismatch variance is
         added to ``r``. ``age`` [s]: ``z`` measures u at ``t - age`` (a window's mid-time),
         H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
-        (docs/estimation.md). Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
+        (docs/estimation.md). ``informative`` False: ``r`` is mostly a deliberately broad
+        prior (a window whose rotor inertia is not known yet), so the window does not feed the
+        adaptation: its innovations, far inside their variance, made the whiteness test's
+        power collapse and q rise tenfold (NIS 0.1 for 60 s on a lever plant).
+        Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
@@ -294,7 +298,7 @@ class FrictionFilter:
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
-        if self.adaptation.adaptive:
+        if self.adaptation.adaptive and informative:
             self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
         r = r_total
         if nis > self.gate_threshold:
@@ -440,8 +444,15 @@ class FrictionFilter:
         # means weighted 1/S, variances 1/S^2 (Fisher scoring of an additive variance), so
         # precise windows are not drowned by noisy ones nor by the start-up transient
         keep = 1.0 - w
+        # y - mean has the variance S plus the mean's own, 1 / (its sum of weights): clipped
+        # at S alone, a mean set by the first, imprecise windows (the prior's error of u, 0.1,
+        # at a window whose rotor inertia was not known yet) was undone only 0.003 per window
+        # and was taken as a mismatch for minutes (docs/estimation.md)
+        spread = s + (1.0 / self._mean_den[direction] if self._mean_den[direction] > 0.0
+                      else math.inf)
+        mean_limit = math.sqrt(max(self.gate_threshold, 1.0) * spread)
         self._mean_den[direction] = keep * self._mean_den[direction] + 1.0 / s
-        step = min(max(y - mean[direction], -limit), limit)
+        step = min(max(y - mean[direction], -mean_limit), mean_limit)
         mean[direction] += step / (s * self._mean_den[direction])
         deviation = min(abs(y - common), limit)
         weight = 1.0 / (s * s)

@@ -584,10 +584,14 @@ class EstimatorPipeline:
     def _apply_window(self, window: Window, code: int | None = None, used: int | None = None,
                       rejected: int | None = None) -> list[FrictionEstimate]:
         c = self.config
-        inertia = (0.0, 0.0)
+        inertia, informative = (0.0, 0.0), True
         if c.learn_motor_inertia:       # the inertia not removed yet is in the variance
             inertia = (self.inertia.correction[0],
                        self.inertia.left_variance(window.motor_energy, window.motor_kinetic))
+            prior = self.inertia.prior(window.motor_energy, window.motor_kinetic)
+            # a window whose variance is mostly the inertia's prior does not adapt the filter
+            informative = prior is None \
+                or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
         result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
                                 inertia)
         if isinstance(result, str):
@@ -598,7 +602,7 @@ class EstimatorPipeline:
         operating = self._window_operating_time(window)
         direction = 0 if result.code == OPPOSING else 1
         update = self.filter.update(result.u, result.u_variance, operating, direction,
-                                    0.5 * window.duration)
+                                    0.5 * window.duration, informative)
         self._last_eta = result.eta
         if self.on_measurement is not None:
             self.on_measurement(result, update.accepted)
