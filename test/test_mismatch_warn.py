@@ -98,7 +98,7 @@ def test_the_inertia_not_yet_applied_is_in_the_windows_variance() -> None:
     assert learner.left_variance(12.0, 80.0) == pytest.approx((12.0 / 80.0) ** 2)
     _windows(learner, PROVISIONAL, J_M, 0)
     assert learner.correction == (0.0, 0.0)                  # not applied yet, but known
-    assert math.sqrt(learner.left_variance(12.0, 80.0)) == pytest.approx(J_M, rel=0.1)
+    assert math.sqrt(learner.left_variance(12.0, 80.0)) == pytest.approx(J_M, rel=0.2)
     _windows(learner, BLOCK * MIN_BLOCKS, J_M, 1)
     d_j, variance = learner.correction                      # applied: only its error is left
     assert d_j == pytest.approx(J_M, rel=0.05)

@@ -49,7 +49,7 @@ MIN_BLOCKS = 2
 #: Significance of dJ before it is applied [sigma].
 INERTIA_Z = 4.0
 #: Windows of an open block that give a provisional dJ for :meth:`InertiaLearner.left_variance`.
-PROVISIONAL = 6
+PROVISIONAL = 4
 
 
 def _block_fit(rows: list[tuple[float, ...]]) -> tuple[float, float] | None:

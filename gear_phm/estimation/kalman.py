@@ -281,7 +281,7 @@ class FrictionFilter:
         H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
         (docs/estimation.md). ``informative`` False: ``r`` is mostly a deliberately broad
         prior (a window whose rotor inertia is not known yet), so the window does not feed the
-        adaptation: its innovations, far inside their variance, made the whiteness test's
+        adaptation but its pull towards small q: its innovations, far inside their variance, made the whiteness test's
         power collapse and q rise tenfold (NIS 0.1 for 60 s on a lever plant).
         Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
@@ -300,6 +300,9 @@ class FrictionFilter:
         nis = y * y / s
         if self.adaptation.adaptive and informative:
             self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
+        elif self.adaptation.adaptive:      # only the pull towards small q
+            a = self.adaptation
+            self.q_test = min(max(self.q_test * math.exp(-a.adapt_pull), a.q_min), a.q_max)
         r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1

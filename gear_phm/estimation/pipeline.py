@@ -627,7 +627,7 @@ class EstimatorPipeline:
         # while d is unsettled: then the error is the early windows' own (the first opposing
         # windows of a mismatched R 50 gearbox read u 0.0125 low while d was still 0, a rise
         # that the RUL took for wear, docs/estimation.md)
-        if update.bias_variance > 0.25 * OFFSET_SETTLED_SIGMA ** 2:
+        if update.bias_variance > variance:
             variance += update.bias_variance
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
                                used, rejected, operating,
