@@ -22,7 +22,7 @@ import numpy as np
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
-                                        OFFSET_SETTLED_SIGMA, predicted_stacked)
+                                        predicted_stacked)
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
@@ -624,9 +624,9 @@ class EstimatorPipeline:
         # common to all windows, + for one direction and - for the other: it averages out of
         # the wear trend, and is not added to each window's variance (adding it cut the RUL
         # band's coverage on a spur wear life from 0.88 to 0.62, test_analyze_cli), except
-        # while d is unsettled: then the error is the early windows' own (the first opposing
-        # windows of a mismatched R 50 gearbox read u 0.0125 low while d was still 0, a rise
-        # that the RUL took for wear, docs/estimation.md)
+        # while d's error exceeds the window's own: then it is the early windows' alone (the
+        # first opposing windows of a mismatched R 50 gearbox read u 0.0125 low while d was
+        # still unknown, a rise that the RUL took for wear, docs/estimation.md)
         if update.bias_variance > variance:
             variance += update.bias_variance
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
