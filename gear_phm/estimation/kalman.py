@@ -281,8 +281,9 @@ class FrictionFilter:
         H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
         (docs/estimation.md). ``informative`` False: ``r`` is mostly a deliberately broad
         prior (a window whose rotor inertia is not known yet), so the window does not feed the
-        adaptation but its pull towards small q: its innovations, far inside their variance, made the whiteness test's
-        power collapse and q rise tenfold (NIS 0.1 for 60 s on a lever plant).
+        adaptation but its pull towards small q: its innovations, far inside their variance,
+        made the whiteness test's power collapse and q rise tenfold (NIS 0.1 for 60 s on a
+        lever plant).
         Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
