@@ -272,14 +272,19 @@ class FrictionFilter:
                                  np.full(n, self.process_noise), t)
 
     def update(self, z: float, r: float, t: float, direction: int = 0,
-               age: float = 0.0) -> UpdateResult:
+               age: float = 0.0, informative: bool = True) -> UpdateResult:
         """Predict to ``t`` [s], gate on NIS and fuse ``z`` (variance ``r``) if it passes.
 
         ``direction``: 0 for an opposing-load window (``z`` measures u - d/2), 1 for aiding (or
         self-locking: ``z`` measures u + d/2); with adaptation its learned mismatch variance is
         added to ``r``. ``age`` [s]: ``z`` measures u at ``t - age`` (a window's mid-time),
         H = [1, -age, -/+ 1/2]; without it a window of length T lags growing u by T/2
-        (docs/estimation.md). Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
+        (docs/estimation.md). ``informative`` False: ``r`` is mostly a deliberately broad
+        prior (a window whose rotor inertia is not known yet), so the window does not feed the
+        adaptation but its pull towards small q: its innovations, far inside their variance,
+        made the whiteness test's power collapse and q rise tenfold (NIS 0.1 for 60 s on a
+        lever plant).
+        Raises ValueError on a non-finite ``z`` or ``r`` <= 0.
         """
         if not (math.isfinite(z) and math.isfinite(r) and r > 0.0):
             raise ValueError(f'measurement must be finite with variance > 0, got z={z!r}, '
@@ -294,8 +299,11 @@ class FrictionFilter:
         r_total = r + self.mismatch_variance(direction)
         s = p_uu + r_total
         nis = y * y / s
-        if self.adaptation.adaptive:
+        if self.adaptation.adaptive and informative:
             self._adapt(y, p_uu, r, s, direction, nis > self.gate_threshold)
+        elif self.adaptation.adaptive:      # only the pull towards small q
+            a = self.adaptation
+            self.q_test = min(max(self.q_test * math.exp(-a.adapt_pull), a.q_min), a.q_max)
         r = r_total
         if nis > self.gate_threshold:
             self.consecutive_gated += 1
@@ -440,15 +448,28 @@ class FrictionFilter:
         # means weighted 1/S, variances 1/S^2 (Fisher scoring of an additive variance), so
         # precise windows are not drowned by noisy ones nor by the start-up transient
         keep = 1.0 - w
+        # y - mean has the variance S plus the mean's own, 1 / (its sum of weights): clipped
+        # at S alone, a mean set by the first, imprecise windows (the prior's error of u, 0.1,
+        # at a window whose rotor inertia was not known yet) was undone only 0.003 per window
+        # and was taken as a mismatch for minutes (docs/estimation.md)
+        spread = s + (1.0 / self._mean_den[direction] if self._mean_den[direction] > 0.0
+                      else math.inf)
+        mean_limit = math.sqrt(max(self.gate_threshold, 1.0) * spread)
         self._mean_den[direction] = keep * self._mean_den[direction] + 1.0 / s
-        step = min(max(y - mean[direction], -limit), limit)
+        step = min(max(y - mean[direction], -mean_limit), mean_limit)
         mean[direction] += step / (s * self._mean_den[direction])
         deviation = min(abs(y - common), limit)
         weight = 1.0 / (s * s)
         self._num[direction] = keep * self._num[direction] \
             + weight * (deviation ** 2 - p_uu - r)
         self._den[direction] = keep * self._den[direction] + weight
-        # a variance is used once it is significant: estimate minus its standard error
-        # sqrt(2 / sum of weights), so a plant without mismatch is not made conservative
-        self._excess[direction] = (self._num[direction]
-                                   - math.sqrt(2.0 * self._den[direction])) / self._den[direction]
+        # a variance is used once it is significant, beyond its standard error
+        # se = sqrt(2 / sum of weights), so a plant without mismatch is not made
+        # conservative; beyond it shrunk by se^2 / estimate (positive part, continuous at se),
+        # which vanishes as the mismatch dominates. Shrinking by se throughout, as before,
+        # left the variance short by sqrt(2 / mismatch_memory) ~ 0.2 S where the mismatch
+        # dominates S: NIS mean 1.25, and "model mismatch" WARNs on healthy gearboxes
+        # (docs/estimation.md, "Rotor inertia in the measurement variance")
+        estimate = self._num[direction] / self._den[direction]
+        se = math.sqrt(2.0 / self._den[direction])
+        self._excess[direction] = estimate - (se * se / estimate if estimate > se else se)
