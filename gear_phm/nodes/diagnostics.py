@@ -207,8 +207,9 @@ class Channel:
         """Latest state, turned STALE when the last input is older than stale_timeout.
 
         Before any input: OK "waiting for data" (nothing is known to be wrong). STALE only
-        once input has been seen and has stopped. A drive of many whose input stopped for
-        half its stale_timeout while another drive's still arrives is WARN first.
+        once input has been seen and has stopped. A drive of many whose input stopped for a
+        quarter of its stale_timeout, and whose newest stamp is that far behind the other
+        drives', while another drive's input still arrives, is WARN first.
         """
         latest = self.assessor.latest
         if self.last_arrival_ns is None:
@@ -220,12 +221,28 @@ class Channel:
         if silence >= timeout:
             return latest.as_stale(silence)
         others = self.node.last_arrival_ns
-        if self.drive is not None and silence >= timeout / 2 and others is not None \
-                and (now_ns - others) * 1e-9 < timeout / 2:
+        if self.drive is not None and silence >= timeout / 4 and others is not None \
+                and (now_ns - others) * 1e-9 < timeout / 4 \
+                and self._behind_others() >= timeout / 4:
             return replace(latest, level=max(latest.level, WARN),
                            message=f'no estimator input for {silence:.3g} s while other '
                                    f'drives have input (last: {latest.message})')
         return latest
+
+    def _behind_others(self) -> float:
+        """How far [s] this drive's newest input stamp is behind the other drives' newest.
+
+        The drives' estimates come from one JointState stream, so their stamps advance
+        together; only a drive whose own input stopped falls behind in stamp time. Wall-clock
+        silence alone also grew when a loaded executor served one drive's callbacks late
+        (a healthy drive of eight went WARN under load 9 on 2 cores).
+        """
+        own = self.assessor.latest
+        newest = max((c.assessor.latest.stamp_ns for c in self.node.channels
+                      if c is not self and c.assessor.latest is not None), default=None)
+        if own is None or newest is None:
+            return math.inf if newest is not None else 0.0
+        return (newest - own.stamp_ns) * 1e-9
 
     def status(self, now_ns: int, problems: Sequence[tuple[int, str]]
                ) -> tuple[StatusOut, HealthState]:
