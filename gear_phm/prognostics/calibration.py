@@ -69,20 +69,24 @@ def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
     return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
-def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_systematic: float,
-                   spacing: float, errors: np.ndarray | None = None) -> np.ndarray:
-    """Return each draw's absolute time [s] of reaching ``u_eol`` (inf: never).
+@dataclass(frozen=True)
+class LawDraws:
+    """Each law's share of the draws (:func:`law_draws`): which draws, and their parameters.
 
-    Over the laws' parameter draws, each law taking its Akaike weight's share of the draws;
-    ``u_systematic`` [-] and the history's mean ``spacing`` [s] as in the module docstring.
-    ``errors``: the history's own relative forecast errors (:func:`forecast_errors`); each
-    draw takes one of them, rho, and its time to u_eol is divided by 1 + rho.
+    ``parts``: per law, (the law, its draws' mask, their time after t_end to u_eol [s],
+    rate [1/s], shape).
     """
-    if errors is not None and errors.size:
-        rho = errors[np.minimum((draws.errors * errors.size).astype(int), errors.size - 1)]
-    else:
-        rho = None
-    crossing = np.empty(draws.uniforms.size)
+
+    parts: tuple[tuple[Trend, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]
+
+
+def law_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float) -> LawDraws:
+    """Return the laws' parameter draws and their first passages of ``u_eol``.
+
+    Each law takes its Akaike weight's share of the draws (module docstring); the part of
+    :func:`crossing_draws` that does not depend on the forecast errors.
+    """
+    parts = []
     edges = np.cumsum([law.weight for law in laws])
     edges[-1] = 1.0
     lower = 0.0
@@ -106,6 +110,28 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
             rate = (law.u_end + drawn[0]) * shape
         offsets = crossing_offsets(
             law.model, u_eol - (law.u_end + drawn[0]), rate, shape, law.span)
+        parts.append((law, chosen, offsets, rate, shape))
+    return LawDraws(tuple(parts))
+
+
+def crossing_draws(laws: tuple[Trend, ...] | LawDraws, draws: Draws, u_eol: float,
+                   u_systematic: float, spacing: float, errors: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """Return each draw's absolute time [s] of reaching ``u_eol`` (inf: never).
+
+    Over the laws' parameter draws, each law taking its Akaike weight's share of the draws
+    (``laws``, or their :func:`law_draws` already made);
+    ``u_systematic`` [-] and the history's mean ``spacing`` [s] as in the module docstring.
+    ``errors``: the history's own relative forecast errors (:func:`forecast_errors`); each
+    draw takes one of them, rho, and its time to u_eol is divided by 1 + rho.
+    """
+    if errors is not None and errors.size:
+        rho = errors[np.minimum((draws.errors * errors.size).astype(int), errors.size - 1)]
+    else:
+        rho = None
+    shares = laws if isinstance(laws, LawDraws) else law_draws(laws, draws, u_eol)
+    crossing = np.empty(draws.uniforms.size)
+    for law, chosen, offsets, rate, shape in shares.parts:
         if rho is not None:
             offsets = np.where(offsets > 0.0, offsets / (1.0 + rho[chosen]), offsets)
         if u_systematic > 0.0:
@@ -119,7 +145,7 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
     return crossing
 
 
-def crossing_quantiles(laws: tuple[Trend, ...], draws: Draws, u_eol: float,
+def crossing_quantiles(laws: tuple[Trend, ...] | LawDraws, draws: Draws, u_eol: float,
                        u_systematic: float, spacing: float, errors: np.ndarray | None = None
                        ) -> tuple[float, float, float]:
     """Return the 5/50/95 % quantiles [s] of :func:`crossing_draws` (inf: never)."""
