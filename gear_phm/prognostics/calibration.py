@@ -26,7 +26,8 @@ import math
 
 import numpy as np
 
-from gear_phm.prognostics.fits import crossing_offsets, crossing_slopes, fit_laws, P_FLOOR, Trend
+from gear_phm.prognostics.fits import (crossing_offsets, crossing_slopes, forecast_law, P_FLOOR,
+                                       Trend)
 from gear_phm.prognostics.laws import LINEAR, POWER, PROPORTIONAL
 
 
@@ -181,10 +182,9 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
         k = int(np.searchsorted(t, t[0] + fraction * span, side='right'))
         if k < min_points or k >= t.size:
             continue
-        past = fit_laws(t[:k], u[:k], precision[:k], law.model, min_points)
-        if not past or not past[0].slope > 0.0:
+        earlier = forecast_law(t[:k], u[:k], precision[:k], law.model, min_points)
+        if earlier is None or not earlier.slope > 0.0:
             continue
-        earlier = past[0]
         actual = float(t[-1]) - earlier.t_end
         if not actual > 0.0:
             continue

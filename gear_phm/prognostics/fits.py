@@ -315,11 +315,11 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
 
 
 def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
-                shape_information: float = 0.0) -> np.ndarray | None:
+                shape_information: float = 0.0, inverse: bool = True) -> np.ndarray | None:
     """Return scale (J^T W J + scale P)^-1, with column equilibration; None when singular.
 
     P is zero but for ``shape_information`` [1/shape^2] on the shape (the last parameter: a
-    prior's).
+    prior's). Not ``inverse``: the equilibrated matrix only (None as well when singular).
     """
     m = jacobian.T @ (jacobian * w[:, None])
     if shape_information > 0.0:
@@ -330,6 +330,8 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     normalised = m / np.outer(d, d)
     if not np.linalg.cond(normalised) < 1e12:
         return None
+    if not inverse:
+        return normalised
     return np.asarray(scale * np.linalg.inv(normalised) / np.outer(d, d))
 
 
@@ -405,6 +407,32 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     laws.sort(key=lambda law: law[0])
     weights = _akaike_weights([aicc for aicc, _ in laws])
     return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
+
+
+def forecast_law(t: np.ndarray, u: np.ndarray, precision: np.ndarray, model: str,
+                 min_points: int = 8) -> Trend | None:
+    """Return the law ``model`` as :func:`fit_laws` fits it alone, without its covariance.
+
+    Its model, t_end, u_end, slope, shape and span only (for a forecast); None where
+    :func:`fit_laws` returns no law.
+    """
+    n = t.size
+    if n < min_points or not t[-1] > t[0]:
+        return None
+    t_end = float(t[-1])
+    s, span = t - t_end, t_end
+    x = np.clip(t / span, 0.0, None)
+    fit = _fit_model(model, s, x, span, u, precision)
+    if fit is None:
+        return None
+    residuals = np.sqrt(precision) * (u - _fitted_values(fit, s, x, span))
+    n_eff = _effective_points(residuals)
+    scale = max(fit.rss / max(n - fit.free, 1), 1.0) * n / n_eff
+    if not n_eff > fit.free + 1.0 or _covariance(fit.jacobian, precision, scale,
+                                                 inverse=False) is None:
+        return None
+    return Trend(model, t_end, float(fit.params[0]), float(fit.params[1]),
+                 shape=float(fit.params[2]) if model != LINEAR else 0.0, span=span)
 
 
 def _akaike_weights(aicc: list[float]) -> np.ndarray:
