@@ -139,24 +139,28 @@ def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
     return rss, np.where(valid, b0, 0.0), np.where(valid, b1, 0.0)
 
 
-def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float
-           ) -> tuple[np.ndarray, np.ndarray]:
+def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float,
+           derivative: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Return the rows g(s; shape), one per shape, and their derivatives in shape.
 
-    See the module docstring; s = t - t_end [s], x = tau / T [-].
+    See the module docstring; s = t - t_end [s], x = tau / T [-]. Not ``derivative``: no
+    derivatives (None; a shape grid's profile needs only g).
     """
     shape = np.asarray(shape, dtype=float)[:, None]
+    dg = None
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         if model in EXPONENTIAL_FORM:
             ks = shape * s
-            e = np.exp(ks)
-            g = np.expm1(ks) / shape
-            dg = (ks * e - np.expm1(ks)) / (shape * shape)
+            growth = np.expm1(ks)
+            g = growth / shape
+            if derivative:
+                dg = (ks * np.exp(ks) - growth) / (shape * shape)
         else:
             xp = np.power(x, shape)
-            logx = np.log(np.where(x > 0.0, x, 1.0))
             g = span / shape * (xp - 1.0)
-            dg = span * (xp * logx * shape - (xp - 1.0)) / (shape * shape)
+            if derivative:
+                logx = np.log(np.where(x > 0.0, x, 1.0))
+                dg = span * (xp * logx * shape - (xp - 1.0)) / (shape * shape)
     return g, dg
 
 
@@ -295,7 +299,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
         return _Fit(LINEAR, np.array([b0[0], b1[0]]), float(rss[0]),
                     np.column_stack([np.ones_like(s), s]))
     grid = K_SPAN_GRID / span if model == EXPONENTIAL else P_GRID
-    g, _ = _basis(model, grid, s, x, span)
+    g, _ = _basis(model, grid, s, x, span, derivative=False)
     rss, _, _ = _profile(g, u, w)
     if prior is not None:
         rss = rss + prior[1] * prior[0].penalty(grid)
@@ -309,6 +313,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
         rss2 = rss2 + prior[1] * prior[0].penalty(np.array([shape, float(grid[best])]))
     i = 0 if rss2[0] <= rss2[1] else 1
     shape = shape if i == 0 else float(grid[best])
+    assert dg is not None
     jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
     return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian,
                 (grid, rss), free=3)
@@ -328,7 +333,10 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     if not np.all(d > 0.0):
         return None
     normalised = m / np.outer(d, d)
-    if not np.linalg.cond(normalised) < 1e12:
+    singular = np.linalg.svd(normalised, compute_uv=False)     # np.linalg.cond's 2-norm
+    with np.errstate(divide='ignore', invalid='ignore'):
+        condition = singular[0] / singular[-1]
+    if not condition < 1e12:
         return None
     if not inverse:
         return normalised
@@ -472,7 +480,7 @@ def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.n
     """Return the fit's u at the history's times."""
     if fit.model == LINEAR:
         return np.asarray(fit.params[0] + fit.params[1] * s)
-    g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
+    g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span, derivative=False)
     return np.asarray(fit.params[0] + fit.params[1] * g[0])
 
 
