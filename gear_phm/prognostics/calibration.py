@@ -162,8 +162,13 @@ ORIGINS = (0.4, 0.5, 0.6, 0.7, 0.8)
 RHO_LIMITS = (-0.75, 4.0)
 
 
+#: Laws fitted at forecast origins, by their model and points (:func:`forecast_errors`).
+ForecastCache = dict[tuple[str, int, bytes], Trend | None]
+
+
 def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Trend,
-                    min_points: int = 8, horizon: float = 0.0) -> np.ndarray:
+                    min_points: int = 8, horizon: float = 0.0,
+                    cache: ForecastCache | None = None) -> np.ndarray:
     """Return the history's own relative forecast errors rho [-], rolling origin.
 
     At each origin (:data:`ORIGINS` of the span of ``t`` [s, from the regime's start]) the
@@ -174,15 +179,23 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
     (:func:`crossing_draws`), with rho = 0, the present fit as it is, once too.
     An origin with too few points or no growth in its fit gives none. An error measured over
     a time h shorter than the ``horizon`` [s] the band is for (the RUL median) grows to it as
-    a diffusion does: log(1 + rho) times sqrt(horizon / h).
+    a diffusion does: log(1 + rho) times sqrt(horizon / h). ``cache``: the laws fitted at
+    origins before, by their exact points (an origin whose points did not change since the
+    last refit is not fitted again); the laws fitted now replace its content.
     """
+    fitted: ForecastCache = {}
     errors = [0.0]
     span = float(t[-1] - t[0]) if t.size else 0.0
     for fraction in ORIGINS:
         k = int(np.searchsorted(t, t[0] + fraction * span, side='right'))
         if k < min_points or k >= t.size:
             continue
-        earlier = forecast_law(t[:k], u[:k], precision[:k], law.model, min_points)
+        key = (law.model, min_points, t[:k].tobytes() + u[:k].tobytes() + precision[:k].tobytes())
+        if cache is not None and key in cache:
+            earlier = cache[key]
+        else:
+            earlier = forecast_law(t[:k], u[:k], precision[:k], law.model, min_points)
+        fitted[key] = earlier
         if earlier is None or not earlier.slope > 0.0:
             continue
         actual = float(t[-1]) - earlier.t_end
@@ -199,4 +212,7 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
             rho = min(max(rho, RHO_LIMITS[0]), RHO_LIMITS[1])
         # as likely either way: the band widens both ways, the median stays the fit's
         errors.extend((rho, 1.0 / (1.0 + rho) - 1.0))
+    if cache is not None:
+        cache.clear()
+        cache.update(fitted)
     return np.array(errors)

@@ -19,6 +19,7 @@ points. The rise of each law over the span T: r T (linear), r (1 - exp(-k T)) / 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import functools
 import math
 
 import numpy as np
@@ -136,8 +137,7 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     last = n - max(int(min_points), int(math.ceil(REGIME_MIN_SHARE * n)))
     if last <= 0:
         return RegimeStart(0, float(t[0]) if n else 0.0)
-    index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
-                      .astype(int))
+    index = _candidates(last)
     rss, rss0 = _hinge_rss(t, u, precision, index)
     best_per_tau = rss.min(axis=1)
     coarse = int(np.argmin(best_per_tau))
@@ -168,6 +168,18 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
         exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
     improvement = max(float(rss0[chosen] - best_per_tau[chosen]) / scale, 0.0)
     return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
+
+
+@functools.lru_cache(maxsize=512)
+def _candidates(last: int) -> np.ndarray:
+    """Return the candidate taus' bins: at most HINGE_CANDIDATES, evenly over 0..``last``.
+
+    Read-only (cached).
+    """
+    index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
+                      .astype(int))
+    index.flags.writeable = False
+    return index
 
 
 def _rising_before(t: np.ndarray, design: np.ndarray, beta: np.ndarray, w: np.ndarray,

@@ -33,7 +33,7 @@ import numpy as np
 
 from gear_phm.persistence import decode_floats, encode_floats
 from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecast_errors,
-                                              law_draws, LawDraws)
+                                              ForecastCache, law_draws, LawDraws)
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
@@ -111,6 +111,8 @@ class RulPredictor:
         #: widen the band by the history's own rolling-origin forecast errors
         self.calibrated = bool(calibrated)
         self._errors: np.ndarray | None = None
+        #: the laws fitted at the forecast origins of the last refit (:func:`forecast_errors`)
+        self._forecasts: ForecastCache = {}
         self.history = WearHistory(max_points)
         self._draws = Draws.seeded(seed, int(mc_samples))
         #: number of fits so far (the cost is bounded: tests count them)
@@ -230,7 +232,7 @@ class RulPredictor:
         # the history's own forecast errors, grown to the horizon of the median
         self._errors = forecast_errors(
             t, u, precision, laws[0], self.min_points,
-            self._crossing[1] - laws[0].t_end) \
+            self._crossing[1] - laws[0].t_end, self._forecasts) \
             if self.detected and self.calibrated and history.independent else None
         if self._errors is not None and self._errors.size > 1:
             # the band also holds the history's own forecast errors; the median is the fit's
