@@ -5,8 +5,9 @@ RulPredictor's calls (construction, u_eol, add, predict) recorded to OUT.pkl.
 ``replay OUT.pkl [RESULT.npy]``: replays them on a fresh predictor of this checkout, prints the
 seconds it took (best of 3) and saves every predict's (median, p5, p95) to RESULT.npy.
 
-Usage: PYTHONPATH=. .venv/bin/python bench/rul_refit_trace.py record bags/wearing /tmp/t.pkl \\
-           --ratio 3.0 --eta-opposing-min 0.7333
+Usage (from the checkout, with PYTHONPATH=.):
+  .venv/bin/python bench/rul_refit_trace.py record bags/wearing /tmp/t.pkl --ratio 3.0
+  .venv/bin/python bench/rul_refit_trace.py replay /tmp/t.pkl /tmp/t.npy
 """
 from __future__ import annotations
 
