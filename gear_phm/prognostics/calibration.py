@@ -26,7 +26,8 @@ import math
 
 import numpy as np
 
-from gear_phm.prognostics.fits import crossing_offsets, crossing_slopes, fit_laws, P_FLOOR, Trend
+from gear_phm.prognostics.fits import (crossing_offsets, crossing_slopes, forecast_law, P_FLOOR,
+                                       Trend)
 from gear_phm.prognostics.laws import LINEAR, POWER, PROPORTIONAL
 
 
@@ -69,20 +70,24 @@ def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
     return [float(ordered[max(math.ceil(p * n) - 1, 0)]) for p in probabilities]
 
 
-def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_systematic: float,
-                   spacing: float, errors: np.ndarray | None = None) -> np.ndarray:
-    """Return each draw's absolute time [s] of reaching ``u_eol`` (inf: never).
+@dataclass(frozen=True)
+class LawDraws:
+    """Each law's share of the draws (:func:`law_draws`): which draws, and their parameters.
 
-    Over the laws' parameter draws, each law taking its Akaike weight's share of the draws;
-    ``u_systematic`` [-] and the history's mean ``spacing`` [s] as in the module docstring.
-    ``errors``: the history's own relative forecast errors (:func:`forecast_errors`); each
-    draw takes one of them, rho, and its time to u_eol is divided by 1 + rho.
+    ``parts``: per law, (the law, its draws' mask, their time after t_end to u_eol [s],
+    rate [1/s], shape).
     """
-    if errors is not None and errors.size:
-        rho = errors[np.minimum((draws.errors * errors.size).astype(int), errors.size - 1)]
-    else:
-        rho = None
-    crossing = np.empty(draws.uniforms.size)
+
+    parts: tuple[tuple[Trend, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]
+
+
+def law_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float) -> LawDraws:
+    """Return the laws' parameter draws and their first passages of ``u_eol``.
+
+    Each law takes its Akaike weight's share of the draws (module docstring); the part of
+    :func:`crossing_draws` that does not depend on the forecast errors.
+    """
+    parts = []
     edges = np.cumsum([law.weight for law in laws])
     edges[-1] = 1.0
     lower = 0.0
@@ -106,6 +111,28 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
             rate = (law.u_end + drawn[0]) * shape
         offsets = crossing_offsets(
             law.model, u_eol - (law.u_end + drawn[0]), rate, shape, law.span)
+        parts.append((law, chosen, offsets, rate, shape))
+    return LawDraws(tuple(parts))
+
+
+def crossing_draws(laws: tuple[Trend, ...] | LawDraws, draws: Draws, u_eol: float,
+                   u_systematic: float, spacing: float, errors: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """Return each draw's absolute time [s] of reaching ``u_eol`` (inf: never).
+
+    Over the laws' parameter draws, each law taking its Akaike weight's share of the draws
+    (``laws``, or their :func:`law_draws` already made);
+    ``u_systematic`` [-] and the history's mean ``spacing`` [s] as in the module docstring.
+    ``errors``: the history's own relative forecast errors (:func:`forecast_errors`); each
+    draw takes one of them, rho, and its time to u_eol is divided by 1 + rho.
+    """
+    if errors is not None and errors.size:
+        rho = errors[np.minimum((draws.errors * errors.size).astype(int), errors.size - 1)]
+    else:
+        rho = None
+    shares = laws if isinstance(laws, LawDraws) else law_draws(laws, draws, u_eol)
+    crossing = np.empty(draws.uniforms.size)
+    for law, chosen, offsets, rate, shape in shares.parts:
         if rho is not None:
             offsets = np.where(offsets > 0.0, offsets / (1.0 + rho[chosen]), offsets)
         if u_systematic > 0.0:
@@ -119,7 +146,7 @@ def crossing_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float, u_system
     return crossing
 
 
-def crossing_quantiles(laws: tuple[Trend, ...], draws: Draws, u_eol: float,
+def crossing_quantiles(laws: tuple[Trend, ...] | LawDraws, draws: Draws, u_eol: float,
                        u_systematic: float, spacing: float, errors: np.ndarray | None = None
                        ) -> tuple[float, float, float]:
     """Return the 5/50/95 % quantiles [s] of :func:`crossing_draws` (inf: never)."""
@@ -135,8 +162,13 @@ ORIGINS = (0.4, 0.5, 0.6, 0.7, 0.8)
 RHO_LIMITS = (-0.75, 4.0)
 
 
+#: Laws fitted at forecast origins, by their model and points (:func:`forecast_errors`).
+ForecastCache = dict[tuple[str, int, bytes], Trend | None]
+
+
 def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Trend,
-                    min_points: int = 8, horizon: float = 0.0) -> np.ndarray:
+                    min_points: int = 8, horizon: float = 0.0,
+                    cache: ForecastCache | None = None) -> np.ndarray:
     """Return the history's own relative forecast errors rho [-], rolling origin.
 
     At each origin (:data:`ORIGINS` of the span of ``t`` [s, from the regime's start]) the
@@ -147,18 +179,25 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
     (:func:`crossing_draws`), with rho = 0, the present fit as it is, once too.
     An origin with too few points or no growth in its fit gives none. An error measured over
     a time h shorter than the ``horizon`` [s] the band is for (the RUL median) grows to it as
-    a diffusion does: log(1 + rho) times sqrt(horizon / h).
+    a diffusion does: log(1 + rho) times sqrt(horizon / h). ``cache``: the laws fitted at
+    origins before, by their exact points (an origin whose points did not change since the
+    last refit is not fitted again); the laws fitted now replace its content.
     """
+    fitted: ForecastCache = {}
     errors = [0.0]
     span = float(t[-1] - t[0]) if t.size else 0.0
     for fraction in ORIGINS:
         k = int(np.searchsorted(t, t[0] + fraction * span, side='right'))
         if k < min_points or k >= t.size:
             continue
-        past = fit_laws(t[:k], u[:k], precision[:k], law.model, min_points)
-        if not past or not past[0].slope > 0.0:
+        key = (law.model, min_points, t[:k].tobytes() + u[:k].tobytes() + precision[:k].tobytes())
+        if cache is not None and key in cache:
+            earlier = cache[key]
+        else:
+            earlier = forecast_law(t[:k], u[:k], precision[:k], law.model, min_points)
+        fitted[key] = earlier
+        if earlier is None or not earlier.slope > 0.0:
             continue
-        earlier = past[0]
         actual = float(t[-1]) - earlier.t_end
         if not actual > 0.0:
             continue
@@ -173,4 +212,7 @@ def forecast_errors(t: np.ndarray, u: np.ndarray, precision: np.ndarray, law: Tr
             rho = min(max(rho, RHO_LIMITS[0]), RHO_LIMITS[1])
         # as likely either way: the band widens both ways, the median stays the fit's
         errors.extend((rho, 1.0 / (1.0 + rho) - 1.0))
+    if cache is not None:
+        cache.clear()
+        cache.update(fitted)
     return np.array(errors)

@@ -19,6 +19,7 @@ points. The rise of each law over the span T: r T (linear), r (1 - exp(-k T)) / 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import functools
 import math
 
 import numpy as np
@@ -136,8 +137,7 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     last = n - max(int(min_points), int(math.ceil(REGIME_MIN_SHARE * n)))
     if last <= 0:
         return RegimeStart(0, float(t[0]) if n else 0.0)
-    index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
-                      .astype(int))
+    index = _candidates(last)
     rss, rss0 = _hinge_rss(t, u, precision, index)
     best_per_tau = rss.min(axis=1)
     coarse = int(np.argmin(best_per_tau))
@@ -170,6 +170,18 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
 
 
+@functools.lru_cache(maxsize=512)
+def _candidates(last: int) -> np.ndarray:
+    """Return the candidate taus' bins: at most HINGE_CANDIDATES, evenly over 0..``last``.
+
+    Read-only (cached).
+    """
+    index = np.unique(np.linspace(0, last, min(HINGE_CANDIDATES, last + 1)).round()
+                      .astype(int))
+    index.flags.writeable = False
+    return index
+
+
 def _rising_before(t: np.ndarray, design: np.ndarray, beta: np.ndarray, w: np.ndarray,
                    scale: float, start: int) -> bool:
     """Whether u rises before the hinge's tau: its slope d there is significant and not small.
@@ -194,20 +206,48 @@ def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """Return the hinge's rss per (tau = t[index], p), and without its wear part per tau.
 
-    inf where the wear part a <= 0 (:func:`regime_start`).
+    inf where the wear part a <= 0 (:func:`regime_start`). All candidates in one pass: the
+    normal equations from the weighted sums of the columns (pre and post never overlap, so
+    their cross term is 0), as :func:`_wls_rss` would solve them one design at a time.
     """
     d = t[None, :] - t[index][:, None]                      # (m, n)
     pre = np.minimum(d, 0.0)
     post = np.maximum(d, 0.0)
-    ones = np.ones_like(d)
-    # the model without the wear part: c + d min(t - tau, 0)
-    rss0 = _wls_rss(np.stack([ones, pre], axis=-1), u, w)[0]
     wear = post[:, None, :] ** HINGE_EXPONENTS[None, :, None]          # (m, e, n)
+    wu = w * u
+    sw, su = w.sum(), float(wu.sum())
+    sp, spp, spu = pre @ w, (pre * pre) @ w, pre @ wu                  # (m,)
+    sq, sqq, squ = wear @ w, (wear * wear) @ w, wear @ wu              # (m, e)
+    # the model without the wear part: c + d min(t - tau, 0)
     m, e = wear.shape[:2]
-    design = np.stack([np.broadcast_to(ones[:, None, :], wear.shape),
-                       np.broadcast_to(pre[:, None, :], wear.shape), wear], axis=-1)
-    rss, beta = _wls_rss(design.reshape(m * e, t.size, 3), u, w)
-    return np.where(beta[:, 2] > 0.0, rss, np.inf).reshape(m, e), rss0
+    gram0 = np.empty((m, 2, 2))
+    gram0[:, 0, 0], gram0[:, 0, 1], gram0[:, 1, 0], gram0[:, 1, 1] = sw, sp, sp, spp
+    beta0 = _solve(gram0, np.stack([np.full(m, su), spu], axis=-1))
+    fitted0 = beta0[:, :1] + beta0[:, 1:] * pre
+    rss0 = ((u[None, :] - fitted0) ** 2 * w[None, :]).sum(axis=1)
+    gram = np.zeros((m, e, 3, 3))
+    gram[..., 0, 0] = sw
+    gram[..., 0, 1] = gram[..., 1, 0] = sp[:, None]
+    gram[..., 1, 1] = spp[:, None]
+    gram[..., 0, 2] = gram[..., 2, 0] = sq
+    gram[..., 2, 2] = sqq
+    right = np.stack([np.full((m, e), su), np.broadcast_to(spu[:, None], (m, e)), squ], axis=-1)
+    beta = _solve(gram.reshape(m * e, 3, 3), right.reshape(m * e, 3)).reshape(m, e, 3)
+    fitted = beta[..., :1] + beta[..., 1:2] * pre[:, None, :] + beta[..., 2:] * wear
+    rss = ((u[None, None, :] - fitted) ** 2 * w[None, None, :]).sum(axis=2)
+    return np.where(beta[..., 2] > 0.0, rss, np.inf), rss0
+
+
+def _solve(gram: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Return the coefficients of the normal equations gram (k, q, q) beta = right (k, q).
+
+    A ridge of 1e-12 of the largest diagonal element; a column that is zero throughout (tau
+    at the first bin: no 'before') gets a coefficient 0.
+    """
+    diagonal = np.einsum('kii->ki', gram)
+    ridge = 1e-12 * diagonal.max(axis=1, keepdims=True) + (diagonal == 0.0)
+    gram = gram + ridge[:, :, None] * np.eye(gram.shape[2])[None, :, :]
+    return np.asarray(np.linalg.solve(gram, right[:, :, None])[:, :, 0])
 
 
 def _wls_rss(design: np.ndarray, u: np.ndarray, w: np.ndarray
@@ -219,10 +259,7 @@ def _wls_rss(design: np.ndarray, u: np.ndarray, w: np.ndarray
     weighted = design * w[None, :, None]
     gram = np.einsum('kni,knj->kij', weighted, design)
     right = np.einsum('kni,n->ki', weighted, u)
-    diagonal = np.einsum('kii->ki', gram)
-    ridge = 1e-12 * diagonal.max(axis=1, keepdims=True) + (diagonal == 0.0)
-    gram = gram + ridge[:, :, None] * np.eye(design.shape[2])[None, :, :]
-    beta = np.linalg.solve(gram, right[:, :, None])[:, :, 0]
+    beta = _solve(gram, right)
     fitted = np.einsum('kni,ki->kn', design, beta)
     rss = ((u[None, :] - fitted) ** 2 * w[None, :]).sum(axis=1)
     return rss, beta

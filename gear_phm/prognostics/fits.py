@@ -139,24 +139,28 @@ def _profile(basis: np.ndarray, u: np.ndarray, w: np.ndarray
     return rss, np.where(valid, b0, 0.0), np.where(valid, b1, 0.0)
 
 
-def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float
-           ) -> tuple[np.ndarray, np.ndarray]:
+def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: float,
+           derivative: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Return the rows g(s; shape), one per shape, and their derivatives in shape.
 
-    See the module docstring; s = t - t_end [s], x = tau / T [-].
+    See the module docstring; s = t - t_end [s], x = tau / T [-]. Not ``derivative``: no
+    derivatives (None; a shape grid's profile needs only g).
     """
     shape = np.asarray(shape, dtype=float)[:, None]
+    dg = None
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         if model in EXPONENTIAL_FORM:
             ks = shape * s
-            e = np.exp(ks)
-            g = np.expm1(ks) / shape
-            dg = (ks * e - np.expm1(ks)) / (shape * shape)
+            growth = np.expm1(ks)
+            g = growth / shape
+            if derivative:
+                dg = (ks * np.exp(ks) - growth) / (shape * shape)
         else:
             xp = np.power(x, shape)
-            logx = np.log(np.where(x > 0.0, x, 1.0))
             g = span / shape * (xp - 1.0)
-            dg = span * (xp * logx * shape - (xp - 1.0)) / (shape * shape)
+            if derivative:
+                logx = np.log(np.where(x > 0.0, x, 1.0))
+                dg = span * (xp * logx * shape - (xp - 1.0)) / (shape * shape)
     return g, dg
 
 
@@ -295,7 +299,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
         return _Fit(LINEAR, np.array([b0[0], b1[0]]), float(rss[0]),
                     np.column_stack([np.ones_like(s), s]))
     grid = K_SPAN_GRID / span if model == EXPONENTIAL else P_GRID
-    g, _ = _basis(model, grid, s, x, span)
+    g, _ = _basis(model, grid, s, x, span, derivative=False)
     rss, _, _ = _profile(g, u, w)
     if prior is not None:
         rss = rss + prior[1] * prior[0].penalty(grid)
@@ -309,17 +313,18 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
         rss2 = rss2 + prior[1] * prior[0].penalty(np.array([shape, float(grid[best])]))
     i = 0 if rss2[0] <= rss2[1] else 1
     shape = shape if i == 0 else float(grid[best])
+    assert dg is not None
     jacobian = np.column_stack([np.ones_like(s), g[i], b1[i] * dg[i]])
     return _Fit(model, np.array([b0[i], b1[i], shape]), float(rss2[i]), jacobian,
                 (grid, rss), free=3)
 
 
 def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
-                shape_information: float = 0.0) -> np.ndarray | None:
+                shape_information: float = 0.0, inverse: bool = True) -> np.ndarray | None:
     """Return scale (J^T W J + scale P)^-1, with column equilibration; None when singular.
 
     P is zero but for ``shape_information`` [1/shape^2] on the shape (the last parameter: a
-    prior's).
+    prior's). Not ``inverse``: the equilibrated matrix only (None as well when singular).
     """
     m = jacobian.T @ (jacobian * w[:, None])
     if shape_information > 0.0:
@@ -328,8 +333,13 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     if not np.all(d > 0.0):
         return None
     normalised = m / np.outer(d, d)
-    if not np.linalg.cond(normalised) < 1e12:
+    singular = np.linalg.svd(normalised, compute_uv=False)     # np.linalg.cond's 2-norm
+    with np.errstate(divide='ignore', invalid='ignore'):
+        condition = singular[0] / singular[-1]
+    if not condition < 1e12:
         return None
+    if not inverse:
+        return normalised
     return np.asarray(scale * np.linalg.inv(normalised) / np.outer(d, d))
 
 
@@ -407,6 +417,32 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
 
 
+def forecast_law(t: np.ndarray, u: np.ndarray, precision: np.ndarray, model: str,
+                 min_points: int = 8) -> Trend | None:
+    """Return the law ``model`` as :func:`fit_laws` fits it alone, without its covariance.
+
+    Its model, t_end, u_end, slope, shape and span only (for a forecast); None where
+    :func:`fit_laws` returns no law.
+    """
+    n = t.size
+    if n < min_points or not t[-1] > t[0]:
+        return None
+    t_end = float(t[-1])
+    s, span = t - t_end, t_end
+    x = np.clip(t / span, 0.0, None)
+    fit = _fit_model(model, s, x, span, u, precision)
+    if fit is None:
+        return None
+    residuals = np.sqrt(precision) * (u - _fitted_values(fit, s, x, span))
+    n_eff = _effective_points(residuals)
+    scale = max(fit.rss / max(n - fit.free, 1), 1.0) * n / n_eff
+    if not n_eff > fit.free + 1.0 or _covariance(fit.jacobian, precision, scale,
+                                                 inverse=False) is None:
+        return None
+    return Trend(model, t_end, float(fit.params[0]), float(fit.params[1]),
+                 shape=float(fit.params[2]) if model != LINEAR else 0.0, span=span)
+
+
 def _akaike_weights(aicc: list[float]) -> np.ndarray:
     """Return the Akaike weights exp(-AICc / 2), normalised, of the laws in that order."""
     values = np.array(aicc)
@@ -444,7 +480,7 @@ def _fitted_values(fit: _Fit, s: np.ndarray, x: np.ndarray, span: float) -> np.n
     """Return the fit's u at the history's times."""
     if fit.model == LINEAR:
         return np.asarray(fit.params[0] + fit.params[1] * s)
-    g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span)
+    g, _ = _basis(fit.model, np.array([fit.params[2]]), s, x, span, derivative=False)
     return np.asarray(fit.params[0] + fit.params[1] * g[0])
 
 

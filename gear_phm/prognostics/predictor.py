@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from gear_phm.persistence import decode_floats, encode_floats
-from gear_phm.prognostics.calibration import crossing_quantiles, Draws, forecast_errors
+from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecast_errors,
+                                              ForecastCache, law_draws, LawDraws)
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
@@ -110,6 +111,8 @@ class RulPredictor:
         #: widen the band by the history's own rolling-origin forecast errors
         self.calibrated = bool(calibrated)
         self._errors: np.ndarray | None = None
+        #: the laws fitted at the forecast origins of the last refit (:func:`forecast_errors`)
+        self._forecasts: ForecastCache = {}
         self.history = WearHistory(max_points)
         self._draws = Draws.seeded(seed, int(mc_samples))
         #: number of fits so far (the cost is bounded: tests count them)
@@ -222,16 +225,19 @@ class RulPredictor:
             z *= max(DETECT_MIN_POINTS / laws[0].effective_points, 1.0)
         self.detected = bool(laws) and rise(laws[0], t, u, precision) > z * rise_sigma(
             t, precision, history.independent, laws[0].scale)
-        self._crossing = self._crossing_quantiles(laws) if self.detected \
+        # the laws' parameter draws, made once for the median and the calibrated band
+        shares = law_draws(laws, self._draws, self.u_eol) if self.detected else None
+        self._crossing = self._crossing_quantiles(shares) if shares is not None \
             else (math.inf, math.inf, math.inf)
         # the history's own forecast errors, grown to the horizon of the median
         self._errors = forecast_errors(
             t, u, precision, laws[0], self.min_points,
-            self._crossing[1] - laws[0].t_end) \
+            self._crossing[1] - laws[0].t_end, self._forecasts) \
             if self.detected and self.calibrated and history.independent else None
         if self._errors is not None and self._errors.size > 1:
             # the band also holds the history's own forecast errors; the median is the fit's
-            p5, _, p95 = crossing_quantiles(laws, self._draws, self.u_eol, self.u_systematic,
+            p5, _, p95 = crossing_quantiles(laws if shares is None else shares, self._draws,
+                                            self.u_eol, self.u_systematic,
                                             self.history.spacing, self._errors)
             self._crossing = (min(self._crossing[0], p5), self._crossing[1],
                               max(self._crossing[2], p95))
@@ -244,7 +250,8 @@ class RulPredictor:
             p5 = self._crossing_quantiles(_renormalised(every))[0]
             self._crossing = (min(self._crossing[0], p5), self._crossing[1], self._crossing[2])
 
-    def _crossing_quantiles(self, laws: tuple[Trend, ...]) -> tuple[float, float, float]:
+    def _crossing_quantiles(self, laws: tuple[Trend, ...] | LawDraws
+                            ) -> tuple[float, float, float]:
         """Return the 5/50/95 % quantiles of the absolute time [s] of reaching u_eol.
 
         inf: never (:func:`~gear_phm.prognostics.calibration.crossing_quantiles`).
