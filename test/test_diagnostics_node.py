@@ -104,6 +104,7 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         wait_for(ros, lambda: arrays[-1].status[0].level == b'\x03', 5.0, 'STALE')
         assert time.monotonic() - stopped < 0.5 + 0.5       # timeout + 10 status periods
         ros.destroy_subscription(sub)
+        ros.destroy_subscription(rul)
         assert stop(proc, signal.SIGTERM) == 0
     finally:
         stop(proc, signal.SIGKILL)                        # only if still running

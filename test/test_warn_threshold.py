@@ -50,7 +50,10 @@ def test_default_warn_threshold_of_a_gearbox_close_to_its_end_of_life(tmp_path: 
     assert set(h.level[t >= first].tolist()) == {WARN}       # one transition, held
     values = analysis.summary['health']['values']
     eta_healthy, eta_warn = float(values['eta_healthy']), float(values['eta_warn'])
-    assert eta_healthy == pytest.approx(0.94, abs=0.002)
+    # learned at the first estimate with sigma_u <= HEALTHY_SETTLED_SHARE (u_eol - u), here
+    # 0.0021 in u, 0.002 in eta_D: within 2.5 of those sigma (0.9443 since the window
+    # variance holds the rotor inertia until it is learned; 0.9407 before)
+    assert eta_healthy == pytest.approx(0.94, abs=0.005)
     assert eta_warn == pytest.approx(0.92 + 0.25 * (eta_healthy - 0.92), rel=1e-12)
     assert 0.92 < eta_warn < eta_healthy
     # an explicit eta_warn still wins

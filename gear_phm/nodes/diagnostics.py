@@ -207,9 +207,9 @@ class Channel:
         """Latest state, turned STALE when the last input is older than stale_timeout.
 
         Before any input: OK "waiting for data" (nothing is known to be wrong). STALE only
-        once input has been seen and has stopped. A drive of many whose input stopped for a
-        quarter of its stale_timeout, and whose newest stamp is that far behind the other
-        drives', while another drive's input still arrives, is WARN first.
+        once input has been seen and has stopped. A drive of many is WARN first while another
+        drive's input still arrives: once silent for 3/4 of its stale_timeout, or for half
+        of it with its newest stamp a quarter of it behind the other drives'.
         """
         latest = self.assessor.latest
         if self.last_arrival_ns is None:
@@ -221,9 +221,10 @@ class Channel:
         if silence >= timeout:
             return latest.as_stale(silence)
         others = self.node.last_arrival_ns
-        if self.drive is not None and silence >= timeout / 4 and others is not None \
+        if self.drive is not None and others is not None \
                 and (now_ns - others) * 1e-9 < timeout / 4 \
-                and self._behind_others() >= timeout / 4:
+                and (silence >= 0.75 * timeout
+                     or silence >= timeout / 2 and self._behind_others() >= timeout / 4):
             return replace(latest, level=max(latest.level, WARN),
                            message=f'no estimator input for {silence:.3g} s while other '
                                    f'drives have input (last: {latest.message})')
