@@ -2,7 +2,7 @@
 
 Lever plant R 50 whose eta_D (0.85, u 0.17241) and eta_I (0.80, u 0.19691) do not come from
 one u (``direction_offset`` 0.0245), that does not wear. The publisher replays 60 s of it at
-500 Hz twice as fast as real time to the estimator and diagnostics nodes, started with the
+250 Hz twice as fast as real time to the estimator and diagnostics nodes, started with the
 ratio (and ``eta_opposing_min`` only, 0.80: the derived WARN efficiency must come from the
 learned healthy eta_D, not be read as wear). Before the direction offset was a state of the
 filter, u switched between the two readings at every change of load direction, the published
@@ -28,7 +28,7 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 RATIO = 50.0
 U = 0.17241
 OFFSET = 0.0245
-RATE = 500.0
+RATE = 250.0
 DURATION = 60.0
 SETTLED = 10.0           # s of bag time before the efficiencies are held to their truth
 PLANT = {'plant': 'lever', 'ratio': RATIO, 'friction_initial': U, 'direction_offset': OFFSET,

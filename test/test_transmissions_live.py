@@ -136,7 +136,7 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
         tmp_path: Path) -> None:
     parameters = bench_parameters(8)
     params_file = write_parameters(tmp_path / 'bench.yaml', parameters)
-    seconds, cut, cut_at = 14.0, 7, 8.0
+    seconds, cut, cut_at = 11.0, 7, 6.0
     messages, truth = bench_messages(parameters, seconds, cut, cut_at)
     state_file = tmp_path / 'estimator.json'
     estimator = start('estimator', params_file, 'diagnostics_period:=0.05',
