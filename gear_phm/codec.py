@@ -170,12 +170,17 @@ def _joint_layout(raw: bytes, motor_joint: str, load_joint: str
 
 # --- many payloads at once (numpy) -------------------------------------------------------------
 
-def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str) -> JointBatch:
-    """Decode a list of JointState CDR payloads; see :func:`decode_joint_state_buffer`."""
-    lengths = np.fromiter((len(r) for r in raws), dtype=np.int64, count=len(raws))
+def packed(raws: Sequence[bytes]) -> tuple[bytes, np.ndarray, np.ndarray]:
+    """Return ``raws`` as one buffer, each payload's offset and length (decoders' input)."""
+    lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
     offsets = np.zeros(len(raws), dtype=np.int64)
     np.cumsum(lengths[:-1], out=offsets[1:])
-    return decode_joint_state_buffer(b''.join(raws), offsets, lengths, motor_joint, load_joint)
+    return b''.join(raws), offsets, lengths
+
+
+def decode_joint_states(raws: Sequence[bytes], motor_joint: str, load_joint: str) -> JointBatch:
+    """Decode a list of JointState CDR payloads; see :func:`decode_joint_state_buffer`."""
+    return decode_joint_state_buffer(*packed(raws), motor_joint, load_joint)
 
 
 def decode_joint_state_buffer(buffer: bytes | memoryview, offsets: np.ndarray,

@@ -22,11 +22,10 @@ import struct
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
-import numpy as np
 from rclpy.node import Node
 
 from gear_phm import interfaces
-from gear_phm.codec import decode_joint_state_pairs
+from gear_phm.codec import decode_joint_state_pairs, packed
 from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
@@ -137,10 +136,7 @@ class DrivesEstimator:
             return
         self.raws = []
         now = self.node.get_clock().now().nanoseconds
-        lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
-        offsets = np.zeros(len(raws), dtype=np.int64)
-        np.cumsum(lengths[:-1], out=offsets[1:])
-        batches = decode_joint_state_pairs(b''.join(raws), offsets, lengths, self.pairs)
+        batches = decode_joint_state_pairs(*packed(raws), self.pairs)
         for d, batch in zip(self.drives, batches):
             pipeline = d.pipeline
             for reason, count in Counter(reason for _, reason in batch.rejected_at).items():
