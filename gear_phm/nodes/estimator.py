@@ -41,7 +41,7 @@ from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
-from gear_phm.nodes.state import state_parameters, StateKeeper
+from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
@@ -75,8 +75,7 @@ def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
 
 def state_identity(values: dict[str, Any]) -> dict[str, Any]:
     """Return what a state_file must match: the ratio and the joint names."""
-    return {'ratio': float(values['ratio']), 'motor_joint': values['motor_joint'],
-            'load_joint': values['load_joint']}
+    return estimator_identity(values['ratio'], values['motor_joint'], values['load_joint'])
 
 
 def joint_names_problem(values: dict[str, Any]) -> str:

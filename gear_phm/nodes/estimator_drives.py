@@ -29,7 +29,8 @@ from gear_phm.codec import decode_joint_state_pairs, packed
 from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
-from gear_phm.nodes.state import DRIVES_IDENTITY, drives_restorer, drives_state, StateKeeper
+from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
+                                  estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.status import WARN
@@ -57,8 +58,8 @@ class _Drive:
     @property
     def identity(self) -> dict[str, Any]:
         """Return what the state file must match for this drive."""
-        return {'ratio': self.drive.ratio, 'motor_joint': self.drive.motor_joint,
-                'load_joint': self.drive.load_joint}
+        drive = self.drive
+        return estimator_identity(drive.ratio, drive.motor_joint, drive.load_joint)
 
     def watch(self, now_ns: int) -> None:
         """Flag a sensor timeout once this drive has had no sample for its sensor_timeout."""

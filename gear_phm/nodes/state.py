@@ -135,6 +135,11 @@ class StateKeeper:
 DRIVES_IDENTITY: dict[str, Any] = {'transmissions': True}
 
 
+def estimator_identity(ratio: float, motor_joint: str, load_joint: str) -> dict[str, Any]:
+    """Return what an estimator's state must match: the ratio [-] and the joint names."""
+    return {'ratio': float(ratio), 'motor_joint': motor_joint, 'load_joint': load_joint}
+
+
 def drives_state(parts: Mapping[str, tuple[Mapping[str, Any], dict[str, Any], int | None]]
                  ) -> tuple[dict[str, Any], int | None]:
     """Return (state, newest stamp [ns]) of many drives for :class:`StateKeeper`.
