@@ -94,14 +94,20 @@ def test_fast_vector3_cdr_matches_rosbags(frame_id: str) -> None:
                           st.lists(st.tuples(st.text(max_size=7), st.text(max_size=7)),
                                    max_size=4)), max_size=3))
 def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list) -> None:
-    """Every string length mod 4 (alignment), unicode, empty arrays and lists."""
-    from gear_phm.bagio.writer import diagnostic_array_cdr, to_rosbags
+    """Every string length mod 4 (alignment), unicode, empty arrays and lists; packed alone
+    and, by numpy, among others (diagnostic_arrays_cdr)."""
+    from gear_phm.bagio.writer import diagnostic_array_cdr, diagnostic_arrays_cdr, to_rosbags
     output = DiagnosticsOut(stamp_ns, tuple(StatusOut(level, name, message, hardware_id,
                                                       tuple(values))
                                             for level, name, message, hardware_id, values
                                             in statuses))
     reference = TYPESTORE.serialize_cdr(to_rosbags(output), 'diagnostic_msgs/msg/DiagnosticArray')
     assert diagnostic_array_cdr(output) == bytes(reference)
+    empty = DiagnosticsOut(stamp_ns, ())
+    reversed_output = DiagnosticsOut(stamp_ns, output.statuses[::-1])
+    assert diagnostic_arrays_cdr([output, empty, reversed_output, output]) == [
+        bytes(reference), diagnostic_array_cdr(empty), diagnostic_array_cdr(reversed_output),
+        bytes(reference)]
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 import functools
+import itertools
 import os
 from pathlib import Path
 import struct
@@ -130,8 +131,13 @@ class Rosbag2McapWriter:
                 self.add_topic(output.topic, VECTOR3_STAMPED_TYPE)
             self.write_raw(output.topic, t_ns, vector3_stamped_cdr(output))
             return
+        self._write_array(output, diagnostic_array_cdr(output), t_ns)
+
+    def _write_array(self, output: DiagnosticsOut, payload: bytes, t_ns: int | None = None
+                     ) -> None:
+        """Append a DiagnosticArray's CDR ``payload`` (adds its topic on first use)."""
         self.add_topic(output.topic, DIAGNOSTIC_ARRAY_TYPE)
-        self.write_raw(output.topic, t_ns, diagnostic_array_cdr(output))
+        self.write_raw(output.topic, output.stamp_ns if t_ns is None else t_ns, payload)
 
     def write_outputs(self, outputs: Iterable[Vector3Out | DiagnosticsOut]) -> None:
         """Append many output records in order, each at its own stamp (the batch path of
@@ -168,13 +174,15 @@ class Rosbag2McapWriter:
         publish them): the same file content as :meth:`write_outputs` of the same records.
         With ``batch`` the whole block is packed at once (:mod:`gear_phm.bagio.batch_writer`).
         ``between``: (limit [ns], record) pairs, limits ascending; each record is written
-        after the messages stamped at or before its limit and before the later ones.
+        after the messages stamped at or before its limit and before the later ones (packed
+        all at once, :func:`diagnostic_arrays_cdr`).
         """
         columns = [(topic, np.asarray(stamps, dtype=np.int64), np.asarray(xyz, dtype=float))
                    for topic, stamps, xyz in columns if len(stamps)]
+        payloads = iter(diagnostic_arrays_cdr([record for _, record in between]))
         if not columns:
             for _, record in between:
-                self.write_output(record)
+                self._write_array(record, next(payloads))
             return
         for topic, _, _ in columns:
             if absolute_topic(topic) not in self._topics:
@@ -196,7 +204,7 @@ class Rosbag2McapWriter:
                                     for i in order[begin:cut]])
                 begin = cut
                 if extra is not None:
-                    self.write_output(extra)
+                    self._write_array(extra, next(payloads))
             return
         channel = np.array([e.channel_id for e in entries])[rank][order]
         sequence = np.concatenate([e.count + np.arange(len(c[1]))
@@ -214,7 +222,7 @@ class Rosbag2McapWriter:
                 self._maybe_flush()
             begin = cut
             if extra is not None:
-                self.write_output(extra)
+                self._write_array(extra, next(payloads))
 
     def write_groups(self, parts: Sequence[tuple[str, np.ndarray, np.ndarray]]) -> None:
         """Append N groups of CDR payloads: group g is part 0's messages g, then part 1's, ...
@@ -351,6 +359,97 @@ def diagnostic_array_cdr(output: DiagnosticsOut) -> bytes:
     return b''.join(parts)
 
 
+def diagnostic_arrays_cdr(outputs: Sequence[DiagnosticsOut]) -> list[bytes]:
+    """Return :func:`diagnostic_array_cdr` of each output, all packed at once by numpy.
+
+    The Python work is per status (its strings gathered into one list); the sizes, the
+    alignment and the bytes of every string are placed with array operations, the strings
+    encoded in one piece (the tests check the bytes equal :func:`diagnostic_array_cdr`'s).
+    """
+    if not outputs:
+        return []
+    strings: list[str] = []
+    levels: list[int] = []
+    counts: list[int] = []                      # KeyValue pairs per status
+    statuses = [len(output.statuses) for output in outputs]
+    chain = itertools.chain.from_iterable
+    for output in outputs:
+        for status in output.statuses:
+            levels.append(status.level)
+            counts.append(len(status.values))
+            strings += (status.name, status.message, status.hardware_id)
+            strings += chain(status.values)
+    per_status = np.array(counts, dtype=np.int64)
+    lengths, blob = _encoded(strings)
+    # pieces in order: per output its head, per status its level byte (and padding), name,
+    # message, hardware_id, the count of values, then the keys and values
+    in_status = 5 + 2 * per_status
+    status_output = np.repeat(np.arange(len(outputs)), statuses)
+    status_first = _before(in_status) + status_output + 1
+    head_piece = np.arange(len(outputs)) + _before(np.bincount(
+        status_output, weights=in_status, minlength=len(outputs)).astype(np.int64))
+    strings_in = 3 + 2 * per_status
+    local = np.arange(len(strings)) - np.repeat(_before(strings_in), strings_in)
+    string_piece = (np.repeat(status_first, strings_in) + 1 + local + (local >= 3))
+    sizes = np.empty(len(outputs) + int(in_status.sum()), dtype=np.int64)
+    sizes[head_piece] = _DIAGNOSTIC_HEAD.itemsize
+    sizes[status_first + 4] = 4
+    padded = 4 + (lengths + 4) // 4 * 4        # the length, UTF-8, NUL and padding to 4
+    last = per_status > 0                      # the status's last string goes unpadded
+    ends = np.cumsum(strings_in) - 1
+    padded[ends[last]] = 4 + lengths[ends[last]] + 1
+    sizes[string_piece] = padded
+    # a level byte follows a 4-aligned end, or a status's unpadded last string
+    after = np.zeros(per_status.size, dtype=np.int64)
+    follows = np.flatnonzero(np.diff(status_output) == 0) + 1      # not an output's first
+    ended = last[follows - 1]
+    after[follows[ended]] = (lengths[ends[follows[ended] - 1]] + 1) % 4
+    sizes[status_first] = 1 + (-(after + 1)) % 4
+    offsets = np.concatenate(([0], np.cumsum(sizes)))
+    data = np.zeros(int(offsets[-1]), dtype=np.uint8)
+    heads = np.zeros(len(outputs), dtype=_DIAGNOSTIC_HEAD)
+    sec, nanosec = np.divmod(np.array([o.stamp_ns for o in outputs], dtype=np.int64),
+                             1_000_000_000)
+    heads['encapsulation'] = np.void(_ARRAY_HEAD)
+    heads['sec'], heads['nanosec'] = sec, nanosec
+    heads['frame'] = np.void(_EMPTY_FRAME)
+    heads['statuses'] = statuses
+    _scatter(data, offsets[head_piece], heads.view(np.uint8))
+    data[offsets[status_first]] = levels
+    _scatter(data, offsets[status_first + 4], per_status.astype('<u4').view(np.uint8))
+    _scatter(data, offsets[string_piece], (lengths + 1).astype('<u4').view(np.uint8))
+    starts = offsets[string_piece] + 4          # the strings' bytes: where a run is open
+    edges = np.zeros(data.size + 1, dtype=np.int8)
+    edges[starts] = 1
+    edges[starts + lengths] -= 1                # unique: a string starts after a length
+    data[np.cumsum(edges[:-1], dtype=np.int8).view(bool)] = np.frombuffer(blob, np.uint8)
+    cuts = offsets[np.append(head_piece, sizes.size)].tolist()
+    packed = data.tobytes()
+    return [packed[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _encoded(strings: list[str]) -> tuple[np.ndarray, bytes]:
+    """Return (UTF-8 byte length of each string, all of them encoded back to back)."""
+    blob = ''.join(strings).encode()
+    lengths = np.fromiter(map(len, strings), dtype=np.int64, count=len(strings))
+    if len(blob) != int(lengths.sum()):         # not all ASCII: lengths in bytes
+        encoded = [text.encode() for text in strings]
+        lengths = np.fromiter(map(len, encoded), dtype=np.int64, count=len(encoded))
+    return lengths, blob
+
+
+def _before(sizes: np.ndarray) -> np.ndarray:
+    """Return the exclusive cumulative sum: where each of consecutive pieces starts."""
+    return np.cumsum(sizes) - sizes
+
+
+def _scatter(data: np.ndarray, starts: np.ndarray, rows: np.ndarray) -> None:
+    """Copy equal-sized byte rows (``rows`` flat, one row per start) to ``data[starts:]``."""
+    if starts.size:
+        width = rows.size // starts.size
+        data[(starts[:, None] + np.arange(width)).ravel()] = rows
+
+
 def _cdr_text(text: str) -> bytes:
     """A CDR string that starts 4-aligned (uint32 length with the NUL, UTF-8, NUL), padded
     to a multiple of 4 bytes."""
@@ -369,6 +468,9 @@ _ARRAY_HEAD = b'\x00\x01\x00\x00'             # CDR little-endian encapsulation
 _EMPTY_FRAME = _UINT32.pack(1) + bytes(4)       # header.frame_id '' at offset 8, padded
 #: A status's level byte at an offset of remainder r (mod 4), with the padding after it that
 #: aligns its name: ``_LEVEL_HEADS[level][r]``.
+#: The head of a DiagnosticArray: encapsulation, stamp, the empty frame_id, status count.
+_DIAGNOSTIC_HEAD = np.dtype([('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4'),
+                             ('frame', 'V8'), ('statuses', '<u4')])
 _LEVEL_HEADS = tuple(tuple(bytes((level,)) + bytes(-(r + 1) % 4) for r in range(4))
                      for level in range(256))
 
