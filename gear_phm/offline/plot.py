@@ -55,9 +55,8 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     is bounded whatever the length of the bags and no excursion is lost. ``drive``: the
     drive's name in the title, for one drive of many.
     """
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     e = analysis.envelopes.get(ESTIMATES)
     if e is None or e.stamp_ns.size == 0:
@@ -69,8 +68,12 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
 
     t = seconds(e.stamp_ns)
     t_end = max(float(t[-1]), float(seconds(analysis.estimates.stamp_ns[-1:]).max(initial=0.0)))
-    fig, (ax_eta, ax_u, ax_rul, ax_level) = plt.subplots(
-        4, 1, sharex=True, figsize=(10, 11), gridspec_kw={'height_ratios': [3, 3, 3, 0.5]})
+    # a Figure on its own Agg canvas: no pyplot (its import and figure manager cost more
+    # than the drawing)
+    fig = Figure(figsize=(10, 11))
+    FigureCanvasAgg(fig)
+    ax_eta, ax_u, ax_rul, ax_level = fig.subplots(
+        4, 1, sharex=True, gridspec_kw={'height_ratios': [3, 3, 3, 0.5]})
     # fixed margins: a layout engine (tight or constrained) measures every text first and
     # cost more than the drawing
     fig.subplots_adjust(left=0.085, right=0.985, top=0.975, bottom=0.045, hspace=0.08)
@@ -141,8 +144,7 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
         _plot_rul(ax_rul, h, t0, None if eol_ns is None else (eol_ns - t0) * 1e-9, t_end)
         _plot_levels(ax_level, seconds(h.stamp_ns), h.high['level'].astype(int))
     ax_level.set_xlabel('bag time [s]')
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    fig.savefig(path, dpi=110, pil_kwargs={'compress_level': 1})
 
 
 def _band(ax: Any, t: np.ndarray, low: np.ndarray, high: np.ndarray, colour: str) -> None:
