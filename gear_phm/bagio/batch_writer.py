@@ -111,22 +111,13 @@ class BatchWriter:
         ``payloads`` is (N, L) uint8. Times [ns] are int64 >= 0; publish times default to the
         log times, sequences to 0.
         """
-        n = len(log_times)
-        if n == 0:
-            return
-        width = payloads.shape[1]
-        log = np.asarray(log_times, dtype=np.int64)
-        if log.min() < 0:
-            raise ValueError('MCAP log times are unsigned: got a negative time')
-        records = np.empty(n, dtype=message_dtype(width))
-        records['op'] = Opcode.MESSAGE
-        records['length'] = MESSAGE_FIELDS + width
-        records['channel'] = channel_ids
-        records['sequence'] = 0 if sequences is None else sequences
-        records['log_time'] = log
-        records['publish_time'] = log if publish_times is None else publish_times
-        records['data'] = np.ascontiguousarray(payloads, dtype=np.uint8).view(f'V{width}')[:, 0]
-        channels = np.asarray(channel_ids)
+        if len(log_times):
+            self.add_packed(*pack_block(channel_ids, log_times, payloads, publish_times,
+                                        sequences))
+
+    def add_packed(self, records: np.ndarray, channels: np.ndarray, log: np.ndarray) -> None:
+        """Append the message records of :func:`pack_block` (or a slice of them), in order."""
+        n = len(records)
         item = records.itemsize
         begin = 0
         while begin < n:                 # chunks end where mcap's Writer would end them
@@ -295,6 +286,28 @@ class BatchWriter:
                                          summary_offset_start=summary_offset_start,
                                          summary_crc=crc)))
         self._stream.write(MAGIC)
+
+
+def pack_block(channel_ids: np.ndarray, log_times: np.ndarray, payloads: np.ndarray,
+               publish_times: np.ndarray | None = None, sequences: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (message records, channels, log times [ns]) of ``add_block``'s arguments.
+
+    For :meth:`BatchWriter.add_packed`, whole or in slices. Raises ValueError for a negative time.
+    """
+    width = payloads.shape[1]
+    log = np.asarray(log_times, dtype=np.int64)
+    if len(log) and log.min() < 0:
+        raise ValueError('MCAP log times are unsigned: got a negative time')
+    records = np.empty(len(log), dtype=message_dtype(width))
+    records['op'] = Opcode.MESSAGE
+    records['length'] = MESSAGE_FIELDS + width
+    records['channel'] = channel_ids
+    records['sequence'] = 0 if sequences is None else sequences
+    records['log_time'] = log
+    records['publish_time'] = log if publish_times is None else publish_times
+    records['data'] = np.ascontiguousarray(payloads, dtype=np.uint8).view(f'V{width}')[:, 0]
+    return records, np.asarray(channel_ids), log
 
 
 def vector3_stamped_rows(stamps_ns: np.ndarray, xyz: np.ndarray,

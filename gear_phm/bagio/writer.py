@@ -23,7 +23,7 @@ from mcap.writer import LIBRARY_IDENTIFIER, Writer
 import numpy as np
 from rosbags.typesys import get_typestore, Stores
 
-from gear_phm.bagio.batch_writer import BatchWriter, vector3_stamped_rows
+from gear_phm.bagio.batch_writer import BatchWriter, pack_block, vector3_stamped_rows
 from gear_phm.bagio.mcapformat import COMPRESSIONS
 from gear_phm.bagio.metadata import qos_list, TopicInfo, write_metadata
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DiagnosticsOut, ns_to_sec_nanosec,
@@ -210,15 +210,15 @@ class Rosbag2McapWriter:
         sequence = np.concatenate([e.count + np.arange(len(c[1]))
                                    for e, c in zip(entries, columns)])[order]
         rows = vector3_stamped_rows(stamps, xyz, frame_id)[order]
-        stamps = stamps[order]
+        packed, channel, stamps = pack_block(channel, stamps[order], rows, sequences=sequence)
         for entry, column in zip(entries, columns):
             entry.count += len(column[1])
         begin = 0
         for cut, extra in zip(cuts, records):
-            if cut > begin:
-                self._writer.add_block(channel[begin:cut], stamps[begin:cut], rows[begin:cut],
-                                       sequences=sequence[begin:cut])
-                self._note_times(int(stamps[begin:cut].min()), int(stamps[begin:cut].max()))
+            if cut > begin:                     # stamps ascend: the first and last bound
+                self._writer.add_packed(packed[begin:cut], channel[begin:cut],
+                                        stamps[begin:cut])
+                self._note_times(int(stamps[begin]), int(stamps[cut - 1]))
                 self._maybe_flush()
             begin = cut
             if extra is not None:
@@ -418,11 +418,13 @@ def diagnostic_arrays_cdr(outputs: Sequence[DiagnosticsOut]) -> list[bytes]:
     data[offsets[status_first]] = levels
     _scatter(data, offsets[status_first + 4], per_status.astype('<u4').view(np.uint8))
     _scatter(data, offsets[string_piece], (lengths + 1).astype('<u4').view(np.uint8))
-    starts = offsets[string_piece] + 4          # the strings' bytes: where a run is open
-    edges = np.zeros(data.size + 1, dtype=np.int8)
-    edges[starts] = 1
-    edges[starts + lengths] -= 1                # unique: a string starts after a length
-    data[np.cumsum(edges[:-1], dtype=np.int8).view(bool)] = np.frombuffer(blob, np.uint8)
+    # the strings' bytes, in order: runs of other bytes and of string bytes alternate
+    starts = offsets[string_piece] + 4
+    runs = np.empty(2 * len(strings) + 1, dtype=np.int64)
+    runs[0:-1:2] = starts - np.concatenate(([0], (starts + lengths)[:-1]))
+    runs[1::2] = lengths
+    runs[-1] = data.size - (int(starts[-1] + lengths[-1]) if len(strings) else 0)
+    data[np.repeat(np.arange(runs.size) % 2 == 1, runs)] = np.frombuffer(blob, np.uint8)
     cuts = offsets[np.append(head_piece, sizes.size)].tolist()
     packed = data.tobytes()
     return [packed[a:b] for a, b in zip(cuts[:-1], cuts[1:])]

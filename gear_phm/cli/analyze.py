@@ -54,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='replace --out if it holds a previous analysis (summary.json)')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
     add_health_arguments(parser)
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    parser.add_argument('--no-progress', action='store_true',
+                        help='no progress bar (there is one only when stderr is a terminal)')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         analysis = analyze_bag(
             args.bag, topic=args.topic, out=args.out, overwrite=args.overwrite,
-            plot=not args.no_plot, progress=not args.no_progress,
+            plot=not args.no_plot, progress=not args.no_progress and sys.stderr.isatty(),
             diagnostics_rate=args.diagnostics_rate, **options)
     except AnalysisError as exc:
         raise CliError(str(exc)) from None
