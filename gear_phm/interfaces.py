@@ -22,7 +22,7 @@ from typing import Any, TYPE_CHECKING
 import numpy as np
 
 from gear_phm.estimation.records import FrictionEstimate
-from gear_phm.status import format_value, StatusOut
+from gear_phm.status import format_values, StatusOut
 
 if TYPE_CHECKING:
     from gear_phm.prognostics.assessor import HealthState
@@ -282,7 +282,7 @@ def health_key_values(state: HealthState) -> tuple[tuple[str, str], ...]:
               state.samples_rejected, state.samples_missing, state.operating_time,
               state.rul_operating.median, state.rul_operating.p5, state.rul_operating.p95,
               state.utilisation, state.eta_healthy, state.eta_warn)
-    return tuple((key, format_value(value)) for key, value in zip(STATUS_KEYS, values))
+    return tuple(zip(STATUS_KEYS, format_values(values)))
 
 
 def health_status(state: HealthState, transmission_name: str, hardware_id: str) -> StatusOut:

@@ -7,6 +7,7 @@ message; the estimator and the health assessor produce it.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 import math
 
@@ -48,3 +49,15 @@ def format_value(value: float | int | str) -> str:
     if math.isinf(value):
         return 'inf' if value > 0 else '-inf'
     return repr(value)
+
+
+#: Types whose ``str`` is :func:`format_value` (a float's str is its repr).
+_PLAIN = frozenset((float, int, str))
+
+
+def format_values(values: Iterable[float | int | str]) -> tuple[str, ...]:
+    """Return :func:`format_value` of each value (by ``str`` at once where that is the same)."""
+    values = tuple(values)
+    if set(map(type, values)) <= _PLAIN:
+        return tuple(map(str, values))
+    return tuple(map(format_value, values))

@@ -91,3 +91,15 @@ def test_marks_must_ascend_within_the_batch() -> None:
         EstimatorPipeline(CONFIG).on_batch_marked(*cols, marks=[50, 10])
     with pytest.raises(ValueError, match='marks must ascend'):
         EstimatorPipeline(CONFIG).on_batch_marked(*cols, marks=[101])
+
+
+def test_format_values_is_format_value_of_each() -> None:
+    """The fast path (str of plain floats, ints and strings) gives format_value's texts."""
+    from gear_phm.status import format_value, format_values
+    plain = [0.1, -0.0, 1e-300, 2.5e17, math.inf, -math.inf, math.nan, 7, -3, 'text']
+    assert format_values(plain) == tuple(format_value(v) for v in plain)
+    assert format_values(plain) == ('0.1', '-0.0', '1e-300', '2.5e+17', 'inf', '-inf', 'nan',
+                                    '7', '-3', 'text')
+    mixed = [*plain, True, np.float32(0.1), np.float64(0.2), np.int64(5)]
+    assert format_values(mixed) == tuple(format_value(v) for v in mixed)
+    assert format_values(mixed)[-4:] == ('1.0', '0.10000000149011612', '0.2', '5')

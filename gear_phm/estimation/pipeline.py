@@ -13,8 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+import functools
 import itertools
 import math
+import operator
 from typing import Any
 
 import numpy as np
@@ -30,7 +32,7 @@ from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measur
 from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
 from gear_phm.persistence import decode_float, encode_float
-from gear_phm.status import format_value, OK, StatusOut, WARN
+from gear_phm.status import format_values, OK, StatusOut, WARN
 
 #: Per-sample rejection reasons (each counts into "samples rejected").
 SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
@@ -40,6 +42,21 @@ MESSAGE_REASONS = ('missing_joint', 'short_arrays', 'truncated', 'bad_encoding',
 #: Window / measurement reasons and events (do not count as rejected samples).
 WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated')
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
+#: The summary values of the estimator's status, in its order (after messages_received).
+_STATUS_SUMMARY_KEYS = (
+    'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
+    'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
+    'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
+    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s')
+_STATUS_SUMMARY = operator.itemgetter(*_STATUS_SUMMARY_KEYS)
+
+
+@functools.lru_cache(maxsize=16)
+def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
+    """Return the status keys of the counters ``reasons`` (windows, events, drops)."""
+    return tuple(f'windows_rejected_{reason}' if reason in WINDOW_REASONS
+                 else f'events_{reason}' if reason in EVENTS else f'dropped_{reason}'
+                 for reason in reasons)
 
 
 def _ns(seconds: float) -> int:
@@ -786,22 +803,12 @@ class EstimatorPipeline:
             text = f'{100.0 * loss:.3g} % of samples missing over the last status period'
             message = text if level == OK else f'{message}; {text}'
             level = WARN
-        values: list[tuple[str, Any]] = []
-        if messages_received is not None:
-            values.append(('messages_received', messages_received))
-        values += [(key, summary[key]) for key in (
-            'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
-            'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
-            'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
-            'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia',
-            'operating_time_s')]
-        values.append(('loss_ratio', loss))
-        for reason, count in sorted(summary['counts'].items()):
-            if reason in WINDOW_REASONS:
-                values.append((f'windows_rejected_{reason}', count))
-            elif reason in EVENTS:
-                values.append((f'events_{reason}', count))
-            else:
-                values.append((f'dropped_{reason}', count))
+        counts = sorted(summary['counts'].items())
+        keys = ((('messages_received',) if messages_received is not None else ())
+                + _STATUS_SUMMARY_KEYS + ('loss_ratio',) + _count_keys(tuple(
+                    reason for reason, _ in counts)))
+        values = itertools.chain(
+            (messages_received,) if messages_received is not None else (),
+            _STATUS_SUMMARY(summary), (loss,), (count for _, count in counts))
         return StatusOut(level, name, message, 'gear_phm',
-                         tuple((key, format_value(value)) for key, value in values))
+                         tuple(zip(keys, format_values(values))))
