@@ -25,6 +25,7 @@ from gear_phm.estimation import FrictionEstimate
 from gear_phm.interfaces import (DiagnosticsOut, estimate_outputs, health_outputs, StatusOut,
                                  Vector3Out)
 from gear_phm.offline.engine import output_columns
+from gear_phm.offline.records import EstimateHistory
 from gear_phm.prognostics import RulEstimate, Trend
 from gear_phm.prognostics.assessor import HealthState
 
@@ -168,6 +169,12 @@ def test_analyze_columns_are_the_published_records() -> None:
     assert {r.topic for r in got} == {*interfaces.ESTIMATOR_TOPICS, interfaces.HEALTH_RUL,
                                       interfaces.HEALTH_EFFICIENCY}
     assert [r.x for r in got if r.topic == interfaces.OPERATING_TIME] == [0.0, 12.5, 25.0, 37.5]
+    # from the estimates' EstimateHistory (as analyze writes them): the same columns
+    from_history = output_columns(estimates, states, EstimateHistory.of(estimates))
+    assert [topic for topic, _, _ in from_history] == [topic for topic, _, _ in columns]
+    for (_, stamps, xyz), (_, stamps_h, xyz_h) in zip(columns, from_history):
+        assert stamps_h.tolist() == stamps.tolist()
+        np.testing.assert_array_equal(xyz_h, xyz)       # NaN where NaN, else bit-equal
 
 
 def _groups_bag(directory: Path, batch: bool) -> list[tuple[str, int, int, int, bytes]]:

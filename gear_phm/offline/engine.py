@@ -380,11 +380,9 @@ class _Run:
                         tuple(self.measurements.objects()), truth, None, envelopes,
                         self.true_end_of_life_ns)
 
-    def _keep(self, estimates: Sequence[FrictionEstimate],
-              states: Sequence[HealthState]) -> None:
+    def _keep(self, history: EstimateHistory, states: Sequence[HealthState]) -> None:
         """Add a batch's estimates, health states and measured windows to the histories."""
-        if estimates:
-            history = EstimateHistory.of(estimates)
+        if history.stamp_ns.size:
             columns = {f.name: getattr(history, f.name) for f in fields(history)}
             self.estimates.extend(columns)
             sigma = history.u_sigma
@@ -449,10 +447,12 @@ class _Run:
                 states.append(state)
             latest.append(state if state is not None else latest[-1])
             first_state.append(len(states))
-        self._keep(estimates, states)
+        history = EstimateHistory.of(estimates)     # the columns kept and written
+        self._keep(history, states)
         received = [self.samples + cut for cut in cuts]
         self.samples += messages
-        return _Step(self.drive, estimates, states, latest, first_state, snapshots, received)
+        return _Step(self.drive, estimates, history, states, latest, first_state, snapshots,
+                     received)
 
     def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
                   latest: HealthState | None) -> list[StatusOut]:
@@ -654,16 +654,15 @@ class _Step:
     """
 
     def __init__(self, drive: str | None, estimates: list[FrictionEstimate],
-                 states: list[HealthState], latest: list[HealthState | None],
-                 first_state: list[int], snapshots: list[StatusSnapshot],
-                 received: list[int]) -> None:
+                 history: EstimateHistory, states: list[HealthState],
+                 latest: list[HealthState | None], first_state: list[int],
+                 snapshots: list[StatusSnapshot], received: list[int]) -> None:
         self.drive = drive
-        self.estimates, self.states = estimates, states
+        self.estimates, self.history, self.states = estimates, history, states
         self.latest, self.first_state = latest, first_state
         self.snapshots, self.received = snapshots, received
         self.ends = [snapshot.estimates for snapshot in snapshots]
-        self.stamps = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
-                                  count=len(estimates))
+        self.stamps = history.stamp_ns
         self.increasing = bool(np.all(np.diff(self.stamps) > 0))
 
     def at(self, i: int) -> tuple[int, StatusSnapshot, HealthState | None]:
@@ -682,30 +681,54 @@ class _Step:
         number of ticks: those after the last).
         """
         if part is None:
-            estimates, states = self.estimates, self.states
+            estimates, states, history = self.estimates, self.states, self.history
         else:
             done = self.ends[part - 1] if part else 0
             end = self.ends[part] if part < len(self.ends) else len(self.estimates)
             estimates = self.estimates[done:end]
             states = self.states[self.first_state[done]:self.first_state[end]]
-        columns = output_columns(estimates, states)
+            history = EstimateHistory(**{f.name: getattr(self.history, f.name)[done:end]
+                                         for f in fields(EstimateHistory)})
+        columns = output_columns(estimates, states, history)
         if self.drive is None:
             return columns
         return [(interfaces.drive_topic(self.drive, topic), stamps, values)
                 for topic, stamps, values in columns]
 
 
-def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState]
+def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState],
+                   history: EstimateHistory | None = None
                    ) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return the Vector3Stamped outputs of a batch as ``(topic, stamps [ns], xyz)`` columns.
 
     The estimator's and the diagnostics node's topics, in publishing order
     (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`, :data:`~gear_phm.interfaces.HEALTH_LAYOUT`).
+    ``history``: the estimates' :class:`EstimateHistory`, if made already (its columns are
+    taken; the values are the same).
     """
-    columns = interfaces.vector3_columns(estimates, interfaces.ESTIMATE_LAYOUT)
+    if history is None:
+        columns = interfaces.vector3_columns(estimates, interfaces.ESTIMATE_LAYOUT)
+    else:
+        columns = _estimate_columns(estimates, history)
     if states:
         columns += interfaces.vector3_columns(states, interfaces.HEALTH_LAYOUT)
     return columns
+
+
+def _estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
+                      ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """Return :func:`gear_phm.interfaces.vector3_columns` of estimates, from their ``history``.
+
+    The measurements, which the history does not hold, are read from the estimates.
+    """
+    measured = np.array([(e.measurement, e.measurement_variance) for e in estimates],
+                        dtype=float).reshape(-1, 2)
+    source = {'u_sigma': history.u_sigma, 'measurement': measured[:, 0],
+              'measurement_variance': measured[:, 1]}
+    return [(topic, history.stamp_ns,
+             np.column_stack([source[name] if name in source else getattr(history, name)
+                              for name in names]).astype(float))
+            for topic, names in interfaces.ESTIMATE_LAYOUT]
 
 
 def _json(value: Any) -> Any:

@@ -56,8 +56,10 @@ class EstimateHistory:
                 for e in estimates]
         table = np.array(rows, dtype=float).reshape(-1, 16)
         columns = {f.name: table[:, i] for i, f in enumerate(fields(cls))}
-        for name in ('stamp_ns', 'samples_used', 'samples_rejected', 'power_flow'):
-            columns[name] = np.array([getattr(e, name) for e in estimates], dtype=np.int64)
+        columns['stamp_ns'] = np.fromiter((e.stamp_ns for e in estimates), dtype=np.int64,
+                                          count=len(estimates))
+        for name in ('samples_used', 'samples_rejected', 'power_flow'):    # exact as float64
+            columns[name] = columns[name].astype(np.int64)
         return cls(**columns)
 
 
