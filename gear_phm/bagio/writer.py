@@ -442,7 +442,8 @@ def _encoded(strings: list[str]) -> tuple[np.ndarray, bytes]:
 
 def _before(sizes: np.ndarray) -> np.ndarray:
     """Return the exclusive cumulative sum: where each of consecutive pieces starts."""
-    return np.cumsum(sizes) - sizes
+    starts: np.ndarray = np.cumsum(sizes) - sizes
+    return starts
 
 
 def _scatter(data: np.ndarray, starts: np.ndarray, rows: np.ndarray) -> None:
