@@ -17,7 +17,7 @@ empty (then 0.0); NaN and Inf are passed through (the estimator counts them itse
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 import functools
 import operator
@@ -307,17 +307,35 @@ def _gather_values(data: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarr
     return data[starts[:, None] + np.arange(size)].view(dtype)[:, 0]
 
 
+def _strided(data: np.ndarray, starts: np.ndarray) -> Callable[[int, str], np.ndarray]:
+    """Return ``read(at, dtype)``: the value of ``dtype`` at byte ``at`` of each payload.
+
+    Payloads of one size back to back in ``data`` (an MCAP chunk's messages: one stride) are
+    read as a strided view, without an index per byte; others by :func:`_gather_values`.
+    """
+    n = starts.size
+    steps = np.diff(starts)
+    if n > 1 and data.flags.c_contiguous and steps[0] > 0 and (steps == steps[0]).all():
+        first, stride = int(starts[0]), int(steps[0])
+
+        def view(at: int, dtype: str) -> np.ndarray:
+            return np.ndarray((n,), dtype=dtype, buffer=data, offset=first + at,
+                              strides=(stride,))
+        return view
+    return lambda at, dtype: _gather_values(data, starts + at, dtype)
+
+
 def _gather(data: np.ndarray, starts: np.ndarray, layout: _Layout, mi: int, li: int,
             out: dict[str, np.ndarray], rows: np.ndarray) -> None:
     """Copy the stamp and both joints' fields of payloads at ``starts`` (one layout)."""
-    sec = _gather_values(data, starts + 4, '<i4').astype(np.int64)
-    out['stamp_ns'][rows] = sec * 1_000_000_000 + _gather_values(data, starts + 8, '<u4')
+    read = _strided(data, starts)
+    sec = read(4, '<i4').astype(np.int64)
+    out['stamp_ns'][rows] = sec * 1_000_000_000 + read(8, '<u4')
     for kind, start, length in zip(('position', 'velocity', 'effort'), layout.array_offsets,
                                    layout.array_lengths):
         for joint, j in (('motor', mi), ('load', li)):
             if j < length:          # position may be empty (stays 0.0)
-                out[f'{joint}_{kind}'][rows] = _gather_values(data, starts + start + 8 * j,
-                                                              '<f8')
+                out[f'{joint}_{kind}'][rows] = read(start + 8 * j, '<f8')
 
 
 # --- one payload at a time (struct) -------------------------------------------------------------

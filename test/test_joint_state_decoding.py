@@ -172,3 +172,31 @@ def _simple(i: int):
             stamp=types['builtin_interfaces/msg/Time'](sec=1, nanosec=i), frame_id=''),
         name=['motor', 'load'], position=np.zeros(2), velocity=np.array([9.0, float(i)]),
         effort=np.array([1.0, 2.0]))
+
+
+def test_payloads_at_one_stride_read_as_at_any_offsets() -> None:
+    """Payloads at one stride read as at any offsets, bit for bit.
+
+    Payloads of one size back to back (an MCAP chunk's) are read by a strided view; the same
+    payloads at irregular offsets by a gather.
+    """
+    rng = np.random.default_rng(7)
+    raws, motor_velocity = [], []
+    for i in range(50):
+        msg = _simple(i)
+        msg.velocity[:] = rng.normal(size=2)
+        msg.effort[:] = rng.normal(size=2)
+        motor_velocity.append(float(msg.velocity[0]))
+        raws.append(bytes(TYPESTORE.serialize_cdr(msg, JOINT_STATE)))
+    size = len(raws[0])
+    gap = b'\x00' * 11                          # an odd stride: unaligned reads
+    buffer = gap + gap.join(raws)
+    strided = decode_joint_state_buffer(buffer, 11 + np.arange(50) * (size + 11),
+                                        np.full(50, size), 'motor', 'load')
+    order = np.r_[0:50:2, 1:50:2]               # not one stride: gathered
+    gathered = decode_joint_state_buffer(buffer, (11 + np.arange(50) * (size + 11))[order],
+                                         np.full(50, size), 'motor', 'load')
+    for name in COLUMNS:
+        np.testing.assert_array_equal(getattr(gathered, name), getattr(strided, name)[order])
+    assert strided.stamp_ns.tolist() == [10**9 + i for i in range(50)]
+    assert strided.motor_velocity.tolist() == motor_velocity
