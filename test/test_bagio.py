@@ -306,3 +306,33 @@ def test_offered_qos_profiles_reach_metadata_yaml(tmp_path: Path) -> None:
     info = yaml.safe_load((tmp_path / 'partial' / 'metadata.yaml').read_text())
     [topic] = info['rosbag2_bagfile_information']['topics_with_message_count']
     assert topic['topic_metadata']['offered_qos_profiles'] == []
+
+
+def test_vector3_stamped_columns_strided_and_gathered() -> None:
+    """Vector3Stamped payloads decode to the records written, bit for bit.
+
+    One size back to back: strided views; irregular offsets or several frame_ids: gathers.
+    """
+    from gear_phm.interfaces import vector3_stamped_columns
+    from gear_phm.bagio.writer import vector3_stamped_cdr
+    rng = np.random.default_rng(3)
+    outputs = [Vector3Out('gear_phm/truth/friction', 1_700_000_000_000_000_000 + 10**6 * i,
+                          *rng.normal(size=3).tolist()) for i in range(40)]
+    outputs[5] = Vector3Out('t', -5 * 10**9 + 7, math.inf, math.nan, -0.0)   # before 1970
+    raws = [vector3_stamped_cdr(o) for o in outputs]
+    gap = b'\x07' * 5                                   # an odd stride: unaligned reads
+    buffer = gap + gap.join(raws)
+    offsets = 5 + np.arange(40) * (len(raws[0]) + 5)
+    lengths = np.full(40, len(raws[0]))
+    order = np.r_[1:40:2, 0:40:2]
+    for at in (offsets, offsets[order]):
+        stamps, xyz = vector3_stamped_columns(buffer, at, lengths)
+        expected = [outputs[(at[k] - 5) // (len(raws[0]) + 5)] for k in range(40)]
+        assert stamps.tolist() == [o.stamp_ns for o in expected]
+        assert repr(xyz.tolist()) == repr([[o.x, o.y, o.z] for o in expected])
+    framed = [vector3_stamped_cdr(Vector3Out('t', 10**9 * i, i, 2.0 * i, 3.0, 'f' * i))
+              for i in range(6)]
+    starts = np.cumsum([0] + [len(r) for r in framed[:-1]])
+    stamps, xyz = vector3_stamped_columns(b''.join(framed), starts, [len(r) for r in framed])
+    assert stamps.tolist() == [10**9 * i for i in range(6)]
+    assert xyz[:, 1].tolist() == [2.0 * i for i in range(6)]
