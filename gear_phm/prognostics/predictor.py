@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 import math
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -41,6 +41,20 @@ from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, ShapePrior, Tre
                                        trend_from_state, trend_to_state)
 from gear_phm.prognostics.history import WearHistory
 from gear_phm.prognostics.laws import LINEAR, MODELS, NONE
+
+_T = TypeVar('_T')
+
+
+def frozen_instance(cls: type[_T], values: dict[str, Any]) -> _T:
+    """Return an instance of the frozen dataclass ``cls`` with the field ``values``, all given.
+
+    Equal to ``cls(**values)`` without its per-field ``object.__setattr__`` (a frozen
+    dataclass's ``__init__`` costs microseconds, paid per estimate); for classes without a
+    ``__post_init__``.
+    """
+    instance = object.__new__(cls)
+    instance.__dict__.update(values)
+    return instance
 
 
 def _renormalised(laws: tuple[Trend, ...]) -> tuple[Trend, ...]:
@@ -68,11 +82,14 @@ class RulEstimate:
         ``utilisation`` is operating over elapsed time: each quantile is divided by it; a
         positive RUL at utilisation 0 is inf (no wear while it stands still), 0 stays 0.
         """
-        def scaled(value: float) -> float:
-            if value == 0.0 or math.isnan(value):
-                return value
-            return value / utilisation if utilisation > 0.0 else math.inf
-        return RulEstimate(scaled(self.median), scaled(self.p5), scaled(self.p95), self.model)
+        median, p5, p95 = self.median, self.p5, self.p95
+        if utilisation > 0.0:
+            # v / utilisation keeps 0 and NaN as they are
+            median, p5, p95 = median / utilisation, p5 / utilisation, p95 / utilisation
+        else:
+            median, p5, p95 = (v if v == 0.0 or v != v else math.inf for v in (median, p5, p95))
+        return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
+                                             'model': self.model})
 
 
 class RulPredictor:
@@ -270,8 +287,10 @@ class RulPredictor:
         """RUL [s] at time t [s] given the filter's current u [-] (0 once u >= u_eol)."""
         trend = self.trend
         if u >= self.u_eol:
-            return RulEstimate(0.0, 0.0, 0.0, trend.model)
+            return frozen_instance(RulEstimate, {'median': 0.0, 'p5': 0.0, 'p95': 0.0,
+                                                 'model': trend.model})
         c5, c50, c95 = self._crossing
         p5, median, p95 = max(c5 - t, 0.0), max(c50 - t, 0.0), max(c95 - t, 0.0)
         model = trend.model if math.isfinite(median) or math.isfinite(p5) else NONE
-        return RulEstimate(median, p5, p95, model)
+        return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
+                                             'model': model})
