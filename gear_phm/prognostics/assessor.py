@@ -28,10 +28,11 @@ from gear_phm.models.lever import efficiencies, efficiencies_array, readings, re
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
-from gear_phm.prognostics.fits import ShapePrior, Trend, trend_from_state, trend_to_state
+from gear_phm.prognostics.fits import (frozen_instance, ShapePrior, Trend, trend_from_state,
+                                       trend_to_state)
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.history import Utilisation
-from gear_phm.prognostics.predictor import frozen_instance, RulEstimate, RulPredictor
+from gear_phm.prognostics.predictor import RulEstimate, RulPredictor
 from gear_phm.status import ERROR, OK, STALE
 
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise

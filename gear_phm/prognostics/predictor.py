@@ -25,9 +25,9 @@ is 0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 import math
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -37,30 +37,16 @@ from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecas
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
-from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, ShapePrior, Trend,
-                                       trend_from_state, trend_to_state)
+from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, frozen_instance, replaced,
+                                       ShapePrior, Trend, trend_from_state, trend_to_state)
 from gear_phm.prognostics.history import WearHistory
 from gear_phm.prognostics.laws import LINEAR, MODELS, NONE
-
-_T = TypeVar('_T')
-
-
-def frozen_instance(cls: type[_T], values: dict[str, Any]) -> _T:
-    """Return an instance of the frozen dataclass ``cls`` with the field ``values``, all given.
-
-    Equal to ``cls(**values)`` without its per-field ``object.__setattr__`` (a frozen
-    dataclass's ``__init__`` costs microseconds, paid per estimate); for classes without a
-    ``__post_init__``.
-    """
-    instance = object.__new__(cls)
-    instance.__dict__.update(values)
-    return instance
 
 
 def _renormalised(laws: tuple[Trend, ...]) -> tuple[Trend, ...]:
     """Return ``laws`` with their Akaike weights scaled to sum to 1."""
     total = sum(law.weight for law in laws)
-    return tuple(replace(law, weight=law.weight / total) for law in laws) if total > 0 else ()
+    return tuple(replaced(law, weight=law.weight / total) for law in laws) if total > 0 else ()
 
 
 @dataclass(frozen=True)
@@ -169,7 +155,7 @@ class RulPredictor:
     def shift(self, offset: float) -> None:
         """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
         self.history.shift(offset)
-        self._trend = replace(self._trend, t_end=self._trend.t_end + offset)
+        self._trend = replaced(self._trend, t_end=self._trend.t_end + offset)
         self._crossing = (self._crossing[0] + offset, self._crossing[1] + offset,
                           self._crossing[2] + offset)
 
@@ -223,7 +209,7 @@ class RulPredictor:
         else:
             origin = 0.0
         held: list[Trend] = []
-        laws = tuple(replace(law, t_end=law.t_end + history.t_start + origin)
+        laws = tuple(replaced(law, t_end=law.t_end + history.t_start + origin)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
                                          self.prior, self._curved, held))
         # a law extrapolates only once its own slope now is significant (a curved law's slope
@@ -262,8 +248,8 @@ class RulPredictor:
             # the band's lower bound also counts the curved laws held out of the median, with
             # their Akaike weights over all the laws (module docstring)
             share = 1.0 - sum(law.weight for law in held)
-            every = tuple(replace(law, weight=law.weight * share) for law in laws) + tuple(
-                replace(law, t_end=law.t_end + history.t_start + origin) for law in held)
+            every = tuple(replaced(law, weight=law.weight * share) for law in laws) + tuple(
+                replaced(law, t_end=law.t_end + history.t_start + origin) for law in held)
             p5 = self._crossing_quantiles(_renormalised(every))[0]
             self._crossing = (min(self._crossing[0], p5), self._crossing[1], self._crossing[2])
 
