@@ -28,7 +28,8 @@ from gear_phm.models.lever import efficiencies, efficiencies_array, readings, re
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
-from gear_phm.prognostics.fits import ShapePrior, Trend, trend_from_state, trend_to_state
+from gear_phm.prognostics.fits import (frozen_instance, ShapePrior, Trend, trend_from_state,
+                                       trend_to_state)
 from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
 from gear_phm.prognostics.history import Utilisation
 from gear_phm.prognostics.predictor import RulEstimate, RulPredictor
@@ -209,43 +210,49 @@ class HealthAssessor:
             self.predictor.shift(offset)
             self.utilisation.reset()
         operating = self._operating_time(estimate)
+        predictor = self.predictor
         # end of life on the reading its criterion is about (eta_D: the opposing windows')
+        u = estimate.u
+        t = estimate.stamp_ns * 1e-9                # estimate.t
         u_d, u_i = read
-        reading = self._reading_offset(estimate.u, u_d, u_i)
-        self.predictor.u_eol = self.u_eol - reading
-        if math.isfinite(estimate.measurement) and estimate.measurement_variance > 0.0:
+        reading = self._reading_offset(u, u_d, u_i)
+        predictor.u_eol = self.u_eol - reading
+        measurement = estimate.measurement
+        if math.isfinite(measurement) and estimate.measurement_variance > 0.0:
             # the window's measurement: independent of the others, no filter lag
-            self.predictor.add(operating, estimate.measurement, estimate.measurement_variance,
-                               independent=True)
-        elif not self.predictor.history.independent:
+            predictor.add(operating, measurement, estimate.measurement_variance,
+                          independent=True)
+        elif not predictor.history.independent:
             # a stream without measurements (an older estimator or recording): posteriors
-            self.predictor.add(operating, estimate.u, estimate.covariance[0])
-        self.utilisation.add(estimate.t, operating)
+            predictor.add(operating, u, estimate.covariance[0])
+        self.utilisation.add(t, operating)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
                                               u_sigma)
-        rul_operating = self.predictor.predict(operating, estimate.u)
+        rul_operating = predictor.predict(operating, u)
         utilisation = self.utilisation.fraction
         rul = rul_operating.in_elapsed_time(utilisation)
-        trend = self.predictor.trend
-        level, message = self.levels.update(estimate.t, estimate.u + reading,
-                                            estimate.eta_opposing,
-                                            rul_operating.p5, filter_check, u_sigma,
-                                            rul_operating.median,
-                                            self.predictor.law_past_eol(operating))
+        levels = self.levels
+        level, message = levels.update(t, u + reading, estimate.eta_opposing,
+                                       rul_operating.p5, filter_check, u_sigma,
+                                       rul_operating.median, predictor.law_past_eol(operating))
         if level == 0 and rul.model != 'none':
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
         mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i)) if suspect else ''
         if mismatch:
             level, message = ERROR, mismatch
-        self.latest = HealthState(estimate.stamp_ns, level, message, estimate.u, u_sigma,
-                                  estimate.eta_opposing, estimate.eta_aiding, rul,
-                                  estimate.power_flow, estimate.samples_used,
-                                  estimate.samples_rejected, self.u_eol, trend,
-                                  estimate.samples_missing, rul_operating,
-                                  operating if self._on_operating_time(estimate) else math.nan,
-                                  utilisation, self.levels.eta_healthy, self.levels.eta_warn)
+        self.latest = frozen_instance(HealthState, {
+            'stamp_ns': estimate.stamp_ns, 'level': level, 'message': message, 'u': u,
+            'u_sigma': u_sigma, 'eta_opposing': estimate.eta_opposing,
+            'eta_aiding': estimate.eta_aiding, 'rul': rul, 'power_flow': estimate.power_flow,
+            'samples_used': estimate.samples_used,
+            'samples_rejected': estimate.samples_rejected, 'u_eol': self.u_eol,
+            'trend': predictor.trend, 'samples_missing': estimate.samples_missing,
+            'rul_operating': rul_operating,
+            'operating_time': operating if self._on_operating_time(estimate) else math.nan,
+            'utilisation': utilisation, 'eta_healthy': levels.eta_healthy,
+            'eta_warn': levels.eta_warn})
         return self.latest
 
     def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:

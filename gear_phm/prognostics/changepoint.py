@@ -138,7 +138,7 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     if last <= 0:
         return RegimeStart(0, float(t[0]) if n else 0.0)
     index = _candidates(last)
-    rss, rss0 = _hinge_rss(t, u, precision, index)
+    rss = _hinge_rss(t, u, precision, index)
     best_per_tau = rss.min(axis=1)
     coarse = int(np.argmin(best_per_tau))
     if not math.isfinite(best_per_tau[coarse]):
@@ -147,9 +147,8 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
     low = int(index[max(coarse - 1, 0)])
     high = int(index[min(coarse + 1, index.size - 1)])
     fine = np.arange(low, high + 1)
-    fine_rss, fine_rss0 = _hinge_rss(t, u, precision, fine)
     index = np.concatenate((index, fine))
-    rss, rss0 = np.concatenate((rss, fine_rss)), np.concatenate((rss0, fine_rss0))
+    rss = np.concatenate((rss, _hinge_rss(t, u, precision, fine)))
     best_per_tau = rss.min(axis=1)
     chosen = int(np.argmin(best_per_tau))
     best = float(best_per_tau[chosen])
@@ -166,7 +165,11 @@ def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
             t, design[0], beta[0], precision, scale, index[chosen]):
         chosen = 0                  # no significant change point: the whole history
         exponent = float(HINGE_EXPONENTS[int(np.argmin(rss[chosen]))])
-    improvement = max(float(rss0[chosen] - best_per_tau[chosen]) / scale, 0.0)
+    # the fit without the wear part at the regime's start (its 'before' part only)
+    d = t - t[index[chosen]]
+    rss0 = float(_wls_rss(np.stack([np.ones_like(d), np.minimum(d, 0.0)], axis=-1)[None], u,
+                          precision)[0][0])
+    improvement = max((rss0 - float(best_per_tau[chosen])) / scale, 0.0)
     return RegimeStart(int(index[chosen]), float(t[index[chosen]]), exponent, improvement)
 
 
@@ -202,9 +205,8 @@ def _rising_before(t: np.ndarray, design: np.ndarray, beta: np.ndarray, w: np.nd
     return float(beta[1]) > max(PRE_SLOPE_Z * sigma, PRE_SLOPE_SHARE * after)
 
 
-def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the hinge's rss per (tau = t[index], p), and without its wear part per tau.
+def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Return the hinge's rss per (tau = t[index], p).
 
     inf where the wear part a <= 0 (:func:`regime_start`). All candidates in one pass: the
     normal equations from the weighted sums of the columns (pre and post never overlap, so
@@ -212,19 +214,12 @@ def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray
     """
     d = t[None, :] - t[index][:, None]                      # (m, n)
     pre = np.minimum(d, 0.0)
-    post = np.maximum(d, 0.0)
-    wear = post[:, None, :] ** HINGE_EXPONENTS[None, :, None]          # (m, e, n)
+    wear = _wear_columns(np.maximum(d, 0.0))                           # (m, e, n)
     wu = w * u
     sw, su = w.sum(), float(wu.sum())
     sp, spp, spu = pre @ w, (pre * pre) @ w, pre @ wu                  # (m,)
     sq, sqq, squ = wear @ w, (wear * wear) @ w, wear @ wu              # (m, e)
-    # the model without the wear part: c + d min(t - tau, 0)
     m, e = wear.shape[:2]
-    gram0 = np.empty((m, 2, 2))
-    gram0[:, 0, 0], gram0[:, 0, 1], gram0[:, 1, 0], gram0[:, 1, 1] = sw, sp, sp, spp
-    beta0 = _solve(gram0, np.stack([np.full(m, su), spu], axis=-1))
-    fitted0 = beta0[:, :1] + beta0[:, 1:] * pre
-    rss0 = ((u[None, :] - fitted0) ** 2 * w[None, :]).sum(axis=1)
     gram = np.zeros((m, e, 3, 3))
     gram[..., 0, 0] = sw
     gram[..., 0, 1] = gram[..., 1, 0] = sp[:, None]
@@ -235,7 +230,25 @@ def _hinge_rss(t: np.ndarray, u: np.ndarray, w: np.ndarray, index: np.ndarray
     beta = _solve(gram.reshape(m * e, 3, 3), right.reshape(m * e, 3)).reshape(m, e, 3)
     fitted = beta[..., :1] + beta[..., 1:2] * pre[:, None, :] + beta[..., 2:] * wear
     rss = ((u[None, None, :] - fitted) ** 2 * w[None, None, :]).sum(axis=2)
-    return np.where(beta[..., 2] > 0.0, rss, np.inf), rss0
+    return np.where(beta[..., 2] > 0.0, rss, np.inf)
+
+
+def _wear_columns(post: np.ndarray) -> np.ndarray:
+    """Return post^p (m, e, n) for p in HINGE_EXPONENTS, from ``post`` (m, n) >= 0.
+
+    Whole exponents by products (a tenth of the cost of ``**`` with an array of exponents,
+    within an ulp of it); others by ``**``.
+    """
+    if not np.array_equal(HINGE_EXPONENTS, np.round(HINGE_EXPONENTS)) \
+            or HINGE_EXPONENTS.min() < 1.0:
+        return np.asarray(post[:, None, :] ** HINGE_EXPONENTS[None, :, None])
+    wear = np.empty((post.shape[0], HINGE_EXPONENTS.size, post.shape[1]))
+    power, held = post, 1
+    for j, p in enumerate(HINGE_EXPONENTS.astype(int).tolist()):
+        while held < p:
+            power, held = power * post, held + 1
+        wear[:, j] = power
+    return wear
 
 
 def _solve(gram: np.ndarray, right: np.ndarray) -> np.ndarray:

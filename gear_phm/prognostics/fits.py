@@ -26,9 +26,9 @@ returned apart, for the band's lower bound (:mod:`gear_phm.prognostics.calibrati
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 import math
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -36,6 +36,8 @@ from gear_phm.persistence import decode_float, decode_floats, encode_float, enco
 from gear_phm.prognostics.config import DEFAULTS
 from gear_phm.prognostics.laws import (EXPONENTIAL, EXPONENTIAL_FORM, LINEAR, MODELS, NONE,
                                        POWER, PROPORTIONAL, SHAPED)
+
+_T = TypeVar('_T')
 
 #: Shape grids: k span (dimensionless growth over the history) and power-law exponents.
 #: Both laws accelerate (k > 0, p >= P_FLOOR): see P_FLOOR.
@@ -62,6 +64,23 @@ CURVATURE_Z = 2.0
 SHAPE_PROFILE_Z = 3.0
 #: Smallest exponent a power-law draw may take (keeps u increasing in tau).
 P_MIN = 0.05
+
+
+def frozen_instance(cls: type[_T], values: dict[str, Any]) -> _T:
+    """Return an instance of the frozen dataclass ``cls`` with the field ``values``, all given.
+
+    Equal to ``cls(**values)`` without its per-field ``object.__setattr__`` (a frozen
+    dataclass's ``__init__`` costs microseconds, paid per estimate); for classes without a
+    ``__post_init__``.
+    """
+    instance = object.__new__(cls)
+    instance.__dict__.update(values)
+    return instance
+
+
+def replaced(instance: _T, **changes: Any) -> _T:
+    """Return ``dataclasses.replace(instance, **changes)`` (:func:`frozen_instance`'s terms)."""
+    return frozen_instance(type(instance), {**instance.__dict__, **changes})
 
 
 @dataclass(frozen=True)
@@ -332,7 +351,8 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     d = np.sqrt(np.diag(m))
     if not np.all(d > 0.0):
         return None
-    normalised = m / np.outer(d, d)
+    outer = np.outer(d, d)
+    normalised = m / outer
     singular = np.linalg.svd(normalised, compute_uv=False)     # np.linalg.cond's 2-norm
     with np.errstate(divide='ignore', invalid='ignore'):
         condition = singular[0] / singular[-1]
@@ -340,7 +360,7 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
         return None
     if not inverse:
         return normalised
-    return np.asarray(scale * np.linalg.inv(normalised) / np.outer(d, d))
+    return np.asarray(scale * np.linalg.inv(normalised) / outer)
 
 
 def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
@@ -390,11 +410,14 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
         low, high = _shape_range(fit, scale)
         if cov is not None:
             cov = fit.expanded(cov)
-            laws.append((aicc, Trend(name, t_end, float(fit.params[0]), float(fit.params[1]),
-                                     math.sqrt(max(float(cov[1, 1]), 0.0)),
-                                     float(fit.params[2]) if name != LINEAR else 0.0, span,
-                                     tuple(float(v) for v in cov.ravel()), n, n_eff,
-                                     scale=scale, shape_low=low, shape_high=high)))
+            params = fit.params.tolist()
+            laws.append((aicc, frozen_instance(Trend, {
+                'model': name, 't_end': t_end, 'u_end': params[0], 'slope': params[1],
+                'slope_sigma': math.sqrt(max(float(cov[1, 1]), 0.0)),
+                'shape': params[2] if name != LINEAR else 0.0, 'span': span,
+                'covariance': tuple(cov.ravel().tolist()), 'points': n,
+                'effective_points': n_eff, 'weight': 1.0, 'scale': scale, 'shape_low': low,
+                'shape_high': high})))
     if not laws:
         return ()
     if LINEAR in fits and len(laws) > 1:
@@ -409,12 +432,12 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
                 line - fits[law.model].rss) > z ** 2 * sigma2
         if held_out is not None:
             weights = _akaike_weights([aicc for aicc, _ in laws])
-            held_out.extend(replace(law, weight=float(w))
+            held_out.extend(replaced(law, weight=float(w))
                             for (_, law), w in zip(laws, weights) if not shown(law))
         laws = [entry for entry in laws if shown(entry[1])]
     laws.sort(key=lambda law: law[0])
     weights = _akaike_weights([aicc for aicc, _ in laws])
-    return tuple(replace(law, weight=float(w)) for (_, law), w in zip(laws, weights))
+    return tuple(replaced(law, weight=float(w)) for (_, law), w in zip(laws, weights))
 
 
 def forecast_law(t: np.ndarray, u: np.ndarray, precision: np.ndarray, model: str,

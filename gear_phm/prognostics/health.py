@@ -74,11 +74,14 @@ class DivergenceDetector:
         self.nis_lost = float(nis_lost)
         self._nis: deque[float] = deque(maxlen=self.nis_window)
         self._last_innovation: tuple[float, float] | None = None
+        #: the NIS window's verdict, kept until the window changes (None: to be judged)
+        self._verdict: tuple[int, str] | None = None
 
     def reset(self) -> None:
         """Forget the NIS history."""
         self._nis.clear()
         self._last_innovation = None
+        self._verdict = None
 
     def to_state(self) -> dict[str, Any]:
         """NIS window and the last innovation seen (JSON-safe)."""
@@ -95,6 +98,7 @@ class DivergenceDetector:
             raise ValueError('last_innovation needs 2 values')
         self._nis = deque(nis, maxlen=self.nis_window)
         self._last_innovation = None if pair is None else (pair[0], pair[1])
+        self._verdict = None
 
     @property
     def nis_mean(self) -> float:
@@ -113,8 +117,15 @@ class DivergenceDetector:
         if math.isfinite(nis) and key != self._last_innovation:
             self._nis.append(float(nis))
             self._last_innovation = key
+            self._verdict = None
         if not math.isfinite(u_sigma) or u_sigma > self.max_u_sigma:
             return ERROR, f'filter lost the signal: sigma_u {u_sigma:.3g} > {self.max_u_sigma:.3g}'
+        if self._verdict is None:       # the window changed (most updates repeat the last)
+            self._verdict = self._judged()
+        return self._verdict
+
+    def _judged(self) -> tuple[int, str]:
+        """Return the NIS window's verdict (:meth:`update` without the sigma_u check)."""
         if len(self._nis) < self.nis_window or not self.nis_mean > self.bound:
             return OK, ''
         if self.nis_median > self.nis_lost:

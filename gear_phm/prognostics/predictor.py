@@ -25,7 +25,7 @@ is 0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 import math
 from typing import Any
 
@@ -37,8 +37,8 @@ from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecas
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
-from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, ShapePrior, Trend,
-                                       trend_from_state, trend_to_state)
+from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, frozen_instance, replaced,
+                                       ShapePrior, Trend, trend_from_state, trend_to_state)
 from gear_phm.prognostics.history import WearHistory
 from gear_phm.prognostics.laws import LINEAR, MODELS, NONE
 
@@ -46,7 +46,7 @@ from gear_phm.prognostics.laws import LINEAR, MODELS, NONE
 def _renormalised(laws: tuple[Trend, ...]) -> tuple[Trend, ...]:
     """Return ``laws`` with their Akaike weights scaled to sum to 1."""
     total = sum(law.weight for law in laws)
-    return tuple(replace(law, weight=law.weight / total) for law in laws) if total > 0 else ()
+    return tuple(replaced(law, weight=law.weight / total) for law in laws) if total > 0 else ()
 
 
 @dataclass(frozen=True)
@@ -68,11 +68,14 @@ class RulEstimate:
         ``utilisation`` is operating over elapsed time: each quantile is divided by it; a
         positive RUL at utilisation 0 is inf (no wear while it stands still), 0 stays 0.
         """
-        def scaled(value: float) -> float:
-            if value == 0.0 or math.isnan(value):
-                return value
-            return value / utilisation if utilisation > 0.0 else math.inf
-        return RulEstimate(scaled(self.median), scaled(self.p5), scaled(self.p95), self.model)
+        median, p5, p95 = self.median, self.p5, self.p95
+        if utilisation > 0.0:
+            # v / utilisation keeps 0 and NaN as they are
+            median, p5, p95 = median / utilisation, p5 / utilisation, p95 / utilisation
+        else:
+            median, p5, p95 = (v if v == 0.0 or v != v else math.inf for v in (median, p5, p95))
+        return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
+                                             'model': self.model})
 
 
 class RulPredictor:
@@ -152,7 +155,7 @@ class RulPredictor:
     def shift(self, offset: float) -> None:
         """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
         self.history.shift(offset)
-        self._trend = replace(self._trend, t_end=self._trend.t_end + offset)
+        self._trend = replaced(self._trend, t_end=self._trend.t_end + offset)
         self._crossing = (self._crossing[0] + offset, self._crossing[1] + offset,
                           self._crossing[2] + offset)
 
@@ -206,7 +209,7 @@ class RulPredictor:
         else:
             origin = 0.0
         held: list[Trend] = []
-        laws = tuple(replace(law, t_end=law.t_end + history.t_start + origin)
+        laws = tuple(replaced(law, t_end=law.t_end + history.t_start + origin)
                      for law in fit_laws(t, u, precision, self.trend_choice, self.min_points,
                                          self.prior, self._curved, held))
         # a law extrapolates only once its own slope now is significant (a curved law's slope
@@ -245,8 +248,8 @@ class RulPredictor:
             # the band's lower bound also counts the curved laws held out of the median, with
             # their Akaike weights over all the laws (module docstring)
             share = 1.0 - sum(law.weight for law in held)
-            every = tuple(replace(law, weight=law.weight * share) for law in laws) + tuple(
-                replace(law, t_end=law.t_end + history.t_start + origin) for law in held)
+            every = tuple(replaced(law, weight=law.weight * share) for law in laws) + tuple(
+                replaced(law, t_end=law.t_end + history.t_start + origin) for law in held)
             p5 = self._crossing_quantiles(_renormalised(every))[0]
             self._crossing = (min(self._crossing[0], p5), self._crossing[1], self._crossing[2])
 
@@ -270,8 +273,10 @@ class RulPredictor:
         """RUL [s] at time t [s] given the filter's current u [-] (0 once u >= u_eol)."""
         trend = self.trend
         if u >= self.u_eol:
-            return RulEstimate(0.0, 0.0, 0.0, trend.model)
+            return frozen_instance(RulEstimate, {'median': 0.0, 'p5': 0.0, 'p95': 0.0,
+                                                 'model': trend.model})
         c5, c50, c95 = self._crossing
         p5, median, p95 = max(c5 - t, 0.0), max(c50 - t, 0.0), max(c95 - t, 0.0)
         model = trend.model if math.isfinite(median) or math.isfinite(p5) else NONE
-        return RulEstimate(median, p5, p95, model)
+        return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
+                                             'model': model})
