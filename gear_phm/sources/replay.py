@@ -95,8 +95,8 @@ class ReplaySource:
                               [position for position, _ in batch.rejected_at])
             if times.size:
                 steps = np.diff(times, prepend=kept_ns[1]) if kept_ns else np.diff(times)
-                for step, count in zip(*np.unique(steps, return_counts=True)):
-                    periods[int(step)] = periods.get(int(step), 0) + int(count)
+                for step, times_seen in zip(*np.unique(steps, return_counts=True)):
+                    periods[int(step)] = periods.get(int(step), 0) + int(times_seen)
                 kept_ns[:] = [kept_ns[0] if kept_ns else int(times[0]), int(times[-1])]
             pending.clear()
             del pending_ns[:]
@@ -149,8 +149,10 @@ class ReplaySource:
 
 
 def _median(counts: dict[int, int]) -> int:
-    """``int(numpy.median(values))`` of the values counted in ``counts`` (value -> how
-    often), 0 when there are none."""
+    """Return ``int(numpy.median(values))`` of the values counted in ``counts``.
+
+    ``counts``: value -> how often; 0 when there are none.
+    """
     total = sum(counts.values())
     if not total:
         return 0
