@@ -23,6 +23,14 @@ def best_of(func: Callable[[], object], repeat: int = 5) -> float:
     return best
 
 
+def rss_mib(pid: int | str = 'self') -> float:
+    """Resident set size [MiB] from /proc/<pid>/status."""
+    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
+        if line.startswith('VmRSS:'):
+            return int(line.split()[1]) / 1024.0
+    return float('nan')
+
+
 def machine() -> str:
     return (f'{platform.machine()}, {os.cpu_count()} cores, Python '
             f'{platform.python_version()}')

@@ -29,18 +29,10 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import append_section, BENCHMARKS_MD  # noqa: E402
+from _report import append_section, BENCHMARKS_MD, rss_mib  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
-
-
-def rss_mib(pid: int | str = 'self') -> float:
-    """Resident set size [MiB] from /proc/<pid>/status."""
-    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
-        if line.startswith('VmRSS:'):
-            return int(line.split()[1]) / 1024.0
-    return float('nan')
 
 
 def peak_mib(command: list[str]) -> tuple[float, float]:

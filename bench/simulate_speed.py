@@ -4,7 +4,8 @@ Each run is a whole process (start-up, simulation, CDR packing, zstd, metadata),
 working directory and first on PYTHONPATH, this environment's interpreter. Reports the median
 wall time, samples per wall second, the process's CPU time (user + system, which machine load
 inflates less than wall time) and peak RSS, and with two trees the ratio A / B of wall and
-CPU time (B's speed-up over A).
+CPU time (B's speed-up over A). Every run uses the same seed; the SHA-256 of each run's bag
+files (.mcap and metadata.yaml) says whether a tree wrote identical bags in all its runs.
 
     git worktree add --detach /tmp/base <old commit>
     .venv/bin/python bench/simulate_speed.py /tmp/base . --samples 1000000 --repeat 3
@@ -12,6 +13,7 @@ CPU time (B's speed-up over A).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import os
 from pathlib import Path
 import shutil
@@ -39,6 +41,17 @@ def run_once(tree: Path, out: Path, samples: int, rate: float) -> tuple[float, f
     return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0
 
 
+def digest(bag: Path) -> str:
+    """SHA-256 over the files of ``bag`` (sorted by name)."""
+    sha = hashlib.sha256()
+    for path in sorted(bag.iterdir()):
+        sha.update(path.name.encode())
+        with open(path, 'rb') as stream:
+            while block := stream.read(1 << 24):
+                sha.update(block)
+    return sha.hexdigest()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('trees', type=Path, nargs='+', help='source tree A [and B]')
@@ -50,21 +63,27 @@ def main() -> int:
     args = parser.parse_args()
     trees = [tree.resolve() for tree in args.trees[:2]]
     results: list[list[tuple[float, float, float]]] = [[] for _ in trees]
+    digests: list[set[str]] = [set() for _ in trees]
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(args.repeat):
             for k, tree in enumerate(trees):
                 out = Path(tmp) / f'run{k}'
                 results[k].append(run_once(tree, out, args.samples, args.rate))
+                digests[k].add(digest(out))
                 shutil.rmtree(out)                 # 10M samples are about 1 GB
     print(f'{args.samples:,} samples at {args.rate:g} Hz, medians of {args.repeat} runs')
-    print('| tree | wall [s] | samples/s (wall) | CPU [s] | peak RSS [MB] |')
-    print('|---|---|---|---|---|')
+    print('| tree | wall [s] | samples/s (wall) | CPU [s] | peak RSS [MB] | identical bags |')
+    print('|---|---|---|---|---|---|')
     medians = []
-    for name, tree, res in zip('AB', trees, results):
+    for name, tree, res, sums in zip('AB', trees, results, digests):
         wall, cpu, rss = (statistics.median(r[j] for r in res) for j in range(3))
         medians.append((wall, cpu))
+        same = ('-' if args.repeat < 2 else
+                f'{"yes" if len(sums) == 1 else "NO"} ({args.repeat} runs)')
         print(f'| {name}: {tree} | {wall:.1f} | {args.samples / wall:,.0f} | {cpu:.1f} '
-              f'| {rss:.0f} |')
+              f'| {rss:.0f} | {same} |')
+    if len(trees) == 2:
+        print(f'A and B wrote identical bags: {"yes" if digests[0] == digests[1] else "no"}')
     if len(medians) == 2:
         print(f'A / B: wall {medians[0][0] / medians[1][0]:.2f}, '
               f'CPU {medians[0][1] / medians[1][1]:.2f}')

@@ -454,3 +454,18 @@ def test_chunk_reader_is_as_good_as_mcap_on_a_random_file(tmp_path: Path) -> Non
     with McapChunkReader([path]) as reader:
         result = by_topic(reader.batches(['/t0', '/t1', '/t2']))
     assert result == expected and sum(map(len, result.values())) == 3000
+
+
+def test_rosbags_reads_after_raw_batches_released_its_index(tmp_path: Path) -> None:
+    """raw_batches frees rosbags' chunk index while it reads (the fast reader has its own);
+    raw_messages on the same open bag has rosbags read it again: every message, in order."""
+    messages = interleaved(400)
+    bag = write_mcap(tmp_path / 'bag.mcap', messages, chunk_size=4000)
+    with BagReader(bag) as reader:
+        chunks = len(reader.reader.readers[0].storage.chunks)
+        batched = by_topic(reader.raw_batches(TOPICS, batch_size=7))
+        released = len(reader.reader.readers[0].storage.chunks)
+        again = list(reader.raw_messages(TOPICS))
+    assert chunks > 10 and released == 0 and reader.reader_kind == 'mcap-chunks'
+    assert batched == written(messages) == written(again) and len(again) == len(messages)
+    assert [t for _, t, _ in again] == sorted(t for _, t, _ in messages)

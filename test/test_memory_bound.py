@@ -13,6 +13,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from gear_phm.offline.decimate import Binned
 
@@ -31,17 +32,38 @@ def _peak_mib(command: list[str]) -> float:
     return usage.ru_maxrss / 1024.0
 
 
-def test_analyze_peak_rss_does_not_grow_with_the_bag(tmp_path: Path) -> None:
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
+    """Return simulated 1 kHz bags with truth of 10k and 100k samples."""
+    folder = tmp_path_factory.mktemp('memory_bound')
+    out = {}
+    for samples in (10_000, 100_000):
+        out[samples] = folder / f'bag_{samples}'
+        subprocess.run([str(GEAR_PHM), 'simulate', '--duration', str(samples // 1000),
+                        '--rate', '1000', '--out', str(out[samples])], check=True,
+                       capture_output=True)
+    return out
+
+
+def test_analyze_peak_rss_does_not_grow_with_the_bag(bags: dict[int, Path],
+                                                     tmp_path: Path) -> None:
     """gear-phm analyze with truth and plot: 100k samples peak within 15 % of 10k."""
     peaks = []
-    for samples in (10_000, 100_000):
-        bag = tmp_path / f'bag_{samples}'
-        subprocess.run([str(GEAR_PHM), 'simulate', '--duration', str(samples // 1000),
-                        '--rate', '1000', '--out', str(bag)], check=True, capture_output=True)
+    for samples, bag in bags.items():
         peaks.append(_peak_mib([str(GEAR_PHM), 'analyze', str(bag), '--ratio', '3', '--out',
                                 str(tmp_path / f'out_{samples}'), '--no-progress']))
         assert (tmp_path / f'out_{samples}' / 'analysis.png').is_file()
     small, large = peaks
+    assert large <= (1 + GROWTH) * small, f'peak RSS {small:.0f} -> {large:.0f} MiB'
+
+
+def test_python_api_peak_rss_does_not_grow_with_the_bag(bags: dict[int, Path]) -> None:
+    """analyze_bag with its default options: 100k samples peak within 15 % of 10k."""
+    script = ('import sys; from gear_phm.offline import analyze_bag; '
+              'result = analyze_bag(sys.argv[1], 3.0); '
+              'assert result.summary["messages"] == int(sys.argv[2]), result.summary')
+    small, large = (_peak_mib([sys.executable, '-c', script, str(bag), str(samples)])
+                    for samples, bag in bags.items())
     assert large <= (1 + GROWTH) * small, f'peak RSS {small:.0f} -> {large:.0f} MiB'
 
 

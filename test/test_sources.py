@@ -178,3 +178,17 @@ def test_read_ahead_keeps_order_raises_in_place_and_stops_its_thread() -> None:
     reader.close()
     assert closed == [True]                         # the source was closed by its reader
     assert not [t for t in threading.enumerate() if t.name == 'source-read-ahead']
+
+
+def test_replay_median_period_from_counts_equals_numpy_median() -> None:
+    """The replay check counts periods instead of keeping every log time: same median."""
+    rng = np.random.default_rng(11)
+    for size in (1, 2, 3, 10, 11, 1000, 1001):
+        values = rng.integers(9_990_000, 10_010_000, size=size) // 1000 * 1000
+        values[::5] = 10**7
+        counts: dict[int, int] = {}
+        for value in values.tolist():
+            counts[value] = counts.get(value, 0) + 1
+        assert replay_module._median(counts) == int(np.median(values)), size
+    assert replay_module._median({}) == 0
+    assert replay_module._median({3: 1, 4: 1}) == 3        # 3.5, truncated as int() does

@@ -23,13 +23,14 @@ log times in file order (as mcap's reader orders them); also when chunks overlap
 """
 from __future__ import annotations
 
+from array import array
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
 
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk
+from mcap.records import Channel, Chunk, ChunkIndex, Footer, Statistics
 import numpy as np
 
 from gear_phm.bagio.mcapformat import (COMPRESSIONS, decompress, FOOTER_BYTES, FormatError, MAGIC,
@@ -128,6 +129,8 @@ class _Part:
 
 @dataclass
 class _Chunk:
+    """One chunk of the index, made from a row of :class:`_ChunkTable` while it is used."""
+
     stream: BinaryIO
     path: Path
     number: int                          # position in file order over all files
@@ -146,6 +149,96 @@ class _Chunk:
     @property
     def where(self) -> str:
         return f'{self.path.name}: chunk at byte {self.start_offset}'
+
+
+#: The columns of :class:`_ChunkTable` (u64 each): the chunk index's fields, and where the
+#: chunk's channels start among the entries.
+_COLUMNS = ('start_offset', 'length', 'index_length', 'compression', 'compressed_size',
+            'uncompressed_size', 'start_ns', 'end_ns', 'first_entry')
+_COMPRESSION_NAMES = tuple(COMPRESSIONS)
+
+
+class _ChunkTable:
+    """The chunk indexes of one file as numpy columns, about 100 bytes a chunk.
+
+    Filled record by record from the summary, so no Python object per chunk stays alive
+    (mcap's and rosbags' index objects take about 2 KB a chunk). Rows are the chunks in
+    offset order; the entries of a row are its channels: id, file offset of the message
+    index, indexed messages (:attr:`counts`, filled when the message indexes are checked).
+    """
+
+    def __init__(self, stream: BinaryIO, path: Path, first_number: int) -> None:
+        self.stream, self.path, self.first_number = stream, path, first_number
+        self.topics: dict[int, str] = {}
+        self._rows: dict[str, array[int]] | None = {name: array('Q') for name in _COLUMNS}
+        self._cids, self._offsets = array('H'), array('Q')
+        self.columns: dict[str, np.ndarray] = {}
+        empty: np.ndarray = np.zeros(0, dtype=np.int64)
+        self.cids, self.offsets, self.counts = empty, empty, empty
+        #: Chunks whose compression gear_phm cannot read.
+        self.unknown_compressions: set[str] = set()
+
+    def __len__(self) -> int:
+        return int(self.columns['start_offset'].size)
+
+    def add(self, index: ChunkIndex) -> None:
+        """Append the chunk of the ChunkIndex record ``index``."""
+        assert self._rows is not None
+        if index.compression not in COMPRESSIONS:
+            self.unknown_compressions.add(index.compression)
+            compression = 0
+        else:
+            compression = _COMPRESSION_NAMES.index(index.compression)
+        for name, value in zip(_COLUMNS, (
+                index.chunk_start_offset, index.chunk_length, index.message_index_length,
+                compression, index.compressed_size, index.uncompressed_size,
+                index.message_start_time, index.message_end_time, len(self._cids))):
+            self._rows[name].append(value)
+        for cid, offset in index.message_index_offsets.items():
+            self._cids.append(cid)
+            self._offsets.append(offset)
+
+    def freeze(self) -> None:
+        """Turn the appended rows into numpy columns, sorted by chunk offset."""
+        assert self._rows is not None
+        rows = {name: np.frombuffer(column, dtype=np.uint64).copy()
+                for name, column in self._rows.items()}
+        self._rows = None
+        cids = np.frombuffer(self._cids, dtype=np.uint16).astype(np.int64)
+        offsets = np.frombuffer(self._offsets, dtype=np.uint64).copy()
+        self._cids, self._offsets = array('H'), array('Q')
+        order = np.argsort(rows['start_offset'], kind='stable')
+        if (np.diff(order) != 1).any():
+            ends = np.append(rows['first_entry'][1:], cids.size).astype(np.int64)
+            entries = [np.arange(int(rows['first_entry'][i]), int(ends[i]))
+                       for i in order.tolist()]
+            taken = np.concatenate(entries).astype(np.int64)
+            sizes = (ends - rows['first_entry'].astype(np.int64))[order]
+            rows = {name: column[order] for name, column in rows.items()}
+            rows['first_entry'] = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.uint64)
+            cids, offsets = cids[taken], offsets[taken]
+        self.columns = rows
+        self.cids, self.offsets = cids, offsets
+        self.counts = np.zeros(cids.size, dtype=np.int64)
+
+    def entries(self, row: int) -> slice:
+        """Where the channels of chunk ``row`` are in :attr:`cids`, :attr:`offsets` and
+        :attr:`counts`."""
+        first = self.columns['first_entry']
+        return slice(int(first[row]), int(first[row + 1]) if row + 1 < first.size
+                     else int(self.cids.size))
+
+    def chunk(self, row: int) -> _Chunk:
+        """Chunk ``row`` as a :class:`_Chunk`."""
+        value = {name: int(column[row]) for name, column in self.columns.items()}
+        span = self.entries(row)
+        cids = self.cids[span].tolist()
+        return _Chunk(
+            self.stream, self.path, self.first_number + row, value['start_offset'],
+            value['length'], value['index_length'], _COMPRESSION_NAMES[value['compression']],
+            value['compressed_size'], value['uncompressed_size'], value['start_ns'],
+            value['end_ns'], dict(zip(cids, self.offsets[span].tolist())),
+            {cid: n for cid, n in zip(cids, self.counts[span].tolist()) if n}, self.topics)
 
 
 def _walk(data: bytes, start: int, end: int, where: str) -> Iterator[tuple[int, int, int]]:
@@ -176,7 +269,7 @@ class McapChunkReader:
 
     def __init__(self, paths: Iterable[str | Path]) -> None:
         self._streams: list[BinaryIO] = []
-        self._chunks: list[_Chunk] = []
+        self._tables: list[_ChunkTable] = []
         #: Whether the statistics prove that the message indexes list every message, so
         #: chunks without a wanted channel in their index can be skipped.
         self.complete = True
@@ -189,7 +282,6 @@ class McapChunkReader:
         except BaseException:
             self.close()
             raise
-        self._chunks.sort(key=lambda chunk: (chunk.start_ns, chunk.number))
 
     def close(self) -> None:
         for stream in self._streams:
@@ -212,9 +304,6 @@ class McapChunkReader:
     # --- the file's structure, checked before anything is read ---------------------------
 
     def _index_file(self, path: Path, stream: BinaryIO) -> None:
-        from mcap.exceptions import McapError
-        from mcap.reader import make_reader
-
         try:
             footer = read_footer(stream)
         except NotMcap:
@@ -227,50 +316,38 @@ class McapChunkReader:
         size = stream.seek(0, 2)
         if not len(MAGIC) < summary_start <= size - FOOTER_BYTES - len(MAGIC):
             raise IndexMismatch(f'{path}: summary offset {summary_start} is outside the file')
-        try:
-            stream.seek(0)
-            summary = make_reader(stream).get_summary()
-        except (McapError, EOFError, ValueError, KeyError) as exc:
-            raise NotIndexed(f'{path}: no readable summary ({exc})') from exc
-        if summary is None or not summary.chunk_indexes:
-            raise NotIndexed(f'{path}: no chunk index')
-        if not summary.channels:
-            raise NotIndexed(f'{path}: the summary does not repeat the channels')
-        topics = {cid: channel.topic for cid, channel in summary.channels.items()}
-        chunks = []
-        for index in sorted(summary.chunk_indexes, key=lambda i: i.chunk_start_offset):
-            if index.compression not in COMPRESSIONS:
-                raise NotIndexed(f'{path}: chunk compression {index.compression!r}')
-            chunks.append(_Chunk(
-                stream, path, 0, index.chunk_start_offset, index.chunk_length,
-                index.message_index_length, index.compression, index.compressed_size,
-                index.uncompressed_size, index.message_start_time, index.message_end_time,
-                dict(index.message_index_offsets), topics=topics))
-        self._check_data_section(path, stream, chunks, summary_start, topics)
-        indexed_all = True
-        for chunk in chunks:
-            chunk.number = len(self._chunks)
-            self._chunks.append(chunk)
-            if not chunk.index_offsets:
-                indexed_all = False
-                if chunk.index_length:
-                    raise IndexMismatch(f'{chunk.where}: message index records that the '
-                                        f'chunk index does not list')
+        table = _ChunkTable(stream, path, sum(len(t) for t in self._tables))
+        stats = self._read_summary(table, summary_start)
+        topics = table.topics
+        if table.unknown_compressions:
+            raise NotIndexed(f'{path}: chunk compression '
+                             f'{sorted(table.unknown_compressions)[0]!r}')
+        self._check_data_section(table, summary_start)
+        columns = table.columns
+        unindexed = columns['first_entry'] == np.append(columns['first_entry'][1:],
+                                                        table.cids.size)
+        indexed_all = not unindexed.any()
+        for row in range(len(table)):
+            if unindexed[row]:
+                if columns['index_length'][row]:
+                    raise IndexMismatch(f'{table.chunk(row).where}: message index records '
+                                        f'that the chunk index does not list')
                 continue
-            self._check_message_indexes(chunk, topics)
-        counts: dict[int, int] = {}
-        for chunk in chunks:
-            for cid, count in chunk.counts.items():
-                counts[cid] = counts.get(cid, 0) + count
-        stats = summary.statistics
+            chunk = table.chunk(row)
+            counts = self._check_message_indexes(chunk, topics)
+            span = table.entries(row)
+            table.counts[span] = [counts.get(cid, 0) for cid in table.cids[span].tolist()]
+        self._tables.append(table)
+        counts = {cid: int(table.counts[table.cids == cid].sum())
+                  for cid in np.unique(table.cids).tolist()}
         if stats is not None and indexed_all:
-            if (stats.chunk_count != len(chunks) or stats.message_count != sum(counts.values())
+            if (stats.chunk_count != len(table) or stats.message_count != sum(counts.values())
                     or (stats.channel_message_counts
                         and {c: n for c, n in stats.channel_message_counts.items() if n}
                         != {c: n for c, n in counts.items() if n})):
                 raise IndexMismatch(f'{path}: the statistics ({stats.message_count} messages '
                                     f'in {stats.chunk_count} chunks) disagree with the '
-                                    f'indexes ({sum(counts.values())} in {len(chunks)})')
+                                    f'indexes ({sum(counts.values())} in {len(table)})')
         else:
             self.complete = False
         if not indexed_all:
@@ -280,14 +357,47 @@ class McapChunkReader:
                 self._counts[topics[cid]] = self._counts.get(topics[cid], 0) + count
 
     @staticmethod
-    def _check_data_section(path: Path, stream: BinaryIO, chunks: list[_Chunk],
-                            summary_start: int, topics: dict[int, str]) -> None:
+    def _read_summary(table: _ChunkTable, summary_start: int) -> Statistics | None:
+        """Read the summary section record by record into ``table`` (its chunk indexes and
+        channels); return its statistics. NotIndexed when it does not parse or lacks chunk
+        indexes or channels."""
+        from mcap.exceptions import McapError
+        from mcap.stream_reader import StreamReader
+
+        path, stream = table.path, table.stream
+        stats = None
+        try:
+            stream.seek(summary_start)
+            for record in StreamReader(stream, skip_magic=True).records:
+                if isinstance(record, ChunkIndex):
+                    table.add(record)
+                elif isinstance(record, Channel):
+                    table.topics[record.id] = record.topic
+                elif isinstance(record, Statistics):
+                    stats = record
+                elif isinstance(record, Footer):
+                    break
+        except (McapError, EOFError, ValueError, KeyError) as exc:
+            raise NotIndexed(f'{path}: no readable summary ({exc})') from exc
+        table.freeze()
+        if not len(table):
+            raise NotIndexed(f'{path}: no chunk index')
+        if not table.topics:
+            raise NotIndexed(f'{path}: the summary does not repeat the channels')
+        return stats
+
+    @staticmethod
+    def _check_data_section(table: _ChunkTable, summary_start: int) -> None:
         """No message, chunk or stray message index outside the indexed chunks, and every
         channel record agrees with the summary (reads only the records between chunks)."""
+        path, stream, topics = table.path, table.stream, table.topics
         at = 8
         first = True
-        for chunk in [*chunks, None]:
-            end = summary_start if chunk is None else chunk.start_offset
+        columns = table.columns
+        spans = zip(columns['start_offset'].tolist(), columns['length'].tolist(),
+                    columns['index_length'].tolist())
+        for chunk in [*spans, None]:
+            end = summary_start if chunk is None else chunk[0]
             if at > end:
                 raise IndexMismatch(f'{path}: chunk indexes overlap or point into records')
             while at < end:
@@ -311,26 +421,27 @@ class McapChunkReader:
                 first = False
                 at += RECORD_HEAD.size + length
             if chunk is not None:
-                stream.seek(chunk.start_offset)
+                start, length, index_length = chunk
+                stream.seek(start)
                 head = stream.read(RECORD_HEAD.size)
-                if len(head) < RECORD_HEAD.size or head[0] != Opcode.CHUNK \
-                        or chunk.length < 41 \
-                        or RECORD_HEAD.size + RECORD_HEAD.unpack(head)[1] != chunk.length:
-                    raise IndexMismatch(f'{chunk.where}: no chunk record of the indexed '
-                                        f'length there')
-                at = chunk.start_offset + chunk.length + chunk.index_length
+                if len(head) < RECORD_HEAD.size or head[0] != Opcode.CHUNK or length < 41 \
+                        or RECORD_HEAD.size + RECORD_HEAD.unpack(head)[1] != length:
+                    raise IndexMismatch(f'{path.name}: chunk at byte {start}: no chunk record '
+                                        f'of the indexed length there')
+                at = start + length + index_length
                 first = False
 
     @staticmethod
-    def _check_message_indexes(chunk: _Chunk, topics: dict[int, str]) -> None:
+    def _check_message_indexes(chunk: _Chunk, topics: dict[int, str]) -> dict[int, int]:
         """The message index records after ``chunk`` are those its chunk index lists, with
-        log times inside its time range; fills ``chunk.counts``."""
+        log times inside its time range; return the indexed messages per channel."""
         start = chunk.start_offset + chunk.length
         chunk.stream.seek(start)
         region = chunk.stream.read(chunk.index_length)
         if len(region) != chunk.index_length:
             raise IndexMismatch(f'{chunk.where}: message indexes past the end of the file')
         found: dict[int, int] = {}
+        counts: dict[int, int] = {}
         for op, at, length in _walk(region, 0, len(region), chunk.where):
             if op != Opcode.MESSAGE_INDEX or length < 6:
                 raise IndexMismatch(f'{chunk.where}: a record of type {op:#04x} among its '
@@ -347,7 +458,7 @@ class McapChunkReader:
                 if int(times.min()) < chunk.start_ns or int(times.max()) > chunk.end_ns:
                     raise IndexMismatch(f'{chunk.where}: message index times outside the '
                                         f"chunk's time range")
-                chunk.counts[cid] = len(entries)
+                counts[cid] = len(entries)
         if found != chunk.index_offsets:
             raise IndexMismatch(f'{chunk.where}: the message index records differ from the '
                                 f'chunk index')
@@ -355,22 +466,54 @@ class McapChunkReader:
         if unknown:
             raise NotIndexed(f'{chunk.where}: channels {sorted(unknown)} are not in the '
                              f'summary')
+        return counts
 
     # --- reading ---------------------------------------------------------------------------
+
+    def _plan(self, wanted: set[str]) -> list[tuple[_ChunkTable, np.ndarray]]:
+        """The chunks to read for topics ``wanted``: (table, rows) in (start time, number)
+        order, one pair per run of rows from one file."""
+        numbers, starts, keep = [], [], []
+        for table in self._tables:
+            ids = [cid for cid, topic in table.topics.items() if topic in wanted]
+            row_of_entry = np.repeat(np.arange(len(table)), np.diff(np.append(
+                table.columns['first_entry'].astype(np.int64), table.cids.size)))
+            ours = np.zeros(len(table), dtype=bool)
+            ours[row_of_entry[np.isin(table.cids, ids) & (table.counts > 0)]] = True
+            numbers.append(table.first_number + np.arange(len(table)))
+            starts.append(table.columns['start_ns'])
+            # skipped when the statistics prove: none of ours there; else read, its content
+            # may hold some
+            keep.append(ours if self.complete else np.ones(len(table), dtype=bool))
+        number, start = np.concatenate(numbers), np.concatenate(starts)
+        order = np.lexsort((number, start))
+        order = order[np.concatenate(keep)[order]]
+        if not order.size:
+            return []
+        firsts = [table.first_number for table in self._tables]
+        which = np.searchsorted(firsts, order, side='right') - 1
+        cut = np.flatnonzero(np.diff(which)) + 1
+        return [(self._tables[int(part[0])], rows - self._tables[int(part[0])].first_number)
+                for part, rows in zip(np.split(which, cut), np.split(order, cut))]
+
+    def _chunks(self, wanted: set[str]) -> Iterator[tuple[_Chunk, dict[int, str]]]:
+        """The chunks to read for topics ``wanted`` in (start time, number) order, with their
+        channels of ``wanted`` topics."""
+        for table, rows in self._plan(wanted):
+            channels = {cid: topic for cid, topic in table.topics.items() if topic in wanted}
+            for row in rows.tolist():
+                yield table.chunk(row), channels
 
     def batches(self, topics: Iterable[str]) -> Iterator[RawBatch]:
         """RawBatch per topic and chunk, in log-time order per topic (a message that a later
         chunk could precede is held back and merged into that chunk's batch)."""
-        wanted = set(topics)
-        plan = []
-        for chunk in self._chunks:
-            channels = {cid: topic for cid, topic in chunk.topics.items() if topic in wanted}
-            if self.complete and not any(chunk.counts.get(cid) for cid in channels):
-                continue                     # the statistics prove: none of ours here
-            plan.append((chunk, channels))   # else read it: its content may hold some
+        chunks = self._chunks(set(topics))
         carry: dict[str, _Part] = {}
-        for position, (chunk, channels) in enumerate(plan):
-            following = plan[position + 1][0] if position + 1 < len(plan) else None
+        upcoming = next(chunks, None)
+        while upcoming is not None:
+            chunk, channels = upcoming
+            upcoming = next(chunks, None)
+            following = None if upcoming is None else upcoming[0]
             for topic, part in self._read(chunk, channels).items():
                 if topic in carry:
                     previous = carry.pop(topic)

@@ -72,28 +72,41 @@ class ReplaySource:
     def _check(self, bag: BagReader, start_offset: float) -> None:
         """Read the bag once, keeping only what pacing needs.
 
-        That is the JointState log times, the positions of unusable JointState messages, and
-        the first and last log time of everything replayed.
+        That is the positions of unusable JointState messages, the first and last log time of
+        everything replayed, and the median JointState period, counted per distinct period
+        (so memory grows with the spread of the periods, not with the bag).
         """
-        joint_ns = array('q')
         rejected: list[int] = []
         pending: list[bytes] = []
+        pending_ns = array('q')
         first_raw: bytes | None = None
         truth_ns: list[int] = []                    # log times of the first and last truth
+        periods: dict[int, int] = {}                # period [ns] between kept -> how often
+        kept_ns: list[int] = []                     # first and last kept log time
+        joints = 0                                  # JointState messages so far
 
         def decode_pending() -> None:
             batch = decode_joint_states(pending, *self._joints)
-            base = len(joint_ns) - len(pending)
+            base = joints - len(pending)
             for position, reason in batch.rejected_at:
                 rejected.append(base + position)
                 self.dropped[reason] = self.dropped.get(reason, 0) + 1
+            times = np.delete(np.frombuffer(pending_ns, dtype=np.int64),
+                              [position for position, _ in batch.rejected_at])
+            if times.size:
+                steps = np.diff(times, prepend=kept_ns[1]) if kept_ns else np.diff(times)
+                for step, times_seen in zip(*np.unique(steps, return_counts=True)):
+                    periods[int(step)] = periods.get(int(step), 0) + int(times_seen)
+                kept_ns[:] = [kept_ns[0] if kept_ns else int(times[0]), int(times[-1])]
             pending.clear()
+            del pending_ns[:]
 
         for topic, t_ns, raw in bag.raw_messages(list(self._channels), start_ns=self._start_ns):
             if self._channels[topic] != 'joints':
                 truth_ns[min(len(truth_ns), 1):] = [t_ns]
                 continue
-            joint_ns.append(t_ns)
+            joints += 1
+            pending_ns.append(t_ns)
             pending.append(raw)
             if first_raw is None:
                 first_raw = raw
@@ -103,17 +116,15 @@ class ReplaySource:
         if first_raw is None:
             raise SourceError(f'topic {self.topic} of bag {self.path} has no message after '
                               f'start_offset {start_offset:g} s')
-        if len(rejected) == len(joint_ns):
+        if len(rejected) == joints:
             raise SourceError(
                 f'joints {self._joints[0]!r} and {self._joints[1]!r} (parameters motor_joint, '
                 f'load_joint) are not in the messages of {self.topic} in bag {self.path}: '
                 f'names are {_joint_names(first_raw)} ({", ".join(sorted(self.dropped))})')
-        kept = np.delete(np.frombuffer(joint_ns, dtype=np.int64), rejected)
         self._rejected = frozenset(rejected)
-        self._first_ns = min([int(kept[0]), *truth_ns])
-        last_ns = max([int(kept[-1]), *truth_ns])
-        period_ns = int(np.median(np.diff(kept))) if len(kept) > 1 else 0
-        self._pass_ns = last_ns - self._first_ns + period_ns
+        self._first_ns = min([kept_ns[0], *truth_ns])
+        last_ns = max([kept_ns[-1], *truth_ns])
+        self._pass_ns = last_ns - self._first_ns + _median(periods)
 
     def items(self) -> Generator[tuple[int, Item], None, None]:
         """Read the bag again for every pass: one Recorded per message kept, then PASS_END."""
@@ -135,6 +146,21 @@ class ReplaySource:
 
     def describe(self) -> Sequence[tuple[str, Any]]:
         return [('bag', self.bag_path), ('topic', self.topic), ('rate_factor', self.speed)]
+
+
+def _median(counts: dict[int, int]) -> int:
+    """Return ``int(numpy.median(values))`` of the values counted in ``counts``.
+
+    ``counts``: value -> how often; 0 when there are none.
+    """
+    total = sum(counts.values())
+    if not total:
+        return 0
+    values = sorted(counts)
+    ends = np.cumsum([counts[value] for value in values])
+    middle = sorted({(total - 1) // 2, total // 2})
+    picks = [values[int(np.searchsorted(ends, k, side='right'))] for k in middle]
+    return int(np.mean(np.array(picks, dtype=np.int64)))
 
 
 def _pick_topic(bag: BagReader, topic: str) -> str:
