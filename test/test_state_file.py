@@ -153,6 +153,7 @@ def _final(status: dict[str, str]) -> tuple[float, float, float]:
 # bounds stay as they are; a failed attempt is retried twice (pytest-rerunfailures, pinned)
 # so that the intermittent case does not fail the suite, and three failures in a row do.
 @pytest.mark.flaky(reruns=2)
+@pytest.mark.long(120)
 def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     messages = _messages()
     driver = Driver('state_driver', OUTPUTS)
