@@ -53,10 +53,10 @@ OPTIONS = ('--ratio', '3.0', '--eta-opposing-min', '0.7333', '--eta-warn', '0.8'
 
 @pytest.fixture(scope='module')
 def one_worker(fleet: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A directory with ``out``, the table of one local worker without unit outputs or
-    progress bar, and ``stderr.txt``, that run's standard error.
+    """Return the directory of the fleet table of one local worker and that run's stderr.
 
-    Run once per test run (helpers.shared.build_once): two tests compare other runs with it.
+    ``out`` holds the table (no unit outputs, no progress bar), ``stderr.txt`` the standard
+    error. Run once per test run (helpers.shared.build_once): two tests compare with it.
     """
     return build_once(tmp_path_factory, 'fleet_one_worker',
                       functools.partial(_one_worker, fleet))
@@ -75,7 +75,7 @@ def read_rows(path: Path) -> dict[str, dict[str, str]]:
 
 
 def test_fleet_table_bad_units_and_worker_independence(fleet: Path, one_worker: Path,
-                                                      tmp_path: Path) -> None:
+                                                       tmp_path: Path) -> None:
     one, two = one_worker / 'out', tmp_path / 'two'
     result = run('fleet', str(fleet), '--out', str(two), '--workers', '2', *OPTIONS)
     assert result.returncode == 0, result.stderr
@@ -149,7 +149,7 @@ def test_simulate_fleet_gaps_regular_or_irregular(tmp_path: Path) -> None:
 
 
 def test_fleet_runs_on_an_existing_scheduler(fleet: Path, one_worker: Path,
-                                           tmp_path: Path) -> None:
+                                             tmp_path: Path) -> None:
     """``--scheduler ADDRESS`` runs the same job on a cluster the user already has.
 
     The cluster here is a real Dask scheduler with one worker process, started by the test;
