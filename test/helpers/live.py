@@ -29,8 +29,8 @@ class Driver:
 
     It logs the output topics ``outputs`` (default all of them). Each message received costs
     the test process a callback: a test that reads only some of them names those. The node
-    spins in an executor of its own, kept for the driver's life (``rclpy.spin_once`` adds and
-    removes the node each call, which wakes the wait again: about twice the waits).
+    spins in an executor of its own, kept for the driver's life (``rclpy.spin_once`` adds the
+    node to the global executor and removes it at every call, and each change wakes the wait).
     """
 
     def __init__(self, name: str, outputs: tuple[str, ...] = OUTPUTS) -> None:
