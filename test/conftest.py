@@ -51,3 +51,47 @@ def sigkill_safe_env() -> dict[str, str]:
     transports and reach it over UDP.
     """
     return {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+
+
+def worksteal_shares(count: int, workers: int) -> list[int]:
+    """Return how many of ``count`` tests each of ``workers`` gets at the start of a run.
+
+    pytest-xdist's ``--dist worksteal`` deals the collection out in contiguous shares, in
+    order: each worker in turn gets the remaining tests divided by the workers still to serve.
+    """
+    shares = []
+    for served in range(workers):
+        shares.append((count - sum(shares)) // (workers - served))
+    return shares
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """On pytest-xdist workers, put each ``long`` test at the head of a worker's share.
+
+    The shares are those of ``--dist worksteal`` (setup.cfg; a worker cannot see the mode,
+    its own is ``no``). A share is run from its head; idle workers take the second half of
+    the longest queue. A long test at the end of the collection (test_state_file.py,
+    test_transmissions_live.py) would start late and finish the run alone on one core. The
+    long tests are dealt out longest first (their marker's seconds), each to the share with
+    the fewest long seconds so far, and start at once; the other tests keep their order.
+    Each worker computes the same order, as pytest-xdist requires.
+    """
+    workers = int(getattr(config, 'workerinput', {}).get('workercount', 0))
+    long = sorted((item for item in items if item.get_closest_marker('long')),
+                  key=lambda item: -float(item.get_closest_marker('long').args[0]))
+    if not workers or not long:
+        return
+    heads: list[list[pytest.Item]] = [[] for _ in range(workers)]
+    seconds = [0.0] * workers
+    for item in long:
+        share = min(range(workers), key=lambda k: (seconds[k], k))
+        heads[share].append(item)
+        seconds[share] += float(item.get_closest_marker('long').args[0])
+    rest = iter([item for item in items if not item.get_closest_marker('long')])
+    ordered: list[pytest.Item] = []
+    for head, share in zip(heads, worksteal_shares(len(items), workers)):
+        ordered += head
+        ordered += [item for _, item in zip(range(share - len(head)), rest)]
+    ordered += rest
+    items[:] = ordered

@@ -118,6 +118,7 @@ def test_bench_memory_analyze_tiny() -> None:
 
 
 @pytest.mark.integration
+@pytest.mark.long(30)
 def test_bench_live_pipeline_tiny() -> None:
     out = run('live_pipeline.py', '--duration', '1', '--rates', '200',
               '--latency-rates', '200', '--targets', 'bare subscriber (baseline),estimator',

@@ -47,6 +47,7 @@ def _phase_means(stamps: np.ndarray, u: np.ndarray, flow: np.ndarray) -> list[fl
     return means
 
 
+@pytest.mark.long(30)                 # 60 s replayed twice as fast as real time
 def test_healthy_mismatched_gearbox_stays_ok_with_steady_u(tmp_path: Path) -> None:
     bag = tmp_path / 'mismatch'
     write_simulation(bag, config_from_parameters(PLANT), DURATION, RATE)

@@ -6,6 +6,7 @@ of workers.
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import math
 from pathlib import Path
@@ -46,20 +47,39 @@ def _make_fleet(directory: Path) -> None:
     (root / 'unit_02' / 'unit.yaml').write_text('ratio: 30.0\n')       # per-unit option
 
 
+#: The options of every fleet analysis of ``fleet`` here.
+OPTIONS = ('--ratio', '3.0', '--eta-opposing-min', '0.7333', '--eta-warn', '0.8')
+
+
+@pytest.fixture(scope='module')
+def one_worker(fleet: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Return the directory of the fleet table of one local worker and that run's stderr.
+
+    ``out`` holds the table (no unit outputs, no progress bar), ``stderr.txt`` the standard
+    error. Run once per test run (helpers.shared.build_once): two tests compare with it.
+    """
+    return build_once(tmp_path_factory, 'fleet_one_worker',
+                      functools.partial(_one_worker, fleet))
+
+
+def _one_worker(fleet: Path, directory: Path) -> None:
+    result = run('fleet', str(fleet), '--out', str(directory / 'out'), '--workers', '1',
+                 '--no-progress', '--no-unit-outputs', *OPTIONS)
+    assert result.returncode == 0, result.stderr
+    (directory / 'stderr.txt').write_text(result.stderr)
+
+
 def read_rows(path: Path) -> dict[str, dict[str, str]]:
     with open(path / 'fleet.csv', newline='') as handle:
         return {row['unit']: row for row in csv.DictReader(handle)}
 
 
-def test_fleet_table_bad_units_and_worker_independence(fleet: Path, tmp_path: Path) -> None:
-    one, two = tmp_path / 'one', tmp_path / 'two'
-    result = run('fleet', str(fleet), '--ratio', '3.0', '--out', str(two), '--workers', '2',
-                 '--eta-opposing-min', '0.7333', '--eta-warn', '0.8')
+def test_fleet_table_bad_units_and_worker_independence(fleet: Path, one_worker: Path,
+                                                       tmp_path: Path) -> None:
+    one, two = one_worker / 'out', tmp_path / 'two'
+    result = run('fleet', str(fleet), '--out', str(two), '--workers', '2', *OPTIONS)
     assert result.returncode == 0, result.stderr
     assert 'unit unit_broken: FAILED' in result.stderr and 'unit_empty: FAILED' in result.stderr
-    result = run('fleet', str(fleet), '--ratio', '3.0', '--out', str(one), '--workers', '1',
-                 '--eta-opposing-min', '0.7333', '--eta-warn', '0.8', '--no-unit-outputs')
-    assert result.returncode == 0, result.stderr
     # one task per unit: the table does not depend on the number of workers
     assert (one / 'fleet.csv').read_bytes() == (two / 'fleet.csv').read_bytes()
     assert (one / 'fleet.parquet').read_bytes() == (two / 'fleet.parquet').read_bytes()
@@ -128,25 +148,21 @@ def test_simulate_fleet_gaps_regular_or_irregular(tmp_path: Path) -> None:
     assert bad.returncode == 2 and '--gap-spread' in bad.stderr
 
 
-def test_fleet_runs_on_an_existing_scheduler(fleet: Path, tmp_path: Path) -> None:
+def test_fleet_runs_on_an_existing_scheduler(fleet: Path, one_worker: Path,
+                                             tmp_path: Path) -> None:
     """``--scheduler ADDRESS`` runs the same job on a cluster the user already has.
 
     The cluster here is a real Dask scheduler with one worker process, started by the test;
     the table is byte for byte the one of a local run, and the progress bar counts units.
     """
     from dask.distributed import LocalCluster
-    local, remote = tmp_path / 'local', tmp_path / 'remote'
-    options = ('--ratio', '3.0', '--eta-opposing-min', '0.7333', '--eta-warn', '0.8',
-               '--no-unit-outputs')
-    result = run('fleet', str(fleet), '--out', str(local), '--workers', '1', '--no-progress',
-                 *options)
-    assert result.returncode == 0, result.stderr
-    assert 'fleet:' not in result.stderr
+    local, remote = one_worker / 'out', tmp_path / 'remote'
+    assert 'fleet:' not in (one_worker / 'stderr.txt').read_text()      # --no-progress
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None, local_directory=str(tmp_path / 'dask'),
                       scheduler_kwargs={'dashboard_address': ':0'}) as cluster:  # any port
         result = run('fleet', str(fleet), '--out', str(remote), '--scheduler',
-                     cluster.scheduler_address, *options)
+                     cluster.scheduler_address, '--no-unit-outputs', *OPTIONS)
         ran = sorted(cluster.scheduler.task_prefixes)
     assert ran and all(name.startswith('gear-phm-unit') for name in ran), ran
     assert result.returncode == 0, result.stderr

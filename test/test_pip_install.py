@@ -57,6 +57,7 @@ def _make_venv(root: Path) -> None:
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+@pytest.mark.long(40)                 # builds the venv (fixture)
 def test_fresh_venv_has_no_ros(fresh_venv: Path) -> None:
     config = (fresh_venv / 'pyvenv.cfg').read_text()
     assert 'include-system-site-packages = false' in config

@@ -132,6 +132,7 @@ class Statuses:
         return [level for t, level, _, _ in self.by_name.get(name, []) if since <= t <= until]
 
 
+@pytest.mark.long(90)
 def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_stale(
         tmp_path: Path) -> None:
     parameters = bench_parameters(8)

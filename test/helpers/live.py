@@ -10,6 +10,7 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: I100
 from geometry_msgs.msg import Vector3Stamped
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -19,14 +20,24 @@ from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL
 
 #: Outputs and /diagnostics: reliable, deep enough for a burst.
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+#: The output topics a driver logs unless told fewer.
+OUTPUTS = (*ESTIMATOR_TOPICS, SAMPLE_LOSS, HEALTH_RUL, HEALTH_EFFICIENCY)
 
 
 class Driver:
-    """Test-side node: JointState publisher, estimator/diagnostics status and output log."""
+    """Test-side node: JointState publisher, estimator/diagnostics status and output log.
 
-    def __init__(self, name: str) -> None:
+    It logs the output topics ``outputs`` (default all of them). Each message received costs
+    the test process a callback: a test that reads only some of them names those. The node
+    spins in an executor of its own, kept for the driver's life (``rclpy.spin_once`` adds the
+    node to the global executor and removes it at every call, and each change wakes the wait).
+    """
+
+    def __init__(self, name: str, outputs: tuple[str, ...] = OUTPUTS) -> None:
         rclpy.init()
         self.node = Node(name)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
         self.statuses: dict[str, list[dict[str, str]]] = {}
         # diagnostics node: (monotonic arrival, level, message)
         self.levels: list[tuple[float, bytes, str]] = []
@@ -34,7 +45,7 @@ class Driver:
         self.messages: dict[str, list[Vector3Stamped]] = {}
         self.arrived: dict[str, float] = {}          # topic -> monotonic time of the newest
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, RELIABLE)
-        for topic in (*ESTIMATOR_TOPICS, SAMPLE_LOSS, HEALTH_RUL, HEALTH_EFFICIENCY):
+        for topic in outputs:
             self.stamps[topic] = []
             self.messages[topic] = []
             self.node.create_subscription(
@@ -59,10 +70,14 @@ class Driver:
     def latest(self, prefix: str) -> dict[str, str]:
         return self.statuses.get(prefix, [{}])[-1]
 
+    def spin_once(self, timeout: float) -> None:
+        """Run one ready callback, waiting up to ``timeout`` [s] for one."""
+        self.executor.spin_once(timeout_sec=timeout)
+
     def spin(self, seconds: float = 0.0) -> None:
         end = time.monotonic() + seconds
         while True:
-            rclpy.spin_once(self.node, timeout_sec=0.01)
+            self.spin_once(0.01)
             if time.monotonic() >= end:
                 return
 
@@ -92,6 +107,7 @@ class Driver:
         return self.latest(prefix)
 
     def close(self) -> None:
+        self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown()
 
@@ -119,7 +135,7 @@ def publish_paced(driver: Driver, messages: list[JointState], rate: float,
                 time.sleep(left - 2e-4)
         driver.pub.publish(msg)
         if i % spin_every == spin_every - 1:
-            rclpy.spin_once(driver.node, timeout_sec=0.0)
+            driver.spin_once(0.0)
 
 
 def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int:
@@ -163,7 +179,7 @@ def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead
     for i, msg in enumerate(messages):
         last_progress, seen = time.monotonic(), acks()
         while not free(i, *seen):
-            rclpy.spin_once(driver.node, timeout_sec=0.01)
+            driver.spin_once(0.01)
             now = acks()
             if now != seen:
                 last_progress, seen = time.monotonic(), now
@@ -176,4 +192,4 @@ def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead
                 time.sleep(left - 2e-4)
         driver.pub.publish(msg)
         if i % 10 == 9:
-            rclpy.spin_once(driver.node, timeout_sec=0.0)
+            driver.spin_once(0.0)
