@@ -255,3 +255,23 @@ def test_bench_multi_drive_live_tiny() -> None:
     assert_ratio(row['ratio'], row['many drives [us/msg]'], row['one drive [us/msg]'])
     many, one, sent = (int(v) for v in row['received many / one / sent'].split(' / '))
     assert sent == 400 and 0 < many <= sent and 0 < one <= sent
+
+
+def test_bench_rul_ceiling_tiny() -> None:
+    """The oracle's ceiling: 1 for deterministic lives, a probability for stochastic ones."""
+    sys.path.insert(0, str(BENCH))
+    from rul_ceiling import best_pass_probability
+    assert best_pass_probability([100.0] * 5) == 1.0
+    assert best_pass_probability([100.0, 200.0]) == 0.5        # no p holds both within 20 %
+    assert best_pass_probability([100.0, 140.0, math.inf, math.inf]) == 0.5
+    assert best_pass_probability([math.inf]) == 0.0
+    result = subprocess.run([sys.executable, str(BENCH / 'rul_ceiling.py'), '--seeds', '4',
+                             '--rates', '100', '--futures', '20', '--workers', '1'],
+                            capture_output=True, text=True, timeout=240.0)
+    assert result.returncode == 0, result.stderr[-2000:]
+    rows = table(result.stdout, 'rate')
+    assert rows and rows[0]['lives'] == 'all'
+    for row in rows:
+        assert 0.0 <= number(row['alpha-lambda ceiling (all pairs)']) <= 100.0
+        if row['lives'] == 'deterministic':
+            assert number(row['alpha-lambda ceiling (all pairs)']) == 100.0
