@@ -31,7 +31,11 @@ def test_monitor_replays_estimates_and_records_in_one_process(tmp_path: Path) ->
                     if s.name == 'gear_phm: flap']
     live = [s for s in statuses if s.level != 3]
     values = {kv.key: kv.value for kv in live[-1].values}
-    assert float(values['u']) == pytest.approx(0.05, abs=0.002)     # bags/healthy: u = 0.05
+    # bags/healthy: u = 0.05. Within 0.002, or within 4 of the estimate's own sigma where a
+    # loaded machine made the one executor drop the replay's best-effort samples (u 0.0527
+    # once: fewer windows, a wider sigma; the status must say so, not be wrong)
+    error = abs(float(values['u']) - 0.05)
+    assert error <= max(0.002, 4.0 * float(values['u_sigma'])), values
     assert live[-1].level == 0
     # the replay ended 5 s ago: > stale_timeout (2 s) plus the estimator's backlog (at 20x
     # one executor can fall behind the publisher; with 3 s of linger this failed once)
