@@ -307,16 +307,28 @@ def _gather_values(data: np.ndarray, starts: np.ndarray, dtype: str) -> np.ndarr
     return data[starts[:, None] + np.arange(size)].view(dtype)[:, 0]
 
 
+def common_stride(data: np.ndarray, starts: np.ndarray) -> int | None:
+    """Return the one byte step [B] between the payloads at ``starts`` of ``data``, or None.
+
+    Payloads of one size back to back (an MCAP chunk's messages) have one step; they can be
+    read as strided views of a C-contiguous ``data``, without an index per byte.
+    """
+    steps = np.diff(starts)
+    if starts.size > 1 and data.flags.c_contiguous and steps[0] > 0 and (steps == steps[0]).all():
+        return int(steps[0])
+    return None
+
+
 def _strided(data: np.ndarray, starts: np.ndarray) -> Callable[[int, str], np.ndarray]:
     """Return ``read(at, dtype)``: the value of ``dtype`` at byte ``at`` of each payload.
 
-    Payloads of one size back to back in ``data`` (an MCAP chunk's messages: one stride) are
-    read as a strided view, without an index per byte; others by :func:`_gather_values`.
+    Payloads with a :func:`common_stride` are read as a strided view; others by
+    :func:`_gather_values`.
     """
     n = starts.size
-    steps = np.diff(starts)
-    if n > 1 and data.flags.c_contiguous and steps[0] > 0 and (steps == steps[0]).all():
-        first, stride = int(starts[0]), int(steps[0])
+    stride = common_stride(data, starts)
+    if stride is not None:
+        first = int(starts[0])
 
         def view(at: int, dtype: str) -> np.ndarray:
             return np.ndarray((n,), dtype=dtype, buffer=data, offset=first + at,

@@ -21,6 +21,7 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from gear_phm.codec import common_stride
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.status import format_values, StatusOut
 
@@ -205,15 +206,14 @@ def vector3_stamped_columns(buffer: bytes | memoryview, offsets: np.ndarray,
         return data[at[:, None] + np.arange(size)].view(dtype).reshape(at.size, size // item)
 
     offsets, lengths = offsets[usable], lengths[usable]
-    steps = np.diff(offsets)
-    if offsets.size > 1 and steps[0] > 0 and (steps == steps[0]).all() \
-            and (lengths == lengths[0]).all() and data.flags.c_contiguous:
+    stride = common_stride(data, offsets)
+    if stride is not None and (lengths == lengths[0]).all():
         # one size back to back (an MCAP chunk's): strided views, copied out of the chunk
         def view(at: int, dtype: str) -> np.ndarray:
             """Three values of ``dtype`` at byte ``at`` of each payload, (N, 3)."""
             return np.array(np.ndarray((offsets.size, 3), dtype=dtype, buffer=data,
                                        offset=int(offsets[0]) + at,
-                                       strides=(int(steps[0]), np.dtype(dtype).itemsize)))
+                                       strides=(stride, np.dtype(dtype).itemsize)))
         sec, nanosec, frame = view(4, '<u4').T
         start = 4 + (12 + int(frame[0]) + 7) // 8 * 8
         if (frame == frame[0]).all() and start + 24 <= int(lengths[0]):
