@@ -10,8 +10,9 @@ import re
 import numpy as np
 import pytest
 
+from gear_phm.estimation import Measurement
 from gear_phm.offline import AnalysisError, analyze_bag
-from gear_phm.offline.records import ESTIMATES
+from gear_phm.offline.records import ESTIMATES, MeasuredWindows
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -103,3 +104,21 @@ def test_history_bounds_the_returned_histories_not_the_result() -> None:
     assert lean.summary['windows_measured'] == full.summary['windows_measured']
     with pytest.raises(AnalysisError, match='history must be >= 1'):
         analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=0)
+
+
+def test_measured_windows_are_columns_read_as_items() -> None:
+    """Analysis.measurements: a sequence built from columns, equal to its items as a tuple."""
+    columns = {'stamp_ns': np.array([10, 20, 30]), 'code': np.array([1, 2, 1]),
+               'accepted': np.array([True, False, True]), 't': np.array([0.1, 0.2, 0.3]),
+               'eta': np.array([0.9, 0.8, 0.7]), 'eta_variance': np.array([1e-4, 2e-4, 3e-4]),
+               'u': np.array([0.1, 0.2, 0.3]), 'u_variance': np.array([1e-6, 2e-6, 3e-6])}
+    windows = MeasuredWindows(columns)
+    items = tuple((s, Measurement(t, c, e, ev, u, uv), a) for s, c, a, t, e, ev, u, uv in zip(
+        [10, 20, 30], [1, 2, 1], [True, False, True], [0.1, 0.2, 0.3], [0.9, 0.8, 0.7],
+        [1e-4, 2e-4, 3e-4], [0.1, 0.2, 0.3], [1e-6, 2e-6, 3e-6]))
+    assert len(windows) == 3 and windows == items and list(windows) == list(items)
+    assert windows[-1] == items[2] and windows[1:] == items[1:]
+    assert type(windows[0][0]) is int and type(windows[0][2]) is bool
+    assert windows != items[:2] and MeasuredWindows({}) == ()
+    with pytest.raises(IndexError):
+        windows[3]

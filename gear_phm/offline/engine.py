@@ -40,7 +40,8 @@ from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEst
                                  Measurement, StatusSnapshot)
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
-                                      HealthHistory, measurements_key)
+                                      HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
+                                      measurements_key)
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,
                                  TRANSMISSION_NAME)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
@@ -64,8 +65,7 @@ _TRUTH_COLUMNS = ('stamp_ns', 'x', 'y', 'z')
 #: objects made again at the end (the same values: each field is an int, a float or a bool).
 #: Kept as objects they took about 350 bytes each, 7 MB at the cap of 20 000 reached after
 #: about 7M samples of 1 kHz; as columns, 57 bytes.
-_MEASUREMENT_FIELDS = ('t', 'eta', 'eta_variance', 'u', 'u_variance')
-_MEASUREMENT_COLUMNS = ('stamp_ns', 'code', 'accepted', *_MEASUREMENT_FIELDS)
+_MEASUREMENT_COLUMNS = ('stamp_ns', 'code', 'accepted', *MEASUREMENT_FIELDS)
 ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
 
 
@@ -385,15 +385,11 @@ class _Run:
         return Analysis(estimates, health, summary, self._measurements(), truth, None,
                         envelopes, self.true_end_of_life_ns)
 
-    def _measurements(self) -> tuple[tuple[int, Measurement, bool], ...]:
-        """Return the kept measured windows as (stamp [ns], Measurement, accepted)."""
+    def _measurements(self) -> MeasuredWindows:
+        """Return the kept measured windows: (stamp [ns], Measurement, accepted) on reading."""
         if not self.measurements.count:
-            return ()
-        kept = {name: values.tolist() for name, values in self.measurements.first().items()}
-        floats = [kept[name] for name in _MEASUREMENT_FIELDS]
-        return tuple((stamp, Measurement(t, code, eta, eta_variance, u, u_variance), accepted)
-                     for stamp, code, accepted, t, eta, eta_variance, u, u_variance
-                     in zip(kept['stamp_ns'], kept['code'], kept['accepted'], *floats))
+            return MeasuredWindows({})
+        return MeasuredWindows(self.measurements.first())
 
     def _keep(self, history: EstimateHistory, states: Sequence[HealthState]) -> None:
         """Add a batch's estimates, health states and measured windows to the histories."""
@@ -417,14 +413,14 @@ class _Run:
             return
         stamps = np.fromiter((stamp for stamp, _, _ in self.pending), dtype=np.int64,
                              count=len(self.pending))
-        values = np.array([[getattr(m, name) for name in _MEASUREMENT_FIELDS]
+        values = np.array([[getattr(m, name) for name in MEASUREMENT_FIELDS]
                            for _, m, _ in self.pending], dtype=float)
-        eta = values[:, _MEASUREMENT_FIELDS.index('eta')]
+        eta = values[:, MEASUREMENT_FIELDS.index('eta')]
         code = np.array([m.code for _, m, _ in self.pending], dtype=np.int64)
         ok = np.array([accepted for _, _, accepted in self.pending], dtype=bool)
         self.measurements.extend({'stamp_ns': stamps, 'code': code, 'accepted': ok,
                                   **{name: values[:, i]
-                                     for i, name in enumerate(_MEASUREMENT_FIELDS)}})
+                                     for i, name in enumerate(MEASUREMENT_FIELDS)}})
         for value in np.unique(code).tolist():
             for accepted in (True, False):
                 chosen = (code == value) & (ok == accepted)

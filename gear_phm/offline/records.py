@@ -136,6 +136,53 @@ class Envelope:
     high: dict[str, np.ndarray]
 
 
+#: The fields of :class:`~gear_phm.estimation.Measurement` kept for each measured window.
+MEASUREMENT_FIELDS = ('t', 'eta', 'eta_variance', 'u', 'u_variance')
+
+
+class MeasuredWindows(Sequence[tuple[int, Measurement, bool]]):
+    """The kept measured windows as a sequence of (stamp [ns], Measurement, accepted).
+
+    Held as columns (``stamp_ns``, ``code``, ``accepted`` and :data:`MEASUREMENT_FIELDS`,
+    57 bytes a window); each item is built when it is read, so the up to 2 ``history``
+    windows an analysis keeps cost no Python objects until they are used. Equal to any
+    sequence of the same items, in the same order.
+    """
+
+    def __init__(self, columns: dict[str, np.ndarray]) -> None:
+        self._columns = columns
+        self._size = len(columns['stamp_ns']) if columns else 0
+
+    def __len__(self) -> int:
+        return self._size
+
+    def _item(self, index: int) -> tuple[int, Measurement, bool]:
+        c = self._columns
+        values = (float(c[name][index]) for name in MEASUREMENT_FIELDS)
+        t, eta, eta_variance, u, u_variance = values
+        return (int(c['stamp_ns'][index]),
+                Measurement(t, int(c['code'][index]), eta, eta_variance, u, u_variance),
+                bool(c['accepted'][index]))
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return tuple(self._item(i) for i in range(*index.indices(self._size)))
+        position = index + self._size if index < 0 else index
+        if not 0 <= position < self._size:
+            raise IndexError('measured window index out of range')
+        return self._item(position)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Sequence) or len(other) != self._size:
+            return False
+        return all(a == b for a, b in zip(self, other))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f'MeasuredWindows({self._size} windows)'
+
+
 @dataclass(frozen=True)
 class Analysis:
     """Result of :func:`analyze_bag`: histories, the JSON summary, and where it was written."""
@@ -143,8 +190,9 @@ class Analysis:
     estimates: EstimateHistory
     health: HealthHistory
     summary: dict[str, Any]
-    #: (stamp of the window end [ns], the window's measurement, accepted by the filter)
-    measurements: tuple[tuple[int, Measurement, bool], ...]
+    #: (stamp of the window end [ns], the window's measurement, accepted by the filter) of
+    #: the windows kept (up to 2 ``history``: each bin's first), built on reading
+    measurements: Sequence[tuple[int, Measurement, bool]]
     truth: dict[str, np.ndarray]
     out: Path | None = None
     #: The plotted series in a bounded number of bins with their min/max (:class:`Envelope`),
