@@ -25,7 +25,7 @@ default), it is the single transmission above, unchanged.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import fields, replace
+from dataclasses import fields
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -45,7 +45,6 @@ from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeep
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
-from gear_phm.status import WARN
 
 #: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
@@ -260,11 +259,8 @@ class EstimatorNode(Node):
     def _on_diagnostics_timer(self) -> None:
         now = self.get_clock().now().nanoseconds
         self._flush()
-        status = self.pipeline.status(self.status_name, self.messages_received)
-        problem = self.state.problem
-        if problem:
-            status = replace(status, level=max(status.level, WARN),
-                             message=f'{status.message}; {problem}')
+        status = self.state.flagged(self.pipeline.status(self.status_name,
+                                                         self.messages_received))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 

@@ -33,7 +33,6 @@ from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state
                                   estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
-from gear_phm.status import WARN
 from gear_phm.transmissions import Transmission
 
 #: A buffer this long is processed at once.
@@ -163,15 +162,10 @@ class DrivesEstimator:
         now = self.node.get_clock().now().nanoseconds
         self.flush()
         statuses = []
-        problem = self.state.problem
         for d in self.drives:
             d.watch(now)
             status = d.pipeline.status(d.status_name, self.messages_received)
-            status = replace(status, hardware_id=d.drive.name)
-            if problem:
-                status = replace(status, level=max(status.level, WARN),
-                                 message=f'{status.message}; {problem}')
-            statuses.append(status)
+            statuses.append(self.state.flagged(replace(status, hardware_id=d.drive.name)))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
         for d in self.drives:
             d.loss_outputs.publish(d.pipeline)

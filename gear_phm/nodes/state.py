@@ -18,6 +18,7 @@ period is lost. A failed save is a WARN until the next one succeeds.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ from gear_phm.nodes.common import ConfigError
 from gear_phm.parameters import ParamSpec
 from gear_phm.persistence import (identity_difference, load_state, save_state, set_aside,
                                   set_aside_corrupt, StateCorrupt, StateMismatch)
+from gear_phm.status import StatusOut, WARN
 
 
 def state_parameters(what: str) -> tuple[ParamSpec, ...]:
@@ -73,6 +75,14 @@ class StateKeeper:
     def problem(self) -> str:
         """'' or what is wrong with the state file, for the node's status message."""
         return '; '.join(p for p in (self.load_problem, self.save_problem) if p)
+
+    def flagged(self, status: StatusOut) -> StatusOut:
+        """Return ``status`` raised to WARN with :attr:`problem` appended, if there is one."""
+        problem = self.problem
+        if not problem:
+            return status
+        return replace(status, level=max(status.level, WARN),
+                       message=f'{status.message}; {problem}')
 
     def load(self, restore: Callable[[dict[str, Any]], None]) -> bool:
         """Load the file and hand its state to ``restore``; True if a state was restored.
