@@ -61,8 +61,8 @@ BATCH = 20000
 HISTORY = 10_000
 _HEALTH_COLUMNS = tuple(f.name for f in fields(HealthHistory) if f.name != 'messages')
 _TRUTH_COLUMNS = ('stamp_ns', 'x', 'y', 'z')
-#: The measured windows' history: (stamp [ns], Measurement, accepted) as numpy columns, the
-#: objects made again at the end (the same values: each field is an int, a float or a bool).
+#: The measured windows' history: (stamp [ns], Measurement, accepted) as numpy columns,
+#: read as items by :class:`MeasuredWindows` (the same values: each an int, a float or a bool).
 #: Kept as objects they took about 350 bytes each, 7 MB at the cap of 20 000 reached after
 #: about 7M samples of 1 kHz; as columns, 57 bytes.
 _MEASUREMENT_COLUMNS = ('stamp_ns', 'code', 'accepted', *MEASUREMENT_FIELDS)
@@ -718,13 +718,10 @@ def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[Healt
 
     The estimator's and the diagnostics node's topics, in publishing order
     (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`, :data:`~gear_phm.interfaces.HEALTH_LAYOUT`).
-    ``history``: the estimates' :class:`EstimateHistory`, if made already (its columns are
-    taken; the values are the same).
+    ``history``: the estimates' :class:`EstimateHistory` if made already (else made here).
     """
-    if history is None:
-        columns = interfaces.vector3_columns(estimates, interfaces.ESTIMATE_LAYOUT)
-    else:
-        columns = _estimate_columns(estimates, history)
+    columns = _estimate_columns(estimates, history if history is not None
+                                else EstimateHistory.of(estimates))
     if states:
         columns += interfaces.vector3_columns(states, interfaces.HEALTH_LAYOUT)
     return columns
