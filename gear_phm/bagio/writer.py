@@ -469,11 +469,11 @@ _STAMP = struct.Struct('<iI')
 _NULS = tuple(bytes(n) for n in range(5))
 _ARRAY_HEAD = b'\x00\x01\x00\x00'             # CDR little-endian encapsulation
 _EMPTY_FRAME = _UINT32.pack(1) + bytes(4)       # header.frame_id '' at offset 8, padded
-#: A status's level byte at an offset of remainder r (mod 4), with the padding after it that
-#: aligns its name: ``_LEVEL_HEADS[level][r]``.
 #: The head of a DiagnosticArray: encapsulation, stamp, the empty frame_id, status count.
 _DIAGNOSTIC_HEAD = np.dtype([('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4'),
                              ('frame', 'V8'), ('statuses', '<u4')])
+#: A status's level byte at an offset of remainder r (mod 4), with the padding after it that
+#: aligns its name: ``_LEVEL_HEADS[level][r]``.
 _LEVEL_HEADS = tuple(tuple(bytes((level,)) + bytes(-(r + 1) % 4) for r in range(4))
                      for level in range(256))
 
