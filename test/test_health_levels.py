@@ -40,7 +40,7 @@ def test_level_rules_without_dwell(u: float, eta: float, p5: float, check: tuple
 
 def test_dwell_and_hysteresis_thresholds_exact() -> None:
     tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 100.0,
-                           level_hysteresis=0.05, level_dwell=5.0)
+                           level_hysteresis=0.05, level_dwell=5.0, level_clear_dwell=5.0)
     assert tracker.eta_clear == pytest.approx(0.81)
     assert tracker.u_clear == pytest.approx(0.2375)
     assert tracker.rul_clear == pytest.approx(105.0)
@@ -74,7 +74,7 @@ def test_rul_warn_is_entered_on_the_median_and_cleared_on_the_5_percent_bound() 
     against a true 22 000 s for 700 s: a WARN, then OK, then the real WARN at 0.86.
     """
     tracker = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
-                           level_hysteresis=0.05, level_dwell=5.0)
+                           level_hysteresis=0.05, level_dwell=5.0, level_clear_dwell=5.0)
     # median 8700 s, p5 3300 s: the band reaches the horizon, the median does not: OK
     for t in np.arange(0.0, 700.0, 1.0):
         assert tracker.update(t, 0.1, 0.9, 3300.0, rul_median=8700.0)[0] == OK
@@ -104,13 +104,39 @@ def test_noisy_crossing_gives_exactly_one_transition() -> None:
     t = np.arange(0.0, 1000.0, 0.1)                            # 10 Hz for 1000 s
     eta = 0.83 - 6e-5 * t + rng.normal(0.0, 0.003, t.size)       # crosses 0.8 at t = 500 s
     steady = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0)   # defaults: 0.05, 5 s
-    raw = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, level_hysteresis=0.0, level_dwell=0.0)
+    raw = LevelTracker(0.25, 'eta_opposing_min', 0.8, 0.0, level_hysteresis=0.0, level_dwell=0.0,
+                       level_clear_dwell=0.0)
     levels = [steady.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
     flapping = [raw.update(ti, 0.1, ei, math.inf)[0] for ti, ei in zip(t, eta)]
     assert transitions(levels) == [(OK, WARN)]
     assert len(transitions(flapping)) > 20
     committed = t[levels.index(WARN)]
     assert 500.0 < committed < 600.0                           # a few sigma past the mean
+
+
+def test_a_condition_at_its_threshold_is_reported_once_until_it_has_cleared_for_long() -> None:
+    """A mean NIS hovering at its bound (wear outpacing the filter) gives one WARN.
+
+    Measured on random life 36 (gamma wear, 100 Hz): "model mismatch" WARN at 4540 s, OK at
+    4547, WARN 4582, OK 4600, WARN 4725, OK 4750, then the RUL WARN at 5125 s; each clearing
+    came after the 5 s dwell. With the 600 s clearing dwell it is one OK -> WARN.
+    """
+    mismatch = (WARN, 'model mismatch: x')
+    spans = [(4540.0, 4547.0), (4582.0, 4600.0), (4725.0, 4750.0), (5125.0, 6000.0)]
+    steps = np.arange(4500.0, 6000.0, 1.0)
+    checks = [mismatch if any(a <= t < b for a, b in spans) else (OK, '') for t in steps]
+    held = LevelTracker(0.25, 'eta_opposing_min', 0.6, 0.0)      # the defaults: 5 s and 600 s
+    quick = LevelTracker(0.25, 'eta_opposing_min', 0.6, 0.0, level_clear_dwell=5.0)
+    levels = [held.update(t, 0.1, 0.9, math.inf, c)[0] for t, c in zip(steps, checks)]
+    flicker = [quick.update(t, 0.1, 0.9, math.inf, c)[0] for t, c in zip(steps, checks)]
+    assert held.level_clear_dwell == 600.0
+    assert transitions(levels) == [(OK, WARN)]
+    assert levels.index(WARN) == 45                               # 4545 s: entered after 5 s
+    assert transitions(flicker) == [(OK, WARN), (WARN, OK)] * 3 + [(OK, WARN)]
+    # the condition gone for the clearing dwell: OK again
+    for t in np.arange(6000.0, 6600.0, 1.0):
+        assert held.update(t, 0.1, 0.9, math.inf)[0] == WARN
+    assert held.update(6600.0, 0.1, 0.9, math.inf) == (OK, 'ok')
 
 
 def _lever_estimate(t: float, u: float, u_sigma: float, nis: float, step: int) -> FrictionEstimate:

@@ -140,6 +140,7 @@ class HealthAssessor:
         self.levels = LevelTracker(self.u_eol, self.eol_reason, config.effective_eta_warn(),
                                    config.warn_horizon, level_hysteresis=config.level_hysteresis,
                                    level_dwell=config.level_dwell,
+                                   level_clear_dwell=config.level_clear_dwell,
                                    eta_opposing_min=config.eta_opposing_min)
         self.utilisation = Utilisation()
         self.latest: HealthState | None = None

@@ -78,8 +78,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('level_hysteresis', 0.05, 'a level is left when its value is back by this '
               "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0, RUL 0)",
               '-', 0.0, 0.5),
-    ParamSpec('level_dwell', 5.0, 'a level change (entering or leaving) must hold this long '
-              'in stamp time before it is reported', 's', 0.0, 1e6),
+    ParamSpec('level_dwell', 5.0, 'a level change must hold this long in stamp time before '
+              'it is reported (leaving a WARN or ERROR condition: level_clear_dwell)', 's',
+              0.0, 1e6),
+    ParamSpec('level_clear_dwell', 600.0, 'a reported WARN or ERROR condition is left only '
+              'once its clearing test has held this long in stamp time, so that a '
+              'condition near its threshold gives one report, not a flicker', 's', 0.0, 1e9),
     ParamSpec('stale_timeout', 2.0, 'STALE when no estimator input arrives for this long', 's',
               1e-3, 1e6),
 )
@@ -112,6 +116,7 @@ class HealthConfig:
     nis_lost: float = float(DEFAULTS['nis_lost'])
     level_hysteresis: float = float(DEFAULTS['level_hysteresis'])
     level_dwell: float = float(DEFAULTS['level_dwell'])
+    level_clear_dwell: float = float(DEFAULTS['level_clear_dwell'])
     stale_timeout: float = float(DEFAULTS['stale_timeout'])
 
     def __post_init__(self) -> None:

@@ -144,15 +144,17 @@ EOL_Z = 1.645
 
 
 class Latch:
-    """One threshold condition with hysteresis and a minimum dwell, on stamp time [s].
+    """One threshold condition with hysteresis and minimum dwells, on stamp time [s].
 
     Inactive, it becomes active once ``enter`` has held for ``dwell`` seconds without a
-    break; active, it clears once ``stay`` has been false that long. ``stay`` is the entry
-    test with the threshold moved back by the hysteresis margin.
+    break; active, it clears once ``stay`` has been false for ``clear_dwell`` seconds
+    (default ``dwell``). ``stay`` is the entry test with the threshold moved back by the
+    hysteresis margin.
     """
 
-    def __init__(self, dwell: float) -> None:
+    def __init__(self, dwell: float, clear_dwell: float | None = None) -> None:
         self.dwell = float(dwell)
+        self.clear_dwell = self.dwell if clear_dwell is None else float(clear_dwell)
         self.active = False
         self._since: float | None = None
 
@@ -180,7 +182,7 @@ class Latch:
         else:
             if self._since is None or t < self._since:
                 self._since = t
-            if t - self._since >= self.dwell:
+            if t - self._since >= (self.clear_dwell if self.active else self.dwell):
                 self.active = wanted
                 self._since = None
         return self.active
@@ -196,8 +198,10 @@ class LevelTracker:
     The RUL condition is entered on the RUL's median and left on its 5 % bound: a hysteresis
     across the band as well, so that an early, wide band whose lower tail grazes the horizon
     (a fast law the data cannot exclude yet) does not warn and then clear.
-    Either change must hold for ``level_dwell`` [s] of stamp time first. The filter conditions
-    (mismatch, lost) have the dwell only.
+    Entering must hold for ``level_dwell`` [s] of stamp time first, leaving for
+    ``level_clear_dwell`` [s]: a value that hovers at its threshold (a mean NIS at its bound
+    while wear outpaces the filter, an early RUL near the horizon) gives one WARN, not a
+    WARN, OK, WARN flicker. The filter conditions (mismatch, lost) have the dwells only.
 
     ``eta_warn`` NaN (the default): the threshold is learned. The healthy eta_D,
     :attr:`eta_healthy`, is the first estimate's eta_D once the filter has settled (sigma_u
@@ -211,6 +215,7 @@ class LevelTracker:
     def __init__(self, u_eol: float, eol_reason: str, eta_warn: float, warn_horizon: float,
                  level_hysteresis: float = float(DEFAULTS['level_hysteresis']),
                  level_dwell: float = float(DEFAULTS['level_dwell']),
+                 level_clear_dwell: float = float(DEFAULTS['level_clear_dwell']),
                  eta_opposing_min: float = float(DEFAULTS['eta_opposing_min'])) -> None:
         self.u_eol, self.eol_reason = float(u_eol), eol_reason
         self.eta_warn, self.warn_horizon = float(eta_warn), float(warn_horizon)
@@ -222,7 +227,8 @@ class LevelTracker:
         self.eta_clear = self.eta_warn + self.level_hysteresis * (1.0 - self.eta_warn)
         self.u_clear = self.u_eol * (1.0 - self.level_hysteresis)
         self.rul_clear = self.warn_horizon * (1.0 + self.level_hysteresis)
-        self.latches = {name: Latch(self.level_dwell)
+        self.level_clear_dwell = float(level_clear_dwell)
+        self.latches = {name: Latch(self.level_dwell, self.level_clear_dwell)
                         for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
 
     def reset(self) -> None:
