@@ -350,3 +350,17 @@ def test_end_of_life_is_also_entered_when_the_fitted_law_is_past_it() -> None:
     plain = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
                          level_hysteresis=0.0, level_dwell=0.0)
     assert plain.update(0.0, 0.2, 0.9, 0.0)[0] == WARN
+
+
+def test_an_unsettled_first_u_past_u_eol_is_no_end_of_life() -> None:
+    """RUL 0 on u's lower 95 % bound, as end of life is entered.
+
+    Random healthy lives 61 and 45 read RUL 0 at 1-2 s: the filter's first u, still near its
+    initial state, was above a u_eol close to the healthy u. A settled u past u_eol is RUL 0.
+    """
+    assessor = HealthAssessor(HealthConfig(eta_opposing_min=0.7333, mc_samples=200))
+    u_eol = assessor.u_eol
+    unsettled = assessor.on_estimate(_lever_estimate(1.0, u_eol + 0.01, 0.05, 1.0, 0))
+    assert unsettled is not None and unsettled.rul.median > 0.0
+    settled = assessor.on_estimate(_lever_estimate(2.0, u_eol + 0.01, 0.001, 1.0, 1))
+    assert settled is not None and settled.rul.median == 0.0 and settled.rul.p5 == 0.0

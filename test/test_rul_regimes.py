@@ -18,6 +18,8 @@ from gear_phm.cli.evaluate import read_vector_topic
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.interfaces import field_index, HEALTH_LAYOUT, HEALTH_RUL
 from gear_phm.prognostics import RulPredictor
+from gear_phm.prognostics.calibration import MODEL_FORM_SIGMA, widened
+from gear_phm.prognostics.changepoint import _hinge_start, regime_start
 from gear_phm.prognostics.metrics import acceptance
 
 U0, U_EOL = 0.05, 0.2
@@ -79,6 +81,55 @@ def test_a_running_in_and_a_plateau_never_give_a_finite_rul(seed: int) -> None:
         return U0 + 0.03 * np.exp(-t / 120.0)
     _, _, rul = _run(running_in, 1500.0, seed)
     assert np.all(np.isinf(rul))
+
+
+def _running_in_plateau_then_wear(t: np.ndarray) -> np.ndarray:
+    """Return a running-in (u falls 0.1 with a 150 s time constant) over the plateau-then-wear
+    life of :func:`_plateau_then_wear`."""
+    return _plateau_then_wear(t) + 0.1 * np.exp(-t / 150.0)
+
+
+@pytest.mark.parametrize('seed', [1, 2])
+def test_after_a_running_in_and_a_plateau_the_regime_is_the_wear(seed: int) -> None:
+    """Running-in, plateau, then wear: two changes, and the current regime is the last.
+
+    One hinge has one change: it put the start at the running-in's end (the random life 13 of
+    the ensemble: its plateau held the fitted slope at 0 until 0.6 of the wear life). The
+    history from a start found is searched again until no later start is significant.
+    """
+    predictor, times, rul = _run(_running_in_plateau_then_wear, 1100.0, seed)    # lambda 0.25
+    start = predictor.history.t_start + predictor.regime.t
+    assert abs(start - ONSET) < 60.0
+    true = EOL - times[-1]
+    assert abs(rul[-1, 0] / true - 1.0) < 0.2
+    t, u, precision = predictor.history.arrays()
+    first = _hinge_start(t, u, precision, predictor.min_points)     # the one hinge: ~380 s
+    assert first.t + predictor.history.t_start < 450.0
+    assert abs(regime_start(t, u, precision, predictor.min_points).t - ONSET) < 60.0
+
+
+def test_the_band_holds_the_model_form_uncertainty_unless_the_law_is_given() -> None:
+    """A clean line: its parameter band is narrow; the model-form sigma (0.4 below the median,
+    0.2 above, in log RUL) is added in quadrature when the law is chosen by the data."""
+    assert widened(100.0, 100.0, 0.4, upper=False) == pytest.approx(100.0 * np.exp(-1.645 * 0.4))
+    assert widened(100.0, 100.0, 0.2, upper=True) == pytest.approx(100.0 * np.exp(1.645 * 0.2))
+    # a band already wide keeps nearly its width: log 4 = 1.386 and 0.658 in quadrature
+    assert widened(100.0, 25.0, 0.4, upper=False) == pytest.approx(100.0 * np.exp(-1.5346),
+                                                                  rel=1e-3)
+    for bound in (0.0, np.inf):
+        assert widened(100.0, bound, 0.4, upper=False) == bound
+    assert widened(np.inf, 50.0, 0.4, upper=False) == 50.0
+
+    def line(t: np.ndarray) -> np.ndarray:
+        return U0 + (U_EOL - U0) * t / EOL
+    auto, times, _ = _run(line, 800.0, 1)
+    given, _, _ = _run(line, 800.0, 1, trend='linear')
+    t, u = float(times[-1]), float(line(times[-1]))
+    loose, tight = auto.predict(t, u), given.predict(t, u)
+    assert loose.median == pytest.approx(EOL - t, rel=0.05)
+    assert loose.p5 <= loose.median * np.exp(-1.645 * MODEL_FORM_SIGMA[0]) * (1 + 1e-9)
+    assert loose.p95 >= loose.median * np.exp(1.645 * MODEL_FORM_SIGMA[1]) * (1 - 1e-9)
+    assert tight.p95 / tight.p5 < 1.3 < loose.p95 / loose.p5
 
 
 def _largest_jump(rul: np.ndarray, times: np.ndarray) -> float:

@@ -30,7 +30,7 @@ from gear_phm.prognostics.config import HealthConfig
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
 from gear_phm.prognostics.fits import (frozen_instance, ShapePrior, Trend, trend_from_state,
                                        trend_to_state)
-from gear_phm.prognostics.health import DivergenceDetector, LevelTracker
+from gear_phm.prognostics.health import DivergenceDetector, EOL_Z, LevelTracker
 from gear_phm.prognostics.history import Utilisation
 from gear_phm.prognostics.predictor import RulEstimate, RulPredictor
 from gear_phm.status import ERROR, OK, STALE
@@ -230,7 +230,10 @@ class HealthAssessor:
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
                                               u_sigma)
-        rul_operating = predictor.predict(operating, u)
+        # worn (RUL 0) on u's lower 95 % bound, as end of life is entered: an unsettled
+        # filter's first u above u_eol is no end of life (random healthy lives 61 and 45 read
+        # RUL 0 at 1-2 s, from the initial state, where u_eol is near the healthy u)
+        rul_operating = predictor.predict(operating, u - EOL_Z * u_sigma)
         utilisation = self.utilisation.fraction
         rul = rul_operating.in_elapsed_time(utilisation)
         levels = self.levels

@@ -121,7 +121,30 @@ class RegimeStart:
 
 def regime_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
                  min_points: int = 8) -> RegimeStart:
-    """Return where the current wear regime starts: a segmented (hinge) regression.
+    """Return where the current wear regime starts: the last of :func:`_hinge_start`'s.
+
+    One hinge has one change: a running-in, then a plateau, then wear has two. Once a start is
+    found, the history from it is searched again, until no later start is significant
+    (random life 13: running-in to 280 s, a plateau to 3560 s, then wear; the one hinge put
+    the start at the running-in's end, and the plateau held the fitted slope at 0 until 0.6 of
+    the wear life).
+    """
+    found = _hinge_start(t, u, precision, min_points)
+    # a later regime also holds REGIME_MIN_SHARE of the whole history's bins
+    least = max(int(min_points), int(math.ceil(REGIME_MIN_SHARE * t.size)))
+    while found.index > 0:
+        later = _hinge_start(t[found.index:], u[found.index:], precision[found.index:],
+                             least)
+        if later.index == 0:
+            break
+        found = RegimeStart(found.index + later.index, later.t, later.exponent,
+                            later.improvement)
+    return found
+
+
+def _hinge_start(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
+                 min_points: int = 8) -> RegimeStart:
+    """Return where the last wear regime starts: a segmented (hinge) regression.
 
     u = c + d min(t - tau, 0) + a max(t - tau, 0)^p, continuous at tau, with the level c, the
     slope d before tau (a plateau, d = 0, or a running-in, d < 0) and the wear part a > 0 in

@@ -33,7 +33,8 @@ import numpy as np
 
 from gear_phm.persistence import decode_floats, encode_floats
 from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecast_errors,
-                                              ForecastCache, law_draws, LawDraws)
+                                              ForecastCache, law_draws, LawDraws,
+                                              MODEL_FORM_SIGMA, widened)
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
@@ -83,7 +84,8 @@ class RulPredictor:
 
     Fixed seeded draws; a refit each time the history gained 1/``refit_fraction`` of its bins.
     ``regimes``: fit from the start of the current wear regime; ``calibrated``: widen the band
-    by the history's own forecast errors (both on measurement histories only).
+    by the history's own forecast errors (both on measurement histories only) and, with
+    ``trend`` 'auto', by the model-form uncertainty.
     """
 
     def __init__(self, u_eol: float, detect_z: float = float(DEFAULTS['detect_z']),
@@ -270,13 +272,23 @@ class RulPredictor:
         return bool(self._crossing[2] <= t)
 
     def predict(self, t: float, u: float) -> RulEstimate:
-        """RUL [s] at time t [s] given the filter's current u [-] (0 once u >= u_eol)."""
+        """RUL [s] at time t [s] given u [-]: 0 once u >= u_eol.
+
+        The assessor passes u's lower 95 % bound. With ``calibrated`` and ``trend`` 'auto' the
+        band holds the model-form uncertainty (:data:`calibration.MODEL_FORM_SIGMA`).
+        """
         trend = self.trend
         if u >= self.u_eol:
             return frozen_instance(RulEstimate, {'median': 0.0, 'p5': 0.0, 'p95': 0.0,
                                                  'model': trend.model})
         c5, c50, c95 = self._crossing
-        p5, median, p95 = max(c5 - t, 0.0), max(c50 - t, 0.0), max(c95 - t, 0.0)
+        median = max(c50 - t, 0.0)
+        p5, p95 = max(c5 - t, 0.0), max(c95 - t, 0.0)
+        if self.calibrated and self.trend_choice == 'auto':
+            # the band holds the model-form uncertainty too (calibration.MODEL_FORM_SIGMA);
+            # not when the law is given (``trend``): then its form is the user's
+            p5 = widened(median, p5, MODEL_FORM_SIGMA[0], upper=False)
+            p95 = widened(median, p95, MODEL_FORM_SIGMA[1], upper=True)
         model = trend.model if math.isfinite(median) or math.isfinite(p5) else NONE
         return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
                                              'model': model})
