@@ -257,14 +257,16 @@ def test_eta_accuracy_widens_the_rul_band_not_its_median(tmp_path: Path) -> None
     """--eta-accuracy (a calibration uncertainty that does not average out) widens the band.
 
     bags/wearing, u_eol 0.25 (eta_D 0.7333, R 3): du/deta_D = -1.18, so 0.02 is u +/- 0.0235
-    at end of life, over du/dt ~8e-4 /s near it: a 90 % band +/- 1.645 x 28 s.
+    at end of life, over du/dt ~8e-4 /s near it: a 90 % band +/- 1.645 x 28 s. The law is
+    given (``--trend proportional``, the bag's u0 exp(k t)), so that the band holds no
+    model-form uncertainty (calibration.MODEL_FORM_SIGMA) and the systematic term shows alone.
     """
     bands = {}
     for accuracy in ('0.0', '0.02'):
         out = tmp_path / accuracy
         assert main(['analyze', str(REPO / 'bags' / 'wearing'), '--ratio', '3.0', '--out',
                      str(out), '--no-progress', '--no-plot', '--eta-opposing-min', '0.7333',
-                     '--eta-accuracy', accuracy]) == 0
+                     '--trend', 'proportional', '--eta-accuracy', accuracy]) == 0
         bands[accuracy] = _rul_bands(out)
     late = [i for i, (median, _, _) in enumerate(bands['0.0']) if 10.0 < median < 60.0]
     assert len(late) > 20

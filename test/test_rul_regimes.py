@@ -84,8 +84,7 @@ def test_a_running_in_and_a_plateau_never_give_a_finite_rul(seed: int) -> None:
 
 
 def _running_in_plateau_then_wear(t: np.ndarray) -> np.ndarray:
-    """Return a running-in (u falls 0.1 with a 150 s time constant) over the plateau-then-wear
-    life of :func:`_plateau_then_wear`."""
+    """Return :func:`_plateau_then_wear` with a running-in: u falls 0.1, time constant 150 s."""
     return _plateau_then_wear(t) + 0.1 * np.exp(-t / 150.0)
 
 
@@ -109,13 +108,16 @@ def test_after_a_running_in_and_a_plateau_the_regime_is_the_wear(seed: int) -> N
 
 
 def test_the_band_holds_the_model_form_uncertainty_unless_the_law_is_given() -> None:
-    """A clean line: its parameter band is narrow; the model-form sigma (0.4 below the median,
-    0.2 above, in log RUL) is added in quadrature when the law is chosen by the data."""
+    """A clean line: its parameter band is narrow; the model-form sigma is added to it.
+
+    0.4 below the median, 0.2 above, in log RUL, in quadrature, when the law is chosen by the
+    data; not when the user gives it.
+    """
     assert widened(100.0, 100.0, 0.4, upper=False) == pytest.approx(100.0 * np.exp(-1.645 * 0.4))
     assert widened(100.0, 100.0, 0.2, upper=True) == pytest.approx(100.0 * np.exp(1.645 * 0.2))
     # a band already wide keeps nearly its width: log 4 = 1.386 and 0.658 in quadrature
-    assert widened(100.0, 25.0, 0.4, upper=False) == pytest.approx(100.0 * np.exp(-1.5346),
-                                                                  rel=1e-3)
+    wide = widened(100.0, 25.0, 0.4, upper=False)
+    assert wide == pytest.approx(100.0 * np.exp(-1.5346), rel=1e-3)
     for bound in (0.0, np.inf):
         assert widened(100.0, bound, 0.4, upper=False) == bound
     assert widened(np.inf, 50.0, 0.4, upper=False) == 50.0
