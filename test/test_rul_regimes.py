@@ -194,3 +194,25 @@ def test_band_holds_the_true_rul_on_short_random_lives(tmp_path: Path) -> None:
     assert counted > 0 and total > 0
     assert held / counted >= 0.75, (held, counted)
     assert below / total >= 0.85, (below, total)
+
+
+def test_the_law_past_u_eol_needs_the_newest_measurements_past_it_too() -> None:
+    """End of life from the fit needs the newest bin past u_eol by 1.645 of its sigma.
+
+    Random life 92 (wear that slowed in mid-life): a line over the concave history ended 0.01
+    above the newest measurements and was "past u_eol" 987 s before the truth.
+    """
+    predictor = RulPredictor(0.2, trend='linear')
+    rng = np.random.default_rng(0)
+    for t in np.arange(0.0, 1000.0, 1.0):                   # accelerating: 0.25 at the end
+        u = 0.05 + 1e-4 * t + 1e-7 * t * t + 1e-3 * rng.standard_normal()
+        predictor.add(float(t), float(u), 1e-6, independent=True)
+    assert predictor.trend.model == 'linear'
+    assert predictor.law_past_eol(999.0)                    # law and measurements past 0.2
+    _, u, precision = predictor.history.arrays()
+    newest_low = u[-1] - 1.645 / np.sqrt(precision[-1])
+    predictor.u_eol = newest_low + 1e-4      # the law still past it, the newest bin not
+    assert predictor._crossing[2] <= 999.0
+    assert not predictor.law_past_eol(999.0)
+    predictor.u_eol = newest_low - 1e-4
+    assert predictor.law_past_eol(999.0)

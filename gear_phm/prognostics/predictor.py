@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from gear_phm.persistence import decode_floats, encode_floats
-from gear_phm.prognostics.calibration import (crossing_quantiles, Draws, forecast_errors,
-                                              ForecastCache, law_draws, LawDraws,
-                                              MODEL_FORM_SIGMA, widened)
+from gear_phm.prognostics.calibration import (BAND_Z, crossing_quantiles, Draws,
+                                              forecast_errors, ForecastCache, law_draws,
+                                              LawDraws, MODEL_FORM_SIGMA, widened)
 from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, RegimeStart, rise,
                                               rise_sigma)
 from gear_phm.prognostics.config import DEFAULTS
@@ -267,9 +267,19 @@ class RulPredictor:
     def law_past_eol(self, t: float) -> bool:
         """Whether the fitted law crossed u_eol before time t [s] in 95 % of its draws.
 
-        From the fit alone (the filter's u, which :meth:`predict` also checks, does not count).
+        And the newest bin of the history is past u_eol too, by BAND_Z of its sigma: the
+        measurements show the end of life that the filter's u, lagging accelerating wear, does
+        not yet. The law alone is no witness: random life 92 (wear that slowed in mid-life)
+        had a straight line over the concave history whose end stood 0.01 above the newest
+        measurements, and "past u_eol" 987 s before the truth; with the newest bin not
+        contradicting it, still 217 s before. From the fit and the history (the filter's u,
+        which :meth:`predict` also checks, does not count).
         """
-        return bool(self._crossing[2] <= t)
+        if not self._crossing[2] <= t:
+            return False
+        _, u, precision = self.history.arrays()
+        return bool(u.size and precision[-1] > 0.0
+                    and u[-1] - BAND_Z / math.sqrt(precision[-1]) >= self.u_eol)
 
     def predict(self, t: float, u: float) -> RulEstimate:
         """RUL [s] at time t [s] given u [-]: 0 once u >= u_eol.
