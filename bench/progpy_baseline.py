@@ -92,6 +92,10 @@ def _worker(source: Path, target: Path, samples: int, seed: int, q_rate: float) 
 
     data = np.load(source)
     t, z, var = data['t'], data['u'], data['u_variance']
+    # progpy's estimators need strictly increasing times: of measurements with one stamp
+    # (1 kHz life 60 had two) the first is kept
+    rising = np.concatenate(([True], np.diff(t) > 0.0))
+    t, z, var = t[rising], z[rising], var[rising]
     t_pred, u_eol = data['t_pred'], float(data['u_eol'])
 
     class LinearWear(PrognosticsModel):  # type: ignore[misc]
