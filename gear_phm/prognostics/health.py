@@ -3,7 +3,9 @@
 Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
 
 - ERROR: u - EOL_Z sigma_u >= u_eol, or the wear law fitted to the measurements crossed u_eol
-  in 95 % of its draws (end of life past reasonable doubt; includes
+  in 95 % of its draws and the newest measurements are past it too
+  (:meth:`~gear_phm.prognostics.predictor.RulPredictor.law_past_eol`; end of life past
+  reasonable doubt; includes
   self-locking u >= 1 when enabled; it clears below u_eol (1 - hysteresis)), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
