@@ -10,7 +10,7 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: I100
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -30,13 +30,16 @@ class Driver:
     It logs the output topics ``outputs`` (default all of them). Each message received costs
     the test process a callback: a test that reads only some of them names those. The node
     spins in an executor of its own, kept for the driver's life (``rclpy.spin_once`` adds the
-    node to the global executor and removes it at every call, and each change wakes the wait).
+    node to the global executor and removes it at every call, and each change wakes the wait):
+    rclpy's EventsExecutor, as the estimator node's, whose C++ dispatch costs a callback less
+    CPU than the SingleThreadedExecutor's wait set rebuilt in Python at every call (test
+    CPU of test_direction_offset_live 3.9 -> 1.2 s).
     """
 
     def __init__(self, name: str, outputs: tuple[str, ...] = OUTPUTS) -> None:
         rclpy.init()
         self.node = Node(name)
-        self.executor = SingleThreadedExecutor()
+        self.executor = EventsExecutor()
         self.executor.add_node(self.node)
         self.statuses: dict[str, list[dict[str, str]]] = {}
         # diagnostics node: (monotonic arrival, level, message)
