@@ -5,6 +5,7 @@ paced publishing.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 import time
 
 import rclpy
@@ -47,6 +48,9 @@ class Driver:
         self.stamps: dict[str, list[int]] = {}
         self.messages: dict[str, list[Vector3Stamped]] = {}
         self.arrived: dict[str, float] = {}          # topic -> monotonic time of the newest
+        #: More callbacks of each /diagnostics array, after the driver's own (one subscription:
+        #: a second one would take and convert every array again).
+        self.on_diagnostics: list[Callable[[DiagnosticArray], None]] = []
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, RELIABLE)
         for topic in outputs:
             self.stamps[topic] = []
@@ -69,6 +73,8 @@ class Driver:
             self.statuses.setdefault(status.name.split(':')[0], []).append(values)
             if status.name.startswith('gear_phm: '):
                 self.levels.append((time.monotonic(), status.level, status.message))
+        for callback in self.on_diagnostics:
+            callback(msg)
 
     def latest(self, prefix: str) -> dict[str, str]:
         return self.statuses.get(prefix, [{}])[-1]
@@ -154,8 +160,11 @@ def messages_received(driver: Driver, prefix: str = 'gear_phm estimator') -> int
 
 def newest_stamp(driver: Driver, topics: tuple[str, ...] = (HEALTH_RUL, HEALTH_EFFICIENCY)
                  ) -> int:
-    """Return the newest stamp [ns] the driver received on ``topics`` (-1: none yet)."""
-    return max((driver.stamps[topic][-1] for topic in topics if driver.stamps[topic]),
+    """Return the newest stamp [ns] the driver received on ``topics`` (-1: none yet).
+
+    Topics the driver does not log are left out.
+    """
+    return max((driver.stamps[topic][-1] for topic in topics if driver.stamps.get(topic)),
                default=-1)
 
 
