@@ -6,11 +6,13 @@ paced publishing.
 from __future__ import annotations
 
 from collections.abc import Callable
+import sys
 import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: I100
 from geometry_msgs.msg import Vector3Stamped
+from rclpy.executors import Executor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
@@ -23,6 +25,19 @@ from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 #: The output topics a driver logs unless told fewer.
 OUTPUTS = (*ESTIMATOR_TOPICS, SAMPLE_LOSS, HEALTH_RUL, HEALTH_EFFICIENCY)
+
+
+def _events_executor() -> Executor:
+    """Return rclpy's EventsExecutor, made with the process's own stderr as ``sys.stderr``.
+
+    Making one calls ``faulthandler.enable()``, which needs a file descriptor: pytest's
+    ``--capture=sys`` puts an in-memory file there instead.
+    """
+    stderr, sys.stderr = sys.stderr, sys.__stderr__
+    try:
+        return EventsExecutor()
+    finally:
+        sys.stderr = stderr
 
 
 class Driver:
@@ -40,7 +55,7 @@ class Driver:
     def __init__(self, name: str, outputs: tuple[str, ...] = OUTPUTS) -> None:
         rclpy.init()
         self.node = Node(name)
-        self.executor = EventsExecutor()
+        self.executor = _events_executor()
         self.executor.add_node(self.node)
         self.statuses: dict[str, list[dict[str, str]]] = {}
         # diagnostics node: (monotonic arrival, level, message)
