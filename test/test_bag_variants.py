@@ -14,8 +14,15 @@ import pytest
 from gear_phm import codec, interfaces
 from gear_phm.bagio import BagReader
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
+from helpers.shared import build_once
 
 WEARING = Path(__file__).resolve().parents[1] / 'bags' / 'wearing'
+#: The variants: name -> the options of :func:`rewrite`.
+VARIANTS = {
+    'two-channels': {'split_channels': True, 'chunk_size': 64 * 1024},
+    'no-chunk-index-no-statistics': {'split_channels': False, 'index_types': IndexType.NONE,
+                                     'use_statistics': False},
+}
 
 
 def qos_yaml(reliability: int) -> str:
@@ -72,6 +79,16 @@ def estimate(bag: Path) -> tuple[dict, str]:
 
 
 @pytest.fixture(scope='module')
+def variants(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Each variant's bag (name -> directory), written once per test run for both tests."""
+    def write(root: Path) -> None:
+        for name, options in VARIANTS.items():
+            rewrite(root / name, **options)
+    root = build_once(tmp_path_factory, 'bag_variants', write)
+    return {name: root / name for name in VARIANTS}
+
+
+@pytest.fixture(scope='module')
 def original() -> dict:
     summary, kind = estimate(WEARING)
     assert kind == 'mcap-chunks'
@@ -79,15 +96,11 @@ def original() -> dict:
     return summary
 
 
-@pytest.mark.parametrize('variant, options, kind', [
-    ('two-channels', {'split_channels': True, 'chunk_size': 64 * 1024}, 'mcap-chunks'),
-    ('no-chunk-index-no-statistics', {'split_channels': False, 'index_types': IndexType.NONE,
-                                      'use_statistics': False}, 'mcap-scan'),
-])
-def test_variant_gives_the_original_u(tmp_path: Path, original: dict, variant: str,
-                                      options: dict, kind: str) -> None:
-    bag = rewrite(tmp_path / variant, **options)
-    summary, used = estimate(bag)
+@pytest.mark.parametrize('variant, kind', [('two-channels', 'mcap-chunks'),
+                                           ('no-chunk-index-no-statistics', 'mcap-scan')])
+def test_variant_gives_the_original_u(variants: dict[str, Path], original: dict, variant: str,
+                                      kind: str) -> None:
+    summary, used = estimate(variants[variant])
     assert used == kind
     assert summary['samples_seen'] == 30000
     assert summary['counts'].get('stamp_reset', 0) == 0
@@ -96,7 +109,7 @@ def test_variant_gives_the_original_u(tmp_path: Path, original: dict, variant: s
     assert summary['filter_updates'] == original['filter_updates']
 
 
-def test_variants_through_gear_phm_analyze(tmp_path: Path) -> None:
+def test_variants_through_gear_phm_analyze(variants: dict[str, Path], tmp_path: Path) -> None:
     """The same through the CLI users run: ``gear-phm analyze`` of each variant gives the
     original bag's u and sigma to 1e-9 (summary.json)."""
     import json
@@ -110,10 +123,8 @@ def test_variants_through_gear_phm_analyze(tmp_path: Path) -> None:
         return json.loads((out / 'summary.json').read_text())
 
     expected = analysed(WEARING, 'original')
-    for name, options in (('two-channels', {'split_channels': True, 'chunk_size': 64 * 1024}),
-                          ('no-index', {'split_channels': False, 'index_types': IndexType.NONE,
-                                        'use_statistics': False})):
-        got = analysed(rewrite(tmp_path / name, **options), name)
+    for name, bag in variants.items():
+        got = analysed(bag, name)
         assert got['messages'] == expected['messages'] == 30000
         assert got['u'] == pytest.approx(expected['u'], abs=1e-9)
         assert got['sigma_u'] == pytest.approx(expected['sigma_u'], abs=1e-9)

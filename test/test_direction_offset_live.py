@@ -56,7 +56,7 @@ def test_healthy_mismatched_gearbox_stays_ok_with_steady_u(tmp_path: Path) -> No
                         'rate:=5.0', 'transmission_name:=mismatch')
     estimator = spawn('estimator', f'ratio:={RATIO}', 'publish_rate:=20.0')
     procs = [diagnostics, estimator]
-    driver = Driver('direction_offset_test')
+    driver = Driver('direction_offset_test', (FRICTION, COUNTS, EFFICIENCY))  # those it reads
     try:
         driver.wait(lambda: driver.latest('gear_phm'), 30.0, 'the diagnostics node')
         publisher = spawn('publisher', 'mode:=replay', f'bag_path:={bag}', 'rate_factor:=2.0',

@@ -5,7 +5,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.stats import chi2
 
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.models.lever import efficiencies
@@ -163,6 +162,7 @@ def test_noisy_wear_through_warn_and_end_of_life_one_transition_each() -> None:
 
 # --- filter checks -------------------------------------------------------------------------
 def test_divergence_detector_mismatch_warn_and_lost_error() -> None:
+    from scipy.stats import chi2         # here, not at collection: 0.7 s of CPU per worker
     detector = DivergenceDetector(nis_window=10, nis_probability=0.999, max_u_sigma=0.5,
                                   nis_lost=100.0)
     exact = chi2.ppf(0.999, 10) / 10                       # the bound the detector approximates

@@ -13,7 +13,6 @@ import pytest
 
 from gear_phm.cli.main import main
 from gear_phm.models import min_teeth, SpurGear, total_squared_error
-from gear_phm.paper.reproduce import CSV_COLUMNS, FIGURE_FILES, sample_reference_gears
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 
@@ -32,7 +31,10 @@ def paper_run(tmp_path_factory) -> tuple[Path, str]:
     return out, main(['paper', '--out', str(out), '--samples', '40', '--seed', '7'])
 
 
+# gear_phm.paper.reproduce (matplotlib, 0.3 s of CPU) is imported by the tests that use it, not
+# at collection by every pytest-xdist worker.
 def test_writes_figures_csv_and_summary(paper_run) -> None:
+    from gear_phm.paper.reproduce import FIGURE_FILES
     out, status = paper_run
     assert status == 0
     for name in FIGURE_FILES:
@@ -44,6 +46,7 @@ def test_writes_figures_csv_and_summary(paper_run) -> None:
 
 
 def test_csv_has_every_parameter_and_result(paper_run) -> None:
+    from gear_phm.paper.reproduce import CSV_COLUMNS
     out, _ = paper_run
     with (out / 'samples.csv').open() as stream:
         rows = list(csv.DictReader(stream))
@@ -93,6 +96,7 @@ def test_summary_statistics_are_finite_and_consistent(paper_run) -> None:
 
 
 def test_sampling_is_seeded() -> None:
+    from gear_phm.paper.reproduce import sample_reference_gears
     first, again = sample_reference_gears(30, 3), sample_reference_gears(30, 3)
     other = sample_reference_gears(30, 4)
     for name in first:

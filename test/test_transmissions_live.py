@@ -114,7 +114,7 @@ class Statuses:
     def __init__(self, driver: Driver) -> None:
         self.by_name: dict[str, list[tuple[float, str, str, dict[str, str]]]] = {}
         self.arrays: list[tuple[str, ...]] = []
-        driver.node.create_subscription(DiagnosticArray, '/diagnostics', self._on, RELIABLE)
+        driver.on_diagnostics.append(self._on)
 
     def _on(self, msg: DiagnosticArray) -> None:
         now = time.monotonic()
