@@ -30,9 +30,9 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(420)]
 PLANT = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
          'motor_inertia:=0.01', 'sensor_timeout:=5.0', 'diagnostics_period:=0.05')
 HEALTH = ('ratio:=3.0', 'eta_opposing_min:=0.5', 'rate:=20.0', 'stale_timeout:=60.0')
-#: The stream: 240 s at 50 Hz of a gearbox whose u grows from 0.05 to 0.35 (RUL finite).
+#: The stream: 120 s at 50 Hz of a gearbox whose u grows from 0.05 to 0.35 (RUL finite).
 RATE = 50.0
-DURATION = 240.0
+DURATION = 120.0
 #: Messages per second of wall time at most (x20 real time); publish_acked keeps both nodes
 #: within their queues (they acknowledge in their statuses, every 0.05 s), so a node behind
 #: under load slows the pace instead of losing input.
@@ -147,12 +147,6 @@ def _final(status: dict[str, str]) -> tuple[float, float, float]:
     return float(status['u']), float(status['u_sigma']), float(status['rul_s'])
 
 
-# Known open problem, not hidden: with every sample delivered to both nodes, the RUL after 4
-# restarts still differs from the one-go run by 0.8-2.1 % between runs (2.06 % in one fresh
-# clone of d1b233d), from the restarts' effect on the wear fit, not from lost input. The
-# bounds stay as they are; a failed attempt is retried twice (pytest-rerunfailures, pinned)
-# so that the intermittent case does not fail the suite, and three failures in a row do.
-@pytest.mark.flaky(reruns=2)
 @pytest.mark.long(120)
 def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     messages = _messages()
@@ -197,25 +191,23 @@ def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
           f'5 parts: u {u_split:.6g} sigma {sigma_split:.3g} RUL {rul_split:.4g} s')
     print({key: (whole[key], split[key]) for key in ('operating_time_s', 'rul_operating_s',
                                                      'utilisation')})
-    assert 10.0 < rul_whole < 200.0             # a detected trend, not inf
-    assert abs(u_split - u_whole) <= 0.1 * sigma_whole
+    assert 5.0 < rul_whole < 200.0              # a detected trend, not inf
     # The RUL runs on operating time. Every part starts after a probe reached the new
     # estimator (_handshake) and publish_acked never runs ahead of the nodes' queues, so both
-    # runs got every sample: the same samples and operating time, whatever the load, and the
-    # RUL within 2 % (88.45 s against 89.16 s under two CPU burners). A 120 s life was tried
-    # and is too short for that: its RUL moved 3-14 % over the 4 restarts.
-    assert split_estimator['samples_used'] == whole_estimator['samples_used']
-    assert split_estimator['samples_missing'] == whole_estimator['samples_missing'] == '0'
-    assert split['operating_time_s'] == whole['operating_time_s']
-    assert rul_split == pytest.approx(rul_whole, rel=0.02)
-    assert sigma_split == pytest.approx(sigma_whole, rel=0.1)
-    # the estimator's counters continued (a restart loses the open window or two; a fresh
-    # filter in the last part would have about a fifth)
-    updates_whole = int(whole_estimator['filter_updates'])
+    # runs got every sample: the same samples and operating time, whatever the load. The state
+    # files hold the open energy window too, so the restarts lose nothing: the 5 parts give
+    # the one go's filter updates, u and sigma to rounding. Before the window was kept, 4
+    # restarts lost 2 windows and moved the RUL by 0.8-2.1 %. The RUL agreed to 1e-11 in 6
+    # runs of 7 under 3 CPU burners and was 2.3e-4 apart in one (u and sigma equal; cause
+    # not found, the diagnostics statuses are in the message if it recurs beyond 1 %).
     keys = ('filter_updates', 'samples_used', 'samples_missing', 'windows_rejected_short_window')
     print('one go:', [whole_estimator[k] for k in keys], '5 parts:',
           [split_estimator[k] for k in keys])
-    assert 0.9 * updates_whole <= int(split_estimator['filter_updates']) <= updates_whole
+    assert [split_estimator[k] for k in keys] == [whole_estimator[k] for k in keys]
+    assert whole_estimator['samples_missing'] == '0'
+    assert split['operating_time_s'] == whole['operating_time_s']
+    assert (u_split, sigma_split) == pytest.approx((u_whole, sigma_whole), rel=1e-6)
+    assert rul_split == pytest.approx(rul_whole, rel=0.01), (whole, split)
 
 
 def test_corrupt_state_files_warn_are_kept_aside_and_start_fresh(tmp_path: Path) -> None:

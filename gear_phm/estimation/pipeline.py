@@ -177,8 +177,8 @@ class EstimatorPipeline:
         """What a restart needs to continue as if it never stopped (JSON-safe; see
         :mod:`gear_phm.persistence`): the filter, counters, operating time and stamp origin.
 
-        Not kept: the open energy window and the stamp screen's learnt period (a restart
-        loses at most the window that was open, and relearns the period).
+        Kept too: the open energy window and the previous sample, so that a restart loses no
+        sample. Not kept: the stamp screen's learnt period (relearnt from the next samples).
         """
         return {
             'filter': self.filter.to_state(), 'counts': dict(self.counts),
@@ -190,7 +190,7 @@ class EstimatorPipeline:
             'origin_ns': self._origin_ns, 'grid': self._grid, 'last_code': self._last_code,
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
             'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
-            'inertia': self.inertia.to_state(),
+            'inertia': self.inertia.to_state(), 'window': self.integrator.to_state(),
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -215,8 +215,11 @@ class EstimatorPipeline:
                                               decode_float(carry[2]))
         if 'inertia' in state:              # added within schema 2 (2026-11-26)
             fresh.inertia.from_state(state['inertia'])
+        if 'window' in state:               # added within schema 2 (2026-11-27)
+            fresh.integrator.from_state(state['window'])
         self.filter = fresh.filter
         self.inertia = fresh.inertia
+        self.integrator = fresh.integrator
         self.counts = counts
         self._carry = carried
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,

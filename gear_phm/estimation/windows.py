@@ -14,14 +14,16 @@ Batch boundaries do not change the result: the open window is carried between ca
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 import math
+from typing import Any
 
 import numpy as np
 
 from gear_phm.estimation.config import DEFAULTS
 from gear_phm.models.lever import reading_with_slope
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
+from gear_phm.persistence import decode_float, encode_float
 
 
 @dataclass(frozen=True)
@@ -106,6 +108,29 @@ class EnergyIntegrator:
         self._open: _Open | None = None
         self._last: tuple[float, float, float, int] | None = None   # t, P_m, P_l, code
         self._last_usable = False
+
+    def to_state(self) -> dict[str, Any]:
+        """The open window and the previous sample (JSON-safe): a restart continues them."""
+        open_ = None if self._open is None else [
+            v if isinstance(v, int) else encode_float(v) for v in astuple(self._open)]
+        last = None if self._last is None else [
+            *(encode_float(v) for v in self._last[:3]), self._last[3]]
+        return {'open': open_, 'last': last, 'last_usable': self._last_usable}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; KeyError/ValueError/TypeError on a malformed dict (the
+        integrator is then unchanged)."""
+        open_, last = state['open'], state['last']
+        restored = None
+        if open_ is not None:
+            if len(open_) != len(astuple(_Open(0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0))):
+                raise ValueError(f'open window of {len(open_)} values')
+            restored = _Open(int(open_[0]), decode_float(open_[1]), decode_float(open_[2]),
+                             int(open_[3]), *(decode_float(v) for v in open_[4:]))
+        previous = None if last is None else (
+            decode_float(last[0]), decode_float(last[1]), decode_float(last[2]), int(last[3]))
+        self._open, self._last = restored, previous
+        self._last_usable = bool(state['last_usable'])
 
     def take_dropped_short(self) -> np.ndarray:
         """Return and reset ``dropped_short``, as the positions in their batch of the samples
