@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+import json
 import os
 from pathlib import Path
 import subprocess
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 from gear_phm.bagio import BagReader
+from helpers.shared import build_once
 
 REPO = Path(__file__).resolve().parents[1]
 PUBLISHER = Path(sys.executable).parent / 'publisher'
@@ -35,9 +37,8 @@ def run_publisher(timeout: float = 60.0, **params: object) -> subprocess.Complet
 
 # --- bad input: exit 2, one line on stderr naming the thing, never a traceback ---------------
 
-@pytest.fixture(scope='module')
-def broken_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    root = tmp_path_factory.mktemp('broken')
+def _broken_bags(root: Path) -> dict[str, Path]:
+    """Write a truncated and a corrupt copy of bags/healthy under ``root``; name -> directory."""
     source = HEALTHY / 'healthy_0.mcap'
     data = source.read_bytes()
     bags = {}
@@ -74,8 +75,22 @@ BAD_INPUTS = {
 
 
 @pytest.fixture(scope='module')
-def bad_input_runs(broken_bags: dict[str, Path]) -> dict[str, subprocess.CompletedProcess]:
-    """Run every bad-input case at once (they exit at start-up): case -> finished process."""
+def bad_input_runs(tmp_path_factory: pytest.TempPathFactory
+                   ) -> dict[str, subprocess.CompletedProcess]:
+    """Run every bad-input case at once (they exit at start-up): case -> finished process.
+
+    Once per test run (helpers.shared.build_once): the eleven start-ups cost about 6 s of CPU,
+    and a module fixture runs again on a worker whose tests of this module pytest-xdist's
+    worksteal interleaved with another module's.
+    """
+    root = build_once(tmp_path_factory, 'publisher_bad_inputs', _run_bad_inputs)
+    runs = json.loads((root / 'runs.json').read_text())
+    return {case: subprocess.CompletedProcess(*run) for case, run in runs.items()}
+
+
+def _run_bad_inputs(root: Path) -> None:
+    """Write runs.json: case -> (args, returncode, stdout, stderr) of its publisher."""
+    broken_bags = _broken_bags(root)
     processes = {}
     for case, (params, _) in BAD_INPUTS.items():
         params = {k: (v.format(**broken_bags) if isinstance(v, str) else v)
@@ -91,9 +106,8 @@ def bad_input_runs(broken_bags: dict[str, Path]) -> dict[str, subprocess.Complet
             if process.poll() is None:
                 process.kill()
                 stdout, stderr = process.communicate()
-        runs[case] = subprocess.CompletedProcess(process.args, process.returncode, stdout,
-                                                 stderr)
-    return runs
+        runs[case] = (process.args, process.returncode, stdout, stderr)
+    (root / 'runs.json').write_text(json.dumps(runs))
 
 
 @pytest.mark.integration
