@@ -166,7 +166,8 @@ def crossing_quantiles(laws: tuple[Trend, ...] | LawDraws, draws: Draws, u_eol: 
 #: random-life ensemble's seeds 1-60 and checked on the held-out seeds 61-100
 #: (docs/prognostics.md, "Model-form uncertainty").
 MODEL_FORM_SIGMA = (0.4, 0.2)
-#: z of the band's 5 % and 95 % quantiles
+#: z of the band's 5 % and 95 % quantiles: the standard normal's one-sided 95 % quantile
+#: (also the end of life's, :data:`gear_phm.prognostics.health.EOL_Z`)
 BAND_Z = 1.645
 
 

@@ -30,6 +30,7 @@ from statistics import NormalDist
 from typing import Any
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
+from gear_phm.prognostics.calibration import BAND_Z
 from gear_phm.prognostics.config import DEFAULTS, derived_eta_warn, HEALTHY_SETTLED_SHARE
 from gear_phm.status import ERROR, OK, WARN
 
@@ -141,8 +142,8 @@ class DivergenceDetector:
 #: ERROR "end of life" means the gearbox is past it with 95 % confidence, not that the
 #: estimate's noise touched it (a 30 000 s life gave ERROR 6 s before the true end of life
 #: on the point estimate, 2026-11-25). It costs EOL_Z sigma_u / (du/dt) of delay: ~1 s on
-#: a 300 s life, ~90 s on a 30 000 s one.
-EOL_Z = 1.645
+#: a 300 s life, ~90 s on a 30 000 s one. The band's one-sided 95 % quantile, defined there.
+EOL_Z = BAND_Z
 
 
 class Latch:
