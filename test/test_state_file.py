@@ -147,7 +147,7 @@ def _final(status: dict[str, str]) -> tuple[float, float, float]:
     return float(status['u']), float(status['u_sigma']), float(status['rul_s'])
 
 
-@pytest.mark.long(120)
+@pytest.mark.long(60)
 def test_restart_equivalence_sigterm_and_kill9(tmp_path: Path) -> None:
     messages = _messages()
     driver = Driver('state_driver', OUTPUTS)
