@@ -60,7 +60,8 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('executor', 'events', 'rclpy executor: events (rclpy.experimental.'
               'EventsExecutor, about 2.5x less CPU per message here) or single '
               '(SingleThreadedExecutor)', choices=('events', 'single'), read_only=True),
-    *state_parameters('the filter state, its adaptation, counters and operating time'),
+    *state_parameters('the filter state, its adaptation, counters, operating time and '
+                      'open energy window'),
 )
 CONFIG_FIELDS = tuple(f.name for f in fields(EstimatorConfig))
 #: A buffer this long is processed at once.
