@@ -14,7 +14,7 @@ Batch boundaries do not change the result: the open window is carried between ca
 """
 from __future__ import annotations
 
-from dataclasses import astuple, dataclass
+from dataclasses import astuple, dataclass, fields
 import math
 from typing import Any
 
@@ -123,7 +123,7 @@ class EnergyIntegrator:
         open_, last = state['open'], state['last']
         restored = None
         if open_ is not None:
-            if len(open_) != len(astuple(_Open(0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0))):
+            if len(open_) != len(fields(_Open)):
                 raise ValueError(f'open window of {len(open_)} values')
             restored = _Open(int(open_[0]), decode_float(open_[1]), decode_float(open_[2]),
                              int(open_[3]), *(decode_float(v) for v in open_[4:]))
