@@ -48,11 +48,14 @@ TOPICS = interfaces.ESTIMATOR_TOPICS
 def decoded(analysis: Path, cache: Path) -> tuple[np.ndarray, np.ndarray]:
     """Return (stamps [ns], N x 3 x len(TOPICS) values) of the estimator's updates.
 
-    Updates whose stamp lacks one of the topics keep NaN there; cached in ``cache``.
+    Updates whose stamp lacks one of the topics keep NaN there; cached in ``cache`` with the
+    topics' names (a cache of other topics, e.g. from before gear_phm/direction_offset, is
+    made again).
     """
     if cache.is_file():
         with np.load(cache) as data:
-            return data['stamps'], data['values']
+            if 'topics' in data and data['topics'].tolist() == list(TOPICS):
+                return data['stamps'], data['values']
     columns: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {t: [] for t in TOPICS}
     with McapChunkReader(sorted(analysis.glob('*.mcap'))) as reader:
         names = {'/' + t: t for t in TOPICS}
@@ -73,7 +76,7 @@ def decoded(analysis: Path, cache: Path) -> tuple[np.ndarray, np.ndarray]:
             s, v = per_topic[topic]
             values[np.searchsorted(stamps, s), :, k] = v
     cache.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(cache, stamps=stamps, values=values)
+    np.savez(cache, stamps=stamps, values=values, topics=np.array(TOPICS))
     return stamps, values
 
 

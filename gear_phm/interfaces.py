@@ -38,6 +38,7 @@ EFFICIENCY = 'gear_phm/efficiency'
 INNOVATION = 'gear_phm/innovation'
 COUNTS = 'gear_phm/counts'
 OPERATING_TIME = 'gear_phm/operating_time'
+DIRECTION_OFFSET = 'gear_phm/direction_offset'
 SAMPLE_LOSS = 'gear_phm/sample_loss'
 HEALTH_RUL = 'gear_phm/health/rul'
 HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
@@ -72,6 +73,7 @@ ESTIMATE_LAYOUT: Layout = (
     (EFFICIENCY, ('eta_opposing', 'eta_aiding', 'measured_efficiency')),
     (INNOVATION, ('innovation', 'innovation_variance', 'nis')),
     (COUNTS, ('samples_used', 'samples_rejected', 'power_flow')),
+    (DIRECTION_OFFSET, ('direction_offset', 'measurement_direction', 'measurement_bias')),
     (OPERATING_TIME, ('operating_time', 'measurement', 'measurement_variance')),
 )
 #: The diagnostics node's outputs and the :class:`~gear_phm.prognostics.HealthState`

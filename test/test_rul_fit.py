@@ -346,8 +346,8 @@ def test_a_law_extrapolates_only_once_its_own_slope_is_significant() -> None:
     assert 0.15 * LIFE < first_curved < 0.3 * LIFE
 
 
-def test_before_24_points_growth_needs_evidence_in_proportion() -> None:
-    """Below DETECT_MIN_POINTS effective points, growth needs detect_z * 24 / n_eff sigma.
+def test_before_min_points_growth_needs_evidence_in_proportion() -> None:
+    """Below DETECT_MIN_POINTS effective points, growth needs detect_z * that / n_eff sigma.
 
     A steep rise (a 300 s life at windows 1 s apart) is plain at 16 points: the RUL is finite
     there (a hard minimum of 24 points kept it inf for the first 0.1 of the life). A marginal

@@ -162,8 +162,10 @@ class EstimatorPipeline:
         self._last_stamp: int | None = None
         self.timed_out = False
         #: A measurement whose estimate was dropped (same stamp as the one before), for the
-        #: next estimate: (u [-], variance [-^2], operating time it holds at [s]).
-        self._carry: tuple[float, float, float] | None = None
+        #: next estimate: (u [-], variance [-^2], operating time it holds at [s], direction
+        #: share h [-], bias subtracted [-]; FrictionEstimate's measurement_direction and
+        #: measurement_bias).
+        self._carry: tuple[float, float, float, float, float] | None = None
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Apply new parameters; the filter and the open window restart, counters stay."""
@@ -211,8 +213,10 @@ class EstimatorPipeline:
                   stamp(state['origin_ns']), stamp(state['grid']), int(state['last_code']),
                   decode_float(state['last_eta']), stamp(state['last_stamp']))
         carry = state.get('carry')          # added within schema 2 (2026-11-25)
-        carried = None if carry is None else (decode_float(carry[0]), decode_float(carry[1]),
-                                              decode_float(carry[2]))
+        # h and the bias added within schema 2 (2026-11-27); an older carry's are 0 (its
+        # measurement is not re-corrected)
+        carried = None if carry is None else tuple(
+            decode_float(v) for v in (*carry[:5], *[0.0] * (5 - len(carry[:5]))))
         if 'inertia' in state:              # added within schema 2 (2026-11-26)
             fresh.inertia.from_state(state['inertia'])
         if 'window' in state:               # added within schema 2 (2026-11-27)
@@ -561,30 +565,35 @@ class EstimatorPipeline:
         for output in outputs:
             if output.stamp_ns == self._last_group_stamp:
                 if math.isfinite(output.measurement):
-                    self._carry = (*self._merged(output), output.operating_time)
+                    z, variance, h, bias = self._merged(output)
+                    self._carry = (z, variance, output.operating_time, h, bias)
                 keep.append(False)
                 continue
             self._last_group_stamp = output.stamp_ns
             if self._carry is not None:
-                z, variance = self._merged(output)
-                output = replace(output, measurement=z, measurement_variance=variance)
+                z, variance, h, bias = self._merged(output)
+                output = replace(output, measurement=z, measurement_variance=variance,
+                                 measurement_direction=h, measurement_bias=bias)
                 self._carry = None
             kept.append(output)
             keep.append(True)
         return kept, keep
 
-    def _merged(self, output: FrictionEstimate) -> tuple[float, float]:
+    def _merged(self, output: FrictionEstimate) -> tuple[float, float, float, float]:
         """The carried measurement (if any), moved to ``output``'s operating time with its
-        rate, combined with ``output``'s own by inverse variance: (u [-], variance)."""
+        rate, combined with ``output``'s own by inverse variance: (u [-], variance, direction
+        share h [-], bias subtracted [-]), h and the bias with the same weights."""
         z, variance = output.measurement, output.measurement_variance
+        h, bias = output.measurement_direction, output.measurement_bias
         if self._carry is None:
-            return z, variance
-        cz, cv, at = self._carry
+            return z, variance, h, bias
+        cz, cv, at, ch, cb = self._carry
         cz += output.rate * (output.operating_time - at)
         if not math.isfinite(z):
-            return cz, cv
+            return cz, cv, ch, cb
         total = 1.0 / cv + 1.0 / variance
-        return (cz / cv + z / variance) / total, 1.0 / total
+        return ((cz / cv + z / variance) / total, 1.0 / total,
+                (ch / cv + h / variance) / total, (cb / cv + bias / variance) / total)
 
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
@@ -659,7 +668,8 @@ class EstimatorPipeline:
         return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
                                used, rejected, operating,
                                (result.u - update.bias, variance,
-                                operating - 0.5 * window.duration))]
+                                operating - 0.5 * window.duration,
+                                0.5 if direction else -0.5, update.bias))]
 
     def _prediction_base(self) -> _PredictionBase:
         """What the estimates published before the next filter update are predicted from."""
@@ -704,11 +714,12 @@ class EstimatorPipeline:
                    code[index].tolist(), operating.tolist())
         for (at, _, base), size in zip(runs_at, sizes):
             fixed, q, mismatch = base.fixed, base.q, base.mismatch
+            offset = base.bias[1] - base.bias[0]
             outputs[at:at + size] = [
                 FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
                                  rejected, flow, process_noise=q, mismatch_variance=mismatch,
                                  operating_time=time, measurement=nan,
-                                 measurement_variance=nan)
+                                 measurement_variance=nan, direction_offset=offset)
                 for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
                 in itertools.islice(rows, size)]
 
@@ -723,18 +734,21 @@ class EstimatorPipeline:
 
     def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
                   rejected: int | None = None, operating_time: float | None = None,
-                  measurement: tuple[float, float, float] | None = None) -> FrictionEstimate:
+                  measurement: tuple[float, float, float, float, float] | None = None
+                  ) -> FrictionEstimate:
         """The record at ``stamp_ns``; ``measurement``: (u [-], variance, operating time [s]
-        at which it measures u) of the window fused for it, carried here with the rate."""
+        at which it measures u, direction share h [-], bias subtracted [-]) of the window
+        fused for it, carried here with the rate."""
         u, rate = float(x[0]), float(x[1])
         # each efficiency as its direction's windows read it: u plus that direction's bias
         eta_d = efficiencies(u + self.filter.direction_bias(0), self.config.ratio)[0]
         eta_i = efficiencies(u + self.filter.direction_bias(1), self.config.ratio)[1]
         last = self.filter.last
         at = self.operating_time if operating_time is None else operating_time
-        z = variance = math.nan
+        z = variance = h = bias = math.nan
         if measurement is not None:
             z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
+            h, bias = measurement[3], measurement[4]
         return FrictionEstimate(
             stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
             self._last_eta, last.innovation, last.innovation_variance, last.nis,
@@ -743,7 +757,9 @@ class EstimatorPipeline:
             process_noise=self.filter.process_noise,
             mismatch_variance=(self.filter.mismatch_variance(0),
                                self.filter.mismatch_variance(1)),
-            operating_time=at, measurement=z, measurement_variance=variance)
+            operating_time=at, measurement=z, measurement_variance=variance,
+            direction_offset=self.filter.direction_offset, measurement_direction=h,
+            measurement_bias=bias)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:

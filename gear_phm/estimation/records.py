@@ -48,7 +48,14 @@ class FrictionEstimate:
     counterpart) that the filter fused for this estimate, carried from its window's mid-time
     to this estimate's operating time with the filter's rate, and its variance (window noise
     plus learned mismatch); NaN on estimates without a new window. The RUL's wear history
-    fits these, not the posteriors (docs/prognostics.md).
+    fits these, not the posteriors (docs/prognostics.md). ``direction_offset`` d [-]: the
+    filter's learned offset between the load directions (aiding windows' reading of u minus
+    the opposing ones'); ``measurement_direction`` h [-]: the measurement's share of it (-1/2
+    for an opposing window, +1/2 for an aiding one, their inverse-variance mean for windows
+    merged into one estimate); ``measurement_bias`` [-]: the bias h d subtracted from the
+    measurement with d as it was then. With the offset learned since, the measurement reads
+    ``measurement + measurement_bias - h d`` (the RUL's history re-corrects it so,
+    :class:`~gear_phm.prognostics.history.WearHistory`).
     """
 
     stamp_ns: int
@@ -70,6 +77,9 @@ class FrictionEstimate:
     operating_time: float = math.nan
     measurement: float = math.nan
     measurement_variance: float = math.nan
+    direction_offset: float = math.nan
+    measurement_direction: float = math.nan
+    measurement_bias: float = math.nan
 
     @property
     def t(self) -> float:

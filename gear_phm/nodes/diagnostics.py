@@ -59,7 +59,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     DIAGNOSTICS_RATE,
     ParamSpec('record_path', '', 'rosbag2 MCAP directory to record to (empty: no recording); '
               'must not exist or be empty', read_only=True),
-    ParamSpec('record_inputs', False, 'also record the six estimator input topics',
+    ParamSpec('record_inputs', False, 'also record the seven estimator input topics',
               read_only=True),
     ParamSpec('record_compression', '', 'MCAP chunk compression ("": none)',
               choices=('', 'zstd', 'lz4'), read_only=True),

@@ -4,9 +4,9 @@ With :mod:`gear_phm.interfaces` (topic names and field layouts, shared with the 
 is the only place that knows which topic carries what. The estimator node takes JointState
 serialized (:func:`subscribe_joint_states_raw`; decoded by :class:`gear_phm.codec.
 JointStateDecoder`, the codec the bag side uses too), publishes each
-:class:`~gear_phm.estimation.FrictionEstimate` as six Vector3Stamped topics with one stamp
+:class:`~gear_phm.estimation.FrictionEstimate` as seven Vector3Stamped topics with one stamp
 (:class:`EstimatePublisher`) and its loss count (:class:`SampleLossPublisher`); the
-diagnostics node puts the six back together into the same record
+diagnostics node puts the seven back together into the same record
 (:class:`EstimateAssembler`, an exact-time synchronizer as in message_filters) and hands
 whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 """
@@ -45,7 +45,7 @@ def topic_of(drive: str | None, topic: str) -> str:
 
 
 class EstimatePublisher:
-    """Publishes estimates on the six estimator topics (reliable, depth 10).
+    """Publishes estimates on the seven estimator topics (reliable, depth 10).
 
     ``drive``: a drive of many (``transmissions``): its topics ``gear_phm/<drive>/...``.
     """
@@ -57,7 +57,7 @@ class EstimatePublisher:
                             for topic in interfaces.ESTIMATOR_TOPICS}
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
-        """Publish each estimate on the six topics, serialized by the package's packer
+        """Publish each estimate on the seven topics, serialized by the package's packer
         (rclpy's ``publish`` takes CDR bytes: no Python message object per output)."""
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id):
@@ -119,7 +119,7 @@ class HealthPublisher:
 class EstimateAssembler:
     """The estimator's topics in, whole :class:`FrictionEstimate` records out.
 
-    Messages are grouped by stamp; a group is complete with all six estimator topics. Until
+    Messages are grouped by stamp; a group is complete with all seven estimator topics. Until
     ``gear_phm/operating_time`` has been seen (an older estimator or bag does not publish it),
     a group with the five of :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
     once a later group has those five too: one update late, and its estimate carries no
@@ -145,7 +145,7 @@ class EstimateAssembler:
                   on_estimates: Callable[[list[FrictionEstimate]], None],
                   on_message: Callable[[str, Vector3Stamped], None] | None = None,
                   drive: str | None = None) -> None:
-        """Subscribe the six topics (``drive``'s: as :class:`EstimatePublisher`);
+        """Subscribe the seven topics (``drive``'s: as :class:`EstimatePublisher`);
         ``on_estimates`` gets each completed update, ``on_message`` (optional) every raw
         message first with its topic (the drive's), e.g. to record it."""
         for topic in interfaces.ESTIMATOR_TOPICS:

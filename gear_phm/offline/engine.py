@@ -727,16 +727,23 @@ def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[Healt
     return columns
 
 
+#: The estimate fields written from the estimates themselves (not :class:`EstimateHistory`).
+_FROM_ESTIMATES = ('measurement', 'measurement_variance', 'direction_offset',
+                   'measurement_direction', 'measurement_bias')
+
+
 def _estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
                       ) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return :func:`gear_phm.interfaces.vector3_columns` of estimates, from their ``history``.
 
-    The measurements, which the history does not hold, are read from the estimates.
+    The measurements and the direction offset, which the history does not hold, are read
+    from the estimates.
     """
-    measured = np.array([(e.measurement, e.measurement_variance) for e in estimates],
-                        dtype=float).reshape(-1, 2)
-    source = {'u_sigma': history.u_sigma, 'measurement': measured[:, 0],
-              'measurement_variance': measured[:, 1]}
+    measured = np.array([(e.measurement, e.measurement_variance, e.direction_offset,
+                          e.measurement_direction, e.measurement_bias) for e in estimates],
+                        dtype=float).reshape(-1, len(_FROM_ESTIMATES))
+    source = {'u_sigma': history.u_sigma,
+              **{name: measured[:, i] for i, name in enumerate(_FROM_ESTIMATES)}}
     return [(topic, history.stamp_ns,
              np.column_stack([source[name] if name in source else getattr(history, name)
                               for name in names]).astype(float))

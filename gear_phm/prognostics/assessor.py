@@ -219,10 +219,15 @@ class HealthAssessor:
         reading = self._reading_offset(u, u_d, u_i)
         predictor.u_eol = self.u_eol - reading
         measurement = estimate.measurement
+        if math.isfinite(estimate.direction_offset):
+            # the history's measurements, each with the offset between the load directions
+            # learned so far (gear_phm.prognostics.history)
+            predictor.history.offset = estimate.direction_offset
         if math.isfinite(measurement) and estimate.measurement_variance > 0.0:
             # the window's measurement: independent of the others, no filter lag
             predictor.add(operating, measurement, estimate.measurement_variance,
-                          independent=True)
+                          independent=True, direction=estimate.measurement_direction,
+                          bias=estimate.measurement_bias)
         elif not predictor.history.independent:
             # a stream without measurements (an older estimator or recording): posteriors
             predictor.add(operating, u, estimate.covariance[0])

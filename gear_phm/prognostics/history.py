@@ -10,6 +10,13 @@ precision of its posteriors (not the sum: neighbouring Kalman posteriors are str
 correlated, so averaging them does not make u more certain). Measurements are preferred: a
 posterior lags accelerating wear and then catches up, a kink that the fit extrapolates.
 
+A measurement comes less its load direction's bias as the filter knew it then (h d, with h
+-1/2 for an opposing window and +1/2 for an aiding one, d the offset between the directions).
+A bin also sums each measurement's h and that bias, so that :meth:`WearHistory.arrays` gives
+every bin with the offset learned since (:attr:`WearHistory.offset`): the windows before d
+was learned read u plus or minus d/2, a step that the fit took for wear (random lives 26 and
+39: WARN before the wear onset).
+
 :class:`Utilisation`: operating time over elapsed time, the factor between the RUL's two time
 bases (docs/prognostics.md, issue 13).
 """
@@ -96,16 +103,25 @@ class WearHistory:
         self._w = [0.0] * m          # sum of 1/P
         self._wt = [0.0] * m         # sum of (t - t_start)/P
         self._wu = [0.0] * m         # sum of u/P
+        self._wh = [0.0] * m         # sum of h/P (h: the direction's share of the offset)
+        self._wb = [0.0] * m         # sum of bias/P (the bias subtracted from u)
         self._n = [0] * m
         #: bins opened so far (counts up, also across merges: the refit clock)
         self.opened = 0
         self._occupied = 0
+        #: the offset d between the load directions [-] that :meth:`arrays` corrects to
+        self.offset = 0.0
 
     def __len__(self) -> int:
         return self._occupied
 
-    def add(self, t: float, u: float, u_variance: float) -> None:
-        """Record a posterior at time t [s]; a time before the last one restarts the history."""
+    def add(self, t: float, u: float, u_variance: float, direction: float = 0.0,
+            bias: float = 0.0) -> None:
+        """Record a posterior at time t [s]; a time before the last one restarts the history.
+
+        ``direction`` h [-] and ``bias`` [-]: a measurement's share of the offset between the
+        load directions and the bias h d subtracted from it (module docstring; 0 for none).
+        """
         if not (math.isfinite(t) and math.isfinite(u) and math.isfinite(u_variance)
                 and u_variance > 0.0):
             return
@@ -126,6 +142,9 @@ class WearHistory:
         self._w[index] += w
         self._wt[index] += w * dt
         self._wu[index] += w * u
+        if direction == direction and bias == bias and (direction or bias):
+            self._wh[index] += w * direction
+            self._wb[index] += w * bias
         self._n[index] += 1
 
     def shift(self, offset: float) -> None:
@@ -139,12 +158,16 @@ class WearHistory:
                 't_last': encode_float(self.t_last), 'width': encode_float(self.width),
                 'w': encode_floats(self._w), 'wt': encode_floats(self._wt),
                 'wu': encode_floats(self._wu), 'n': list(self._n), 'opened': self.opened,
-                'independent': self.independent}
+                'independent': self.independent, 'wh': encode_floats(self._wh),
+                'wb': encode_floats(self._wb), 'offset': encode_float(self.offset)}
 
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state` (same max_points); ValueError/KeyError/TypeError if bad."""
         m = self.max_points
         columns = [decode_floats(state[key]) for key in ('w', 'wt', 'wu')]
+        # added within schema 2 (2026-11-27): an older history's bins are not re-corrected
+        columns += [decode_floats(state[key]) if key in state else [0.0] * m
+                    for key in ('wh', 'wb')]
         n = [int(v) for v in state['n']]
         if int(state['max_points']) != m or any(len(c) != m for c in (*columns, n)):
             raise ValueError(f'history state must have {m} bins')
@@ -153,8 +176,9 @@ class WearHistory:
             raise ValueError(f'history bin width must be > 0, got {width!r}')
         self.t_start, self.t_last = decode_float(state['t_start']), decode_float(state['t_last'])
         self.width = width
-        self._w, self._wt, self._wu = columns
+        self._w, self._wt, self._wu, self._wh, self._wb = columns
         self._n = n
+        self.offset = decode_float(state.get('offset', 0.0))
         self.opened = int(state['opened'])
         self._occupied = sum(1 for k in n if k)
         self.independent = bool(state.get('independent', False))
@@ -167,7 +191,7 @@ class WearHistory:
 
     def _merge(self) -> None:
         half = self.max_points // 2
-        for name in ('_w', '_wt', '_wu', '_n'):
+        for name in ('_w', '_wt', '_wu', '_wh', '_wb', '_n'):
             values = getattr(self, name)
             merged = [values[2 * i] + values[2 * i + 1] for i in range(half)]
             setattr(self, name, merged + [type(values[0])(0)] * half)
@@ -178,10 +202,15 @@ class WearHistory:
         """Occupied bins: mean time since t_start [s], mean u [-], precision [1/-^2].
 
         The precision of a bin's u: the sum of independent measurements', the mean of
-        posteriors'.
+        posteriors'. Each bin's u is re-corrected to :attr:`offset` (module docstring).
         """
         n = np.asarray(self._n, dtype=float)
         keep = n > 0
         w = np.asarray(self._w)[keep]
         precision = w if self.independent else w / n[keep]
-        return (np.asarray(self._wt)[keep] / w, np.asarray(self._wu)[keep] / w, precision)
+        wu = np.asarray(self._wu)[keep]
+        if self.offset:
+            wu = wu + (np.asarray(self._wb)[keep] - self.offset * np.asarray(self._wh)[keep])
+        elif any(self._wb):
+            wu = wu + np.asarray(self._wb)[keep]
+        return (np.asarray(self._wt)[keep] / w, wu / w, precision)

@@ -137,17 +137,20 @@ class RulPredictor:
         #: curved laws in the last fit's mixture (their admission has a hysteresis)
         self._curved: frozenset[str] = frozenset()
 
-    def add(self, t: float, u: float, u_variance: float, independent: bool = False) -> None:
+    def add(self, t: float, u: float, u_variance: float, independent: bool = False,
+            direction: float = 0.0, bias: float = 0.0) -> None:
         """Record a posterior (t [s], u [-], P_uu [-^2]) or an ``independent`` measurement.
 
-        A measurement of u comes with its variance. A history holds one kind: the other kind
-        restarts it.
+        A measurement of u comes with its variance, and its load direction's share h [-] of
+        the offset between the directions and the bias [-] subtracted from it
+        (:class:`~gear_phm.prognostics.history.WearHistory`). A history holds one kind: the
+        other kind restarts it.
         """
         if independent != self.history.independent:
             self.reset()
             self.history.independent = independent
         opened = self.history.opened
-        self.history.add(t, u, u_variance)
+        self.history.add(t, u, u_variance, direction, bias)
         if self.history.opened < opened:        # time went backwards: the history restarted
             self._trend, self._crossing, self._fitted_at = Trend(), (math.inf,) * 3, 0
             self._due = 1

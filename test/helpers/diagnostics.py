@@ -5,6 +5,7 @@ a known linear wear.
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 import subprocess
@@ -16,7 +17,8 @@ from geometry_msgs.msg import Vector3Stamped  # noqa: I100
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from gear_phm.interfaces import ESTIMATOR_TOPICS
+from gear_phm.interfaces import (COUNTS, DIRECTION_OFFSET, EFFICIENCY, ESTIMATOR_TOPICS,
+                                 FRICTION, FRICTION_COVARIANCE, INNOVATION, OPERATING_TIME)
 from gear_phm.nodes.common import stamp
 
 EXE = Path(sys.executable).parent / 'diagnostics'
@@ -67,9 +69,13 @@ class Feeder:
         self.step += 1
         u = 0.05 + 1.5e-4 * t
         eta_d, eta_i = (3.0 - u) / (3.0 * (1.0 + u)), 3.0 * (1.0 - u) / (3.0 + u)
-        vectors = [(u, 1.5e-4, 1e-3), (1e-6, 0.0, 1e-12), (eta_d, eta_i, eta_d),
-                   (0.001, 1e-6, 1.0 if self.step % 2 else 0.5), (float(self.step), 0.0, 1.0),
-                   (t * self.utilisation, 0.0, 0.0)]
+        by_topic = {FRICTION: (u, 1.5e-4, 1e-3), FRICTION_COVARIANCE: (1e-6, 0.0, 1e-12),
+                    EFFICIENCY: (eta_d, eta_i, eta_d),
+                    INNOVATION: (0.001, 1e-6, 1.0 if self.step % 2 else 0.5),
+                    COUNTS: (float(self.step), 0.0, 1.0),
+                    DIRECTION_OFFSET: (0.0, math.nan, math.nan),
+                    OPERATING_TIME: (t * self.utilisation, 0.0, 0.0)}
+        vectors = [by_topic[topic] for topic in ESTIMATOR_TOPICS]
         stamp_ns = int(t * 1e9)
         for pub, (x, y, z) in zip(self.pubs, vectors):
             msg = Vector3Stamped()
