@@ -161,3 +161,28 @@ def test_the_history_re_corrects_windows_fused_before_the_offset_was_learned() -
     _, u_legacy, _ = legacy.predictor.history.arrays()
     assert np.ptp(u_legacy) > 0.015            # the step the re-correction takes out
     assert finite > 100                        # ... read as wear (160 of 200 finite RULs)
+
+
+def test_history_state_keeps_the_direction_sums_and_reads_older_files() -> None:
+    from gear_phm.prognostics.history import WearHistory
+    history = WearHistory(16)
+    history.independent = True
+    for k in range(40):                     # merges twice: the sums move with the bins
+        h = 0.5 if k % 3 else -0.5
+        bias = h * 0.02 if k >= 10 else 0.0     # d = 0.02, learned from the 10th window on
+        history.add(float(k), 0.2 + h * 0.02 - bias, 1e-6, h, bias)
+    history.offset = 0.02
+    assert np.allclose(history.arrays()[1], 0.2)
+    state = history.to_state()
+    back = WearHistory(16)
+    back.from_state(state)
+    assert all(np.array_equal(a, b) for a, b in zip(history.arrays(), back.arrays()))
+    assert back.offset == 0.02
+    # a file from before 2026-11-27: no direction sums, so no re-correction
+    older = {k: v for k, v in state.items() if k not in ('wh', 'wb', 'offset')}
+    old = WearHistory(16)
+    old.from_state(older)
+    assert old.offset == 0.0
+    t, u, _ = old.arrays()
+    _, u_now, _ = history.arrays()
+    assert t.size == u_now.size and not np.allclose(u, u_now)
