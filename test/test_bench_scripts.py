@@ -142,9 +142,17 @@ def test_bench_live_pipeline_tiny() -> None:
 
 
 @pytest.mark.integration
-def test_bench_monitor_vs_processes_tiny() -> None:
-    out = run('monitor_vs_processes.py', '--bag', str(BENCH.parent / 'bags' / 'healthy'),
-              '--rate-factor', '40')
+def test_bench_monitor_vs_processes_tiny(tmp_path: Path) -> None:
+    """Both modes replay a 30 s healthy bag (bags/healthy's plant, u = 0.05, seed 1).
+
+    bags/healthy (120 s) made each mode process 12 000 messages: 10.6 s of CPU, 5.3 s with
+    this bag, its simulation (in this process) included.
+    """
+    from gear_phm.cli.main import main
+    bag = tmp_path / 'healthy_30s'
+    assert main(['simulate', '--out', str(bag), '--duration', '30', '--rate', '100',
+                 '--seed', '1', '--wear', 'constant', '--friction-initial', '0.05']) == 0
+    out = run('monitor_vs_processes.py', '--bag', str(bag), '--rate-factor', '40')
     assert '| three processes (baseline) |' in out and '`gear-phm monitor`' in out
     base, monitor = table(out, 'mode')
     assert base['mode'] == 'three processes (baseline)'
