@@ -16,7 +16,7 @@ from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import DropCounter, OUTPUT_QOS, run_node, SENSOR_QOS, to_rclpy
-from gear_phm.nodes.estimator import spin_executor
+from gear_phm.nodes.executors import spin_executor
 from gear_phm.status import OK
 
 

@@ -31,7 +31,8 @@ def main() -> int:
     import rclpy
     from pyinstrument import Profiler
 
-    from gear_phm.nodes.estimator import EstimatorNode, make_executor
+    from gear_phm.nodes.estimator import EstimatorNode
+    from gear_phm.nodes.executors import make_executor
     rclpy.init(args=['profile_estimator', '--ros-args', '-p', f'executor:={args.executor}'])
     node = EstimatorNode()
     executor = make_executor(args.executor)

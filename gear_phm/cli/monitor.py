@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import argparse
 
+from gear_phm.nodes.executors import EXECUTORS
+
 HELP = 'run publisher, estimator and diagnostics in one process'
-EXECUTORS = ('single', 'multi', 'events')   # gear_phm.nodes.monitor.make_executor
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -40,6 +40,7 @@ from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, Diagnostics
                                  VECTOR3_STAMPED_TYPE)
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
+from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   state_parameters, StateKeeper)
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher, topic_of
@@ -66,6 +67,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('record_flush_period', 0.5, 'the recording is flushed at least this often, so '
               'data older than this survives kill -9', 's', 0.01, 60.0, read_only=True),
     *state_parameters('the RUL history and fit, the level latches and the NIS window'),
+    executor_parameter('single'),
 )
 
 
@@ -290,6 +292,7 @@ class DiagnosticsNode(Node):
         super().__init__('diagnostics')
         names = declare_transmissions(self)
         values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.executor_kind = str(values['executor'])
         self.received = 0
         self.status_count = 0
         self.last_arrival_ns: int | None = None   # of any channel's input
@@ -417,7 +420,8 @@ class DiagnosticsNode(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point (``ros2 run gear_phm diagnostics``); returns the exit status."""
-    return run_node(DiagnosticsNode, args=args)
+    return run_node(DiagnosticsNode, args=args,
+                    spin=lambda node: spin_executor(node, node.executor_kind))
 
 
 if __name__ == '__main__':

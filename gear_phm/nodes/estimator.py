@@ -31,7 +31,6 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 
 from gear_phm import interfaces
@@ -41,6 +40,7 @@ from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
+from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
                                       subscribe_joint_states_raw)
@@ -57,9 +57,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'after the first of them arrived (at once when an output is due, or at 200 '
               'samples); outputs are stamped with sample time', 's', 0.0001, 10.0,
               read_only=True),
-    ParamSpec('executor', 'events', 'rclpy executor: events (rclpy.experimental.'
-              'EventsExecutor, about 2.5x less CPU per message here) or single '
-              '(SingleThreadedExecutor)', choices=('events', 'single'), read_only=True),
+    executor_parameter(),
     *state_parameters('the filter state, its adaptation, counters, operating time and '
                       'open energy window'),
 )
@@ -289,32 +287,6 @@ class EstimatorNode(Node):
             self.destroy_timer(self.watchdog)
             self.watchdog = self._make_watchdog()
         return SetParametersResult(successful=True)
-
-
-def make_executor(kind: str) -> Executor:
-    """'single' (SingleThreadedExecutor) or 'events' (rclpy.experimental.EventsExecutor)."""
-    if kind == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor()
-    return SingleThreadedExecutor()
-
-
-def spin_executor(node: Node, kind: str) -> None:
-    """Spin ``node`` on a new executor of ``kind`` until the context shuts down.
-
-    Calls ``spin_once`` with a timeout rather than ``spin()``: in this rclpy (Jazzy)
-    ``EventsExecutor.spin()`` polls and keeps a core about half busy with no work at all
-    (measured: 0.45 s of CPU per second with one 1 s timer), ``spin_once(timeout_sec)``
-    sleeps until an event.
-    """
-    import rclpy
-    executor = make_executor(kind)
-    executor.add_node(node)
-    try:
-        while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=1.0)
-    finally:
-        executor.shutdown()
 
 
 def _spin(node: EstimatorNode) -> None:

@@ -11,23 +11,13 @@ from collections.abc import Sequence
 import time
 
 import rclpy
-from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 
 from gear_phm.nodes.common import ConfigError, stopped_by_signal
 from gear_phm.nodes.diagnostics import DiagnosticsNode
 from gear_phm.nodes.estimator import EstimatorNode
+from gear_phm.nodes.executors import make_executor
 from gear_phm.nodes.publisher import PublisherNode
-
-
-def make_executor(kind: str) -> Executor:
-    """'single', 'multi' (3 threads) or 'events' (rclpy.experimental.EventsExecutor)."""
-    if kind == 'multi':
-        return MultiThreadedExecutor(num_threads=3)
-    if kind == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor()
-    return SingleThreadedExecutor()
 
 
 def run_monitor(ros_args: Sequence[str], with_publisher: bool = True, executor: str = 'single',
