@@ -318,8 +318,11 @@ def _warm_up(config: EstimatorConfig, motor_joint: str, load_joint: str) -> None
     decoder = JointStateDecoder(motor_joint, load_joint)
     for raw in raws:
         decoder.decode(raw)
-    for first in range(0, t.size, 5):
-        part = slice(first, first + 5)
+    # batches of 5 samples for the first 0.2 s (the node's small batches), then of 200 (its
+    # largest): the same code paths at a seventh of the cost (0.38 -> 0.05 s of CPU per start)
+    edges = [*range(0, 200, 5), *range(200, t.size + 200, 200)]
+    for first, end in zip(edges, edges[1:]):
+        part = slice(first, end)
         pipeline.on_batch(stamps[part], run.velocity_motor[part], run.effort_motor[part],
                           run.velocity_load[part], run.effort_load[part])
         pipeline.next_output_stamp()
