@@ -138,7 +138,7 @@ def _mismatched(k: int, d_learned: float) -> FrictionEstimate:
 def test_the_history_re_corrects_windows_fused_before_the_offset_was_learned() -> None:
     # the first 40 s all opposing windows, fused with d = 0 (not learned yet): they read
     # u - d/2 = 0.18, then both directions with d learned: 0.20. Without the re-correction
-    # the history rises by 0.02, which the fit takes for wear (random lives 26 and 39)
+    # the history rises by 0.02, which the fit takes for wear (random lives 26 and 98)
     assessor = HealthAssessor(HealthConfig(eta_opposing_min=0.5, mc_samples=200))
     states = []
     for k in range(200):

@@ -15,7 +15,7 @@ A measurement comes less its load direction's bias as the filter knew it then (h
 A bin also sums each measurement's h and that bias, so that :meth:`WearHistory.arrays` gives
 every bin with the offset learned since (:attr:`WearHistory.offset`): the windows before d
 was learned read u plus or minus d/2, a step that the fit took for wear (random lives 26 and
-39: WARN before the wear onset).
+98: WARN before the wear onset).
 
 :class:`Utilisation`: operating time over elapsed time, the factor between the RUL's two time
 bases (docs/prognostics.md, issue 13).
