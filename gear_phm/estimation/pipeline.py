@@ -216,7 +216,7 @@ class EstimatorPipeline:
         # h and the bias added within schema 2 (2026-11-27); an older carry's are 0 (its
         # measurement is not re-corrected)
         carried = None if carry is None else tuple(
-            decode_float(v) for v in (*carry[:5], *[0.0] * (5 - len(carry[:5]))))
+            decode_float(v) for v in [*carry, 0.0, 0.0][:5])
         if 'inertia' in state:              # added within schema 2 (2026-11-26)
             fresh.inertia.from_state(state['inertia'])
         if 'window' in state:               # added within schema 2 (2026-11-27)

@@ -25,6 +25,7 @@ from contextlib import nullcontext
 from dataclasses import fields, replace
 import json
 import math
+import operator
 from pathlib import Path
 import shutil
 import sys
@@ -739,9 +740,9 @@ def _estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHi
     The measurements and the direction offset, which the history does not hold, are read
     from the estimates.
     """
-    measured = np.array([(e.measurement, e.measurement_variance, e.direction_offset,
-                          e.measurement_direction, e.measurement_bias) for e in estimates],
-                        dtype=float).reshape(-1, len(_FROM_ESTIMATES))
+    row = operator.attrgetter(*_FROM_ESTIMATES)
+    measured = np.array([row(e) for e in estimates], dtype=float).reshape(
+        -1, len(_FROM_ESTIMATES))
     source = {'u_sigma': history.u_sigma,
               **{name: measured[:, i] for i, name in enumerate(_FROM_ESTIMATES)}}
     return [(topic, history.stamp_ns,

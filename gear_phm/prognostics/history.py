@@ -142,7 +142,7 @@ class WearHistory:
         self._w[index] += w
         self._wt[index] += w * dt
         self._wu[index] += w * u
-        if direction == direction and bias == bias and (direction or bias):
+        if math.isfinite(direction) and math.isfinite(bias):
             self._wh[index] += w * direction
             self._wb[index] += w * bias
         self._n[index] += 1
@@ -208,9 +208,6 @@ class WearHistory:
         keep = n > 0
         w = np.asarray(self._w)[keep]
         precision = w if self.independent else w / n[keep]
-        wu = np.asarray(self._wu)[keep]
-        if self.offset:
-            wu = wu + (np.asarray(self._wb)[keep] - self.offset * np.asarray(self._wh)[keep])
-        elif any(self._wb):
-            wu = wu + np.asarray(self._wb)[keep]
+        wu = np.asarray(self._wu)[keep] + (
+            np.asarray(self._wb)[keep] - self.offset * np.asarray(self._wh)[keep])
         return (np.asarray(self._wt)[keep] / w, wu / w, precision)
