@@ -80,3 +80,33 @@ def test_running_publisher_stopped_by_signal_exits_0(sig: signal.Signals) -> Non
         spinner.join(timeout=5.0)
     assert process.returncode == 0, stderr
     assert 'Traceback' not in stderr and 'error' not in stderr.lower(), stderr
+
+
+def test_stop_signals_request_a_stop_then_a_second_signal_stops_now() -> None:
+    """SIGINT/SIGTERM only request a stop; a second one raises KeyboardInterrupt.
+
+    The main thread then stops in order; the previous handlers come back afterwards.
+    """
+    import rclpy
+
+    from gear_phm.nodes.common import init_node_process, keep_spinning, stop_signals
+
+    before = signal.getsignal(signal.SIGTERM)
+    init_node_process([])
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            with stop_signals():
+                assert keep_spinning()
+                os.kill(os.getpid(), sig)
+                deadline = time.monotonic() + 5.0
+                while keep_spinning() and time.monotonic() < deadline:
+                    time.sleep(0.001)      # the handler runs between bytecodes of this thread
+                assert not keep_spinning()
+                assert rclpy.ok(), 'a stop request must not shut the context down'
+                with pytest.raises(KeyboardInterrupt):
+                    os.kill(os.getpid(), sig)
+                    time.sleep(1.0)
+    finally:
+        rclpy.try_shutdown()
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert not keep_spinning()                  # the context is down

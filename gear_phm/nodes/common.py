@@ -2,9 +2,13 @@
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+import faulthandler
 import math
+import signal
 import sys
+import threading
 from typing import Any, TypeVar
 
 from builtin_interfaces.msg import Time
@@ -17,6 +21,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 
 from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import DiagnosticsOut, ns_to_sec_nanosec, Vector3Out
@@ -175,12 +180,65 @@ class DropCounter:
                          values=tuple(values))
 
 
+#: The longest a node process's spin loop waits before it sees a SIGINT or SIGTERM, s.
+SPIN_TIMEOUT_S = 0.1
+
+_STOP = threading.Event()
+
+
+def _request_stop(signum: int, _frame: object) -> None:
+    if _STOP.is_set():                  # a second signal while stopping: stop now
+        raise KeyboardInterrupt
+    _STOP.set()
+
+
+@contextmanager
+def stop_signals() -> Iterator[None]:
+    """Turn SIGINT and SIGTERM into a stop request that the main thread's loop polls.
+
+    Use with ``rclpy.init(signal_handler_options=SignalHandlerOptions.NO)``
+    (:func:`init_node_process`). rclpy's own handlers shut the context down from their own
+    thread while the main thread may be in a callback or already destroying the node: in CI
+    the diagnostics node once exited on SIGSEGV (-11) at SIGINT, after closing its recording.
+    Here the handler only sets a flag; the loop (:func:`keep_spinning`) sees it within
+    :data:`SPIN_TIMEOUT_S`, and the main thread stops in order: leave the loop, destroy the
+    node (state file, recording), shut the context down. A second signal while stopping
+    raises KeyboardInterrupt (stop now, as a second Ctrl-C does elsewhere).
+    """
+    _STOP.clear()
+    previous = {sig: signal.signal(sig, _request_stop) for sig in (signal.SIGINT,
+                                                                   signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def init_node_process(args: Sequence[str] | None) -> None:
+    """``rclpy.init`` for a process that stops through :func:`stop_signals`.
+
+    Also turns on :mod:`faulthandler`: a crash in native code (rmw, DDS) prints every
+    thread's Python stack to stderr, for the bug report.
+    """
+    faulthandler.enable()
+    rclpy.init(args=None if args is None else list(args),
+               signal_handler_options=SignalHandlerOptions.NO)
+
+
+def keep_spinning(context: Any = None) -> bool:
+    """Return False once a stop was requested (:func:`stop_signals`) or the context is down."""
+    return not _STOP.is_set() and rclpy.ok(context=context)
+
+
 def stopped_by_signal(exc: BaseException) -> bool:
     """Tell whether an error is a clean stop.
 
-    A clean stop is Ctrl-C/SIGTERM, or a RuntimeError (rclpy's RCLError, or pybind11's
-    "Unable to convert call argument" in a take) raised because a signal shut the context down
-    under a callback. Any other error is real.
+    A clean stop is KeyboardInterrupt (a second SIGINT/SIGTERM while stopping, see
+    :func:`stop_signals`), ExternalShutdownException, or a RuntimeError (rclpy's RCLError, or
+    pybind11's "Unable to convert call argument" in a take) raised because the context was
+    shut down under a callback (rclpy's own signal handlers do that where they are installed).
+    Any other error is real.
     """
     if isinstance(exc, (KeyboardInterrupt, ExternalShutdownException)):
         return True
@@ -189,27 +247,32 @@ def stopped_by_signal(exc: BaseException) -> bool:
 
 def run_node(factory: Callable[[], NodeT], args: Sequence[str] | None = None,
              spin: Callable[[NodeT], None] | None = None) -> int:
-    """Jazzy main(): init, build, spin, clean shutdown. ConfigError at start -> one line, exit 2.
+    """Jazzy main(): init, build, spin, ordered shutdown. ConfigError at start -> one line, exit 2.
 
-    ``spin`` replaces ``rclpy.spin(node)`` (e.g. a node that finishes by itself).
+    ``spin`` replaces the default loop (``spin_once`` while :func:`keep_spinning`), e.g. for a
+    node that finishes by itself; it must poll :func:`keep_spinning`. SIGINT and SIGTERM stop
+    the loop (:func:`stop_signals`); the node is then destroyed and the context shut down, in
+    this thread.
     """
-    rclpy.init(args=None if args is None else list(args))
+    init_node_process(args)
     node = None
-    try:
-        node = factory()
-        if spin is None:
-            rclpy.spin(node)
-        else:
-            spin(node)
-        return 0
-    except ConfigError as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    except BaseException as exc:
-        if stopped_by_signal(exc):
+    with stop_signals():
+        try:
+            node = factory()
+            if spin is None:
+                while keep_spinning(node.context):
+                    rclpy.spin_once(node, timeout_sec=SPIN_TIMEOUT_S)
+            else:
+                spin(node)
             return 0
-        raise
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        except ConfigError as exc:
+            print(f'error: {exc}', file=sys.stderr)
+            return 2
+        except BaseException as exc:
+            if stopped_by_signal(exc):
+                return 0
+            raise
+        finally:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()

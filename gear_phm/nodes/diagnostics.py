@@ -16,8 +16,9 @@ publishes (and its inputs with ``record_inputs``). Messages are serialized in th
 (``rclpy.serialization.serialize_message``) and handed to a writer thread through a queue;
 only that thread touches the file. It flushes the open chunk at least every
 ``record_flush_period`` seconds, also when no message arrives, so after ``kill -9`` all data
-older than that is recoverable with ``gear_phm.bagio.recover``. On SIGINT/SIGTERM rclpy's
-signal handler stops spinning and ``destroy_node`` closes the bag (summary + metadata.yaml).
+older than that is recoverable with ``gear_phm.bagio.recover``. On SIGINT/SIGTERM the spin
+loop ends (``gear_phm.nodes.common.stop_signals``) and ``destroy_node``, in the main thread,
+closes the bag (summary + metadata.yaml).
 """
 from __future__ import annotations
 

@@ -40,18 +40,19 @@ def make_executor(kind: str) -> Executor:
 
 
 def spin_executor(node: Node, kind: str) -> None:
-    """Spin ``node`` on a new executor of ``kind`` until the context shuts down.
+    """Spin ``node`` on a new executor of ``kind`` until a stop request or context shutdown.
 
     Calls ``spin_once`` with a timeout rather than ``spin()``: in this rclpy (Jazzy)
     ``EventsExecutor.spin()`` polls and keeps a core about half busy with no work at all
     (measured: 0.45 s of CPU per second with one 1 s timer), ``spin_once(timeout_sec)``
-    sleeps until an event.
+    sleeps until an event. The timeout bounds how late a SIGINT/SIGTERM is seen
+    (gear_phm.nodes.common.stop_signals).
     """
-    import rclpy
+    from gear_phm.nodes.common import keep_spinning, SPIN_TIMEOUT_S
     executor = make_executor(kind)
     executor.add_node(node)
     try:
-        while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=1.0)
+        while keep_spinning(node.context):
+            executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
     finally:
         executor.shutdown()

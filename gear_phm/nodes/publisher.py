@@ -43,7 +43,8 @@ from sensor_msgs.msg import JointState
 from gear_phm.interfaces import (CLOCK, DIAGNOSTICS, drive_topic, JOINT_STATES, TRUTH_EFFICIENCY,
                                  TRUTH_FRICTION)
 from gear_phm.nodes.common import (ConfigError, declare_parameters, declare_required,
-                                   DropCounter, OUTPUT_QOS, run_node, stamp, status_msg)
+                                   DropCounter, keep_spinning, OUTPUT_QOS, run_node,
+                                   SPIN_TIMEOUT_S, stamp, status_msg)
 from gear_phm.nodes.drives import declare_drives, declare_string_array, declare_transmissions
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.simulation import config_from_parameters, PARAMETERS
@@ -430,8 +431,8 @@ def _truth(t_ns: int, pairs: tuple[float, ...], k: int) -> Vector3Stamped:
 def _spin(node: PublisherNode) -> None:
     node.start()
     try:
-        while rclpy.ok() and not node.finished.is_set():
-            rclpy.spin_once(node, timeout_sec=0.1)
+        while keep_spinning(node.context) and not node.finished.is_set():
+            rclpy.spin_once(node, timeout_sec=SPIN_TIMEOUT_S)
     finally:
         node.stop()
     if node.finished.is_set():
