@@ -264,9 +264,16 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         node.create_subscription(Vector3Stamped, drive_topic(drive, HEALTH_RUL),
                                  lambda _, d=drive: received.__setitem__(d, received[d] + 1),
                                  OUTPUT_QOS)
-    seen: set[str] = set()                  # status names on /diagnostics
-    node.create_subscription(DiagnosticArray, '/diagnostics',
-                             lambda m: seen.update(st.name for st in m.status), RELIABLE)
+    # status name on /diagnostics -> newest array stamp [ns]: a status counts as the new
+    # process's only if stamped after its start (the test node is not spun while a process
+    # stops, so arrays of the one before can still be queued; once, a stale 'gear_phm: c'
+    # let the test stop the next process while it was importing: exit -2)
+    seen: dict[str, int] = {}
+
+    def on_array(msg: DiagnosticArray) -> None:
+        stamp = msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec
+        seen.update((st.name, stamp) for st in msg.status)
+    node.create_subscription(DiagnosticArray, '/diagnostics', on_array, RELIABLE)
     feeders = {}
     for drive in ('a', 'b'):
         feeders[drive] = Feeder(node)
@@ -314,10 +321,11 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         assert saved['state']['drives']['b']['identity'] == {
             'ratio': 12.0, 'motor_joint': 'mb', 'load_joint': 'lb'}
         # b kept, a removed, c added
-        seen.clear()
+        started = time.time_ns()
         second = start('diagnostics', two_drives(tmp_path, 'bc.yaml', {'b': DRIVE_B,
                                                                        'c': DRIVE_C}), *common)
-        wait_for(node, lambda: 'gear_phm: c' in seen, 60.0, 'the node with b and c')
+        wait_for(node, lambda: seen.get('gear_phm: c', 0) > started, 60.0,
+                 'the node with b and c')
         assert stop(second) == 0
         log = second.stderr.read()                          # type: ignore[union-attr]
         assert 'state of drive a dropped: no longer in transmissions' in log, log
@@ -333,9 +341,10 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         error = third.stderr.read()                         # type: ignore[union-attr]
         assert 'is for other gearboxes (b: ratio 12.0 in the file, 13.0 now)' in error, error
         assert json.loads(state_file.read_text())['state']['drives']['b']['state'] == b_state
-        seen.clear()
+        started = time.time_ns()
         fourth = start('diagnostics', changed, *common, 'state_reset:=true')
-        wait_for(node, lambda: 'gear_phm: c' in seen, 60.0, 'the node after state_reset')
+        wait_for(node, lambda: seen.get('gear_phm: c', 0) > started, 60.0,
+                 'the node after state_reset')
         assert stop(fourth) == 0
         assert len(list(tmp_path.glob('diagnostics.json.old-*'))) == 1
         saved = json.loads(state_file.read_text())['state']['drives']
