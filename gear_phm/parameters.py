@@ -152,3 +152,8 @@ TRANSMISSION_NAME = ParamSpec('transmission_name', 'gearbox',
 HARDWARE_ID = ParamSpec('hardware_id', 'gearbox', 'hardware_id of the /diagnostics status')
 DIAGNOSTICS_RATE = ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0,
                              read_only=True)
+#: ``gear-phm analyze``'s time of a sample (the nodes always take header.stamp).
+STAMP_SOURCE = ParamSpec('stamp_source', 'header', "time of each sample: 'header' (the "
+                         "JointState's header.stamp, as the nodes) or 'log' (the bag's record "
+                         'time, for a publisher that leaves header.stamp unset)',
+                         choices=('header', 'log'))

@@ -16,7 +16,7 @@ from gear_phm import interfaces
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, estimator_params, health_values
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
-                                 TRANSMISSION_NAME)
+                                 STAMP_SOURCE, TRANSMISSION_NAME)
 
 HELP = 'estimate friction offline from a recorded bag (same code as the estimator node)'
 
@@ -50,6 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--diagnostics-rate', type=float, default=DIAGNOSTICS_RATE.default,
                         metavar='HZ', help='/diagnostics rate in bag time [Hz], as the nodes '
                                            f'(default {DIAGNOSTICS_RATE.default})')
+    parser.add_argument('--stamp-source', choices=STAMP_SOURCE.choices,
+                        default=STAMP_SOURCE.default,
+                        help=f'{STAMP_SOURCE.description} (default {STAMP_SOURCE.default})')
     parser.add_argument('--overwrite', action='store_true',
                         help='replace --out if it holds a previous analysis (summary.json)')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
@@ -81,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
         analysis = analyze_bag(
             args.bag, topic=args.topic, out=args.out, overwrite=args.overwrite,
             plot=not args.no_plot, progress=not args.no_progress and sys.stderr.isatty(),
-            diagnostics_rate=args.diagnostics_rate, **options)
+            diagnostics_rate=args.diagnostics_rate, stamp_source=args.stamp_source,
+            **options)
     except AnalysisError as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary

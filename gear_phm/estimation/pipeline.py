@@ -39,6 +39,12 @@ SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backward
                   'future', 'duplicate_stamp')
 #: Message-level reasons (a message that gives no sample at all).
 MESSAGE_REASONS = ('missing_joint', 'short_arrays', 'truncated', 'bad_encoding', 'bad_message')
+#: What each message-level reason means, for error messages (gear_phm.codec decides them).
+MESSAGE_REASON_TEXT = {
+    'missing_joint': 'without one of the joint names',
+    'short_arrays': 'whose velocity or effort array is too short for the joints (not published?)',
+    'truncated': 'truncated', 'bad_encoding': 'not in little-endian CDR',
+    'bad_message': 'not a readable JointState'}
 #: Window / measurement reasons and events (do not count as rejected samples).
 WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated')
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
@@ -61,6 +67,21 @@ def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
 
 def _ns(seconds: float) -> int:
     return int(round(seconds * 1e9))
+
+
+def stalled_stamps(summary: dict[str, Any]) -> str:
+    """Return why the estimator has no measurement if its samples' stamps do not advance.
+
+    ``summary``: :meth:`EstimatorPipeline.summary`. No filter update yet, and at least half of
+    the samples seen repeated the stamp before them (``duplicate_stamp``): the publisher most
+    likely leaves ``header.stamp`` unset (0), and every sample after the first is dropped.
+    '' otherwise.
+    """
+    seen, repeated = summary['samples_seen'], summary['counts'].get('duplicate_stamp', 0)
+    if summary['filter_updates'] or not seen or 2 * repeated < seen:
+        return ''
+    return (f'the header stamps do not advance: {repeated} of {seen} samples repeat the '
+            f'stamp before them (is header.stamp set by the publisher?)')
 
 
 @dataclass(frozen=True)
@@ -809,7 +830,9 @@ class EstimatorPipeline:
         if summary['timed_out']:
             level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
         elif summary['filter_updates'] == 0:
-            level, message = WARN, 'no efficiency measurement yet'
+            stalled = stalled_stamps(summary)
+            level, message = WARN, ('no efficiency measurement yet'
+                                    + (f': {stalled}' if stalled else ''))
         elif gated:
             level, message = WARN, f'{gated} measurement(s) gated'
         else:

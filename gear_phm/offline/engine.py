@@ -39,12 +39,13 @@ from gear_phm import codec, interfaces
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
+from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT, stalled_stamps
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,
-                                 TRANSMISSION_NAME)
+                                 STAMP_SOURCE, TRANSMISSION_NAME)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.metrics import true_end_of_life_index
@@ -175,6 +176,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 transmission_name: str = str(TRANSMISSION_NAME.default),
                 hardware_id: str = str(HARDWARE_ID.default),
                 diagnostics_rate: float = float(DIAGNOSTICS_RATE.default),
+                stamp_source: str = str(STAMP_SOURCE.default),
                 history: int | None = HISTORY,
                 prior: ShapePrior | None = None, transmissions: Any = None,
                 **options: Any) -> Analysis:
@@ -207,12 +209,21 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     plotted series in at most 2 x :data:`~gear_phm.offline.decimate.ENVELOPE_BINS` bins with
     each bin's min and max, whatever ``history``. ``prior``: a population prior on the wear law's
     shape (:class:`~gear_phm.prognostics.ShapePrior`, ``gear-phm fleet --population-prior``).
-    Raises :class:`AnalysisError` on bad input (a bad transmissions list included).
+    ``stamp_source``: a sample's time is its JointState's ``header.stamp`` ('header', as the
+    nodes) or the bag's record time of the message ('log': for a publisher that leaves the
+    header unset).
+    Raises :class:`AnalysisError` on bad input (a bad transmissions list included), and when
+    the stamps do not advance (:func:`~gear_phm.estimation.pipeline.stalled_stamps`: no
+    measurement at all; ``stamp_source='log'`` is then the remedy).
     """
     if history is not None and history < 1:
         raise AnalysisError(f'history must be >= 1, got {history}')
     if not diagnostics_rate > 0:
         raise AnalysisError(f'diagnostics_rate must be > 0 Hz, got {diagnostics_rate}')
+    try:
+        stamp_source = str(STAMP_SOURCE.check(stamp_source))
+    except ValueError as exc:
+        raise AnalysisError(str(exc)) from None
     if transmissions is None:
         if ratio is None:
             raise AnalysisError('give the ratio (one transmission) or transmissions (many)')
@@ -243,7 +254,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite)
-    stream = _Stream(runs, topic, diagnostics_rate, plot)
+    stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source)
     staging = None
     try:
         if target is not None:
@@ -252,6 +263,12 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         analyses, readers, elapsed = stream.execute(
             bags, None if staging is None or target is None else staging / target.name,
             progress)
+        stalled = stalled_stamps(analyses[0].summary)     # the drives share the stamps
+        if stalled:
+            remedy = ("; analyse on the bag's record times instead: stamp_source='log' "
+                      '(gear-phm analyze --stamp-source log)' if stamp_source == 'header'
+                      else '')
+            raise AnalysisError(f'topic {topic}: no efficiency measurement, {stalled}{remedy}')
         if transmissions is None:
             analysis = analyses[0]
         else:
@@ -362,9 +379,11 @@ class _Run:
         """Return the Analysis of the run once every bag is read (AnalysisError: no sample)."""
         if self.pipeline.samples_seen == 0:
             drive = '' if self.drive is None else f' (drive {self.drive})'
+            found = '; '.join(f'{count} messages {MESSAGE_REASON_TEXT.get(reason, reason)}'
+                              for reason, count in self.pipeline.counts.items() if count)
             raise AnalysisError(f'no message of topic {self.topic} has joints '
-                                f'{self.motor_joint!r} and {self.load_joint!r}{drive}: '
-                                f'{dict(self.pipeline.counts)}')
+                                f'{self.motor_joint!r} and {self.load_joint!r}{drive} with a '
+                                f'speed and a torque each: {found or "no message"}')
         self._keep_measurements()
         summary = self._summary(bags, readers, elapsed)
         return self._analysis(summary)
@@ -517,9 +536,11 @@ class _Stream:
     """
 
     def __init__(self, runs: Sequence[_Run], topic: str, diagnostics_rate: float,
-                 want_truth: bool) -> None:
+                 want_truth: bool, stamp_source: str = str(STAMP_SOURCE.default)) -> None:
         self.runs = list(runs)
         self.topic = topic
+        #: 'log': each sample is stamped with its message's record time in the bag
+        self.log_stamps = stamp_source == 'log'
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
         self.pairs = [(run.motor_joint, run.load_joint) for run in self.runs]
@@ -605,6 +626,9 @@ class _Stream:
         cuts = np.searchsorted(times, ticks, side='left').tolist()
         decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
                                                  self.pairs)
+        if self.log_stamps:
+            decoded = [replace(batch, stamp_ns=np.asarray(times, dtype=np.int64)[
+                batch.message_index]) for batch in decoded]
         self._write([run._step(batch, len(raw), cuts)
                      for run, batch in zip(self.runs, decoded)], ticks, writer)
         bar.update(len(raw))

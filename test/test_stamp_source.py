@@ -1,0 +1,105 @@
+"""Bags whose JointState headers are unset or lack arrays: a clear error, and --stamp-source log.
+
+A publisher that leaves ``header.stamp`` at 0 gave, before, an analysis with exit 0 and the
+filter's initial state (u 0.05 +/- 0.5): every sample after the first was a duplicate stamp.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gear_phm.cli.main import main
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
+from gear_phm.estimation.pipeline import stalled_stamps
+
+HEALTHY = Path(__file__).resolve().parents[1] / 'bags' / 'healthy'
+MESSAGES = 3000                 # 30 s of bags/healthy (100 Hz): a few dozen filter updates
+
+
+def _variant(out: Path, change: str) -> Path:
+    """Write the first MESSAGES JointStates of bags/healthy, changed, as an MCAP rosbag2."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import get_typestore, Stores
+    store = get_typestore(Stores.ROS2_JAZZY)
+    joint_state = store.types['sensor_msgs/msg/JointState']
+    with AnyReader([HEALTHY], default_typestore=store) as reader, \
+            Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        [connection] = [c for c in reader.connections if c.topic == '/joint_states']
+        target = writer.add_connection('/joint_states', joint_state.__msgtype__,
+                                       typestore=store)
+        for count, (_, log_ns, raw) in enumerate(reader.messages([connection])):
+            if count == MESSAGES:
+                break
+            msg = reader.deserialize(raw, connection.msgtype)
+            if change == 'zero stamps':
+                msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
+            elif change == 'no effort':
+                msg.effort = np.zeros(0)
+            writer.write(target, log_ns, store.serialize_cdr(msg, joint_state.__msgtype__))
+    return out
+
+
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp('stamp_source')
+    return {change: _variant(root / change.replace(' ', '_'), change)
+            for change in ('unchanged', 'zero stamps', 'no effort')}
+
+
+def _analyze(bag: Path, out: Path, *extra: str) -> int:
+    return main(['analyze', str(bag), '--ratio', '3.0', '--out', str(out), '--no-plot',
+                 '--no-progress', *extra])
+
+
+def test_unset_header_stamps_fail_clearly_and_log_times_analyse_them(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _analyze(bags['zero stamps'], tmp_path / 'header') == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and error[0].startswith('gear-phm analyze: error:'), error
+    assert 'the header stamps do not advance' in error[0]
+    assert f'{MESSAGES - 1} of {MESSAGES - 1} samples repeat the stamp' in error[0]
+    assert '--stamp-source log' in error[0]
+    assert not (tmp_path / 'header').exists()               # no half-written output
+    assert _analyze(bags['zero stamps'], tmp_path / 'log', '--stamp-source', 'log') == 0
+    assert _analyze(bags['unchanged'], tmp_path / 'unchanged') == 0
+    log = json.loads((tmp_path / 'log' / 'summary.json').read_text())
+    header = json.loads((tmp_path / 'unchanged' / 'summary.json').read_text())
+    # the sample bags are logged at their stamps: the same estimate either way
+    assert log['filter_updates'] == header['filter_updates'] > 10
+    assert log['u'] == pytest.approx(header['u'], rel=1e-9)
+    assert abs(log['u'] - 0.05) < 0.005                     # bags/healthy: lever u = 0.05
+    with pytest.raises(SystemExit) as refused:                # argparse's own refusal
+        _analyze(bags['unchanged'], tmp_path / 'bad', '--stamp-source', 'receive')
+    assert refused.value.code == 2 and 'invalid choice' in capsys.readouterr().err
+
+
+def test_missing_effort_is_named_in_the_error(bags: dict[str, Path], tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    assert _analyze(bags['no effort'], tmp_path / 'out') == 2
+    error = capsys.readouterr().err
+    assert f'{MESSAGES} messages whose velocity or effort array is too short' in error
+    assert 'nonfinite' not in error                         # only the reasons that occurred
+    assert not (tmp_path / 'out').exists()
+
+
+def test_estimator_status_names_stamps_that_do_not_advance() -> None:
+    """The live estimator's status (the same code) says why there is no measurement."""
+    pipeline = EstimatorPipeline(EstimatorConfig(ratio=3.0))
+    n = 500
+    ones = np.ones(n)
+    pipeline.on_batch(np.zeros(n, dtype=np.int64), ones, ones, ones / 3.0, ones)
+    status = pipeline.status('gear_phm estimator')
+    assert status.level == 1
+    assert status.message.startswith('no efficiency measurement yet: the header stamps do '
+                                     'not advance'), status.message
+    assert stalled_stamps(pipeline.summary())
+    # advancing stamps: no such message, whatever the measurement state
+    fresh = EstimatorPipeline(EstimatorConfig(ratio=3.0))
+    fresh.on_batch(np.arange(n, dtype=np.int64) * 10_000_000 + 1, ones, ones, ones / 3.0,
+                   ones)
+    assert not stalled_stamps(fresh.summary())
+    assert 'header stamps' not in fresh.status('gear_phm estimator').message
