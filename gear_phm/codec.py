@@ -292,6 +292,21 @@ def decode_joint_state_pairs(buffer: bytes | memoryview, offsets: np.ndarray,
     return batches
 
 
+def joint_names(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,
+                count: int = 16) -> list[tuple[str, ...]]:
+    """Return the distinct joint-name lists of the first ``count`` JointState payloads.
+
+    In order of appearance; unreadable payloads are skipped. For error messages (which joints
+    a bag's messages do name).
+    """
+    found: list[tuple[str, ...]] = []
+    for i in range(min(count, len(offsets))):
+        parsed = _any_layout(_payload(buffer, offsets, lengths, i))
+        if not isinstance(parsed, str) and tuple(parsed[1]) not in found:
+            found.append(tuple(parsed[1]))
+    return found
+
+
 def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,
              i: int) -> bytes:
     start = int(offsets[i])

@@ -375,15 +375,26 @@ class _Run:
         stamp_ns = self.pipeline.stamp_ns(measurement.t)
         self.pending.append((stamp_ns, measurement, accepted))
 
-    def result(self, bags: list[Path], readers: list[str], elapsed: float) -> Analysis:
-        """Return the Analysis of the run once every bag is read (AnalysisError: no sample)."""
+    def result(self, bags: list[Path], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> Analysis:
+        """Return the Analysis of the run once every bag is read (AnalysisError: no sample).
+
+        ``names``: the joint-name lists of the stream's first messages, for that error.
+        """
         if self.pipeline.samples_seen == 0:
             drive = '' if self.drive is None else f' (drive {self.drive})'
             found = '; '.join(f'{count} messages {MESSAGE_REASON_TEXT.get(reason, reason)}'
                               for reason, count in self.pipeline.counts.items() if count)
+            named = (f'; the first messages name the joints '
+                     f'{" or ".join(str(list(n)) for n in names)}' if names else '')
+            if len(names) > 1 and not any({self.motor_joint, self.load_joint} <= set(n)
+                                          for n in names) \
+                    and {self.motor_joint, self.load_joint} <= {j for n in names for j in n}:
+                named += ' (both joints must be in one message, as joint_state_broadcaster ' \
+                         'publishes them)'
             raise AnalysisError(f'no message of topic {self.topic} has joints '
                                 f'{self.motor_joint!r} and {self.load_joint!r}{drive} with a '
-                                f'speed and a torque each: {found or "no message"}')
+                                f'speed and a torque each: {found or "no message"}{named}')
         self._keep_measurements()
         summary = self._summary(bags, readers, elapsed)
         return self._analysis(summary)
@@ -541,6 +552,9 @@ class _Stream:
         self.topic = topic
         #: 'log': each sample is stamped with its message's record time in the bag
         self.log_stamps = stamp_source == 'log'
+        #: the joint-name lists of the stream's first messages (for the error of a run that
+        #: found none of its joints)
+        self.names: list[tuple[str, ...]] = []
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
         self.pairs = [(run.motor_joint, run.load_joint) for run in self.runs]
@@ -564,7 +578,8 @@ class _Stream:
         except BagError as exc:
             raise AnalysisError(str(exc)) from None
         elapsed = time.perf_counter() - started
-        return [run.result(bags, readers, elapsed) for run in self.runs], readers, elapsed
+        return ([run.result(bags, readers, elapsed, self.names) for run in self.runs], readers,
+                elapsed)
 
     def _truth_topics(self, bag: Any) -> dict[str, tuple[_Run, str]]:
         """Return {bag topic: (run, canonical truth topic)} of the truth the bag holds."""
@@ -624,6 +639,8 @@ class _Stream:
             ticks.append(self.next_tick)
             self.next_tick += self.diag_period_ns
         cuts = np.searchsorted(times, ticks, side='left').tolist()
+        if not self.names:
+            self.names = codec.joint_names(raw.buffer, raw.offsets, raw.lengths)
         decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
                                                  self.pairs)
         if self.log_stamps:

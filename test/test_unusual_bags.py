@@ -1,4 +1,4 @@
-"""Bags whose JointState headers are unset or lack arrays: a clear error, and --stamp-source log.
+"""Bags a user brings: unset header stamps (--stamp-source log), missing arrays, other joints.
 
 A publisher that leaves ``header.stamp`` at 0 gave, before, an analysis with exit 0 and the
 filter's initial state (u 0.05 +/- 0.5): every sample after the first was a duplicate stamp.
@@ -39,6 +39,15 @@ def _variant(out: Path, change: str) -> Path:
                 msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
             elif change == 'no effort':
                 msg.effort = np.zeros(0)
+            if change == 'split joints':        # two devices: one joint per message
+                for k, name in enumerate(msg.name):
+                    part = joint_state(header=msg.header, name=[name],
+                                       position=msg.position[k:k + 1],
+                                       velocity=msg.velocity[k:k + 1],
+                                       effort=msg.effort[k:k + 1])
+                    writer.write(target, log_ns + k,
+                                 store.serialize_cdr(part, joint_state.__msgtype__))
+                continue
             writer.write(target, log_ns, store.serialize_cdr(msg, joint_state.__msgtype__))
     return out
 
@@ -47,7 +56,7 @@ def _variant(out: Path, change: str) -> Path:
 def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp('stamp_source')
     return {change: _variant(root / change.replace(' ', '_'), change)
-            for change in ('unchanged', 'zero stamps', 'no effort')}
+            for change in ('unchanged', 'zero stamps', 'no effort', 'split joints')}
 
 
 def _analyze(bag: Path, out: Path, *extra: str) -> int:
@@ -84,6 +93,19 @@ def test_missing_effort_is_named_in_the_error(bags: dict[str, Path], tmp_path: P
     assert f'{MESSAGES} messages whose velocity or effort array is too short' in error
     assert 'nonfinite' not in error                         # only the reasons that occurred
     assert not (tmp_path / 'out').exists()
+
+
+def test_joints_not_found_lists_the_joints_the_messages_name(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _analyze(bags['unchanged'], tmp_path / 'rotor', '--motor-joint', 'rotor') == 2
+    error = capsys.readouterr().err
+    assert f'{MESSAGES} messages without one of the joint names' in error
+    assert "the first messages name the joints ['motor', 'load']" in error
+    assert 'one message' not in error
+    assert _analyze(bags['split joints'], tmp_path / 'split') == 2
+    error = capsys.readouterr().err
+    assert "name the joints ['motor'] or ['load'] (both joints must be in one message" in error
+    assert not (tmp_path / 'rotor').exists() and not (tmp_path / 'split').exists()
 
 
 def test_estimator_status_names_stamps_that_do_not_advance() -> None:
