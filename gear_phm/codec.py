@@ -307,6 +307,21 @@ def joint_names(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.nda
     return found
 
 
+def joints_hint(names: Sequence[tuple[str, ...]], motor_joint: str, load_joint: str) -> str:
+    """Return what the joint-name lists ``names`` (:func:`joint_names`) tell a lost user.
+
+    For a user whose joints were not found: the names the messages carry, and whether the
+    two joints come in separate messages. '' without names.
+    """
+    if not names:
+        return ''
+    hint = f'the first messages name the joints {" or ".join(str(list(n)) for n in names)}'
+    wanted = {motor_joint, load_joint}
+    if not any(wanted <= set(n) for n in names) and wanted <= {j for n in names for j in n}:
+        hint += ' (both joints must be in one message, as joint_state_broadcaster publishes them)'
+    return hint
+
+
 def _payload(buffer: bytes | memoryview, offsets: np.ndarray, lengths: np.ndarray,
              i: int) -> bytes:
     start = int(offsets[i])

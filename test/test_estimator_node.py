@@ -115,3 +115,70 @@ def test_node_survives_garbage_and_keeps_estimating() -> None:
         rclpy.try_shutdown()
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advance() -> None:
+    """The estimator's status says why it has no measurement, on /diagnostics.
+
+    A bench client that names other joints, then one that leaves header.stamp at 0.
+    """
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    proc = subprocess.Popen(
+        [str(VENV_BIN / 'estimator'), '--ros-args', '-r', '__node:=joints_probe', '-p',
+         'ratio:=3.0', '-p', 'motor_joint:=rotor', '-p', 'diagnostics_period:=0.2'],
+        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    rclpy.init()
+    node = rclpy.create_node('joints_probe_driver')
+    try:
+        messages: list[str] = []
+        node.create_subscription(
+            DiagnosticArray, '/diagnostics',
+            lambda m: messages.extend(s.message for s in m.status if 'joints_probe' in s.name),
+            QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+        pub = node.create_publisher(JointState, 'joint_states', qos_profile_sensor_data)
+
+        def spin() -> None:
+            rclpy.spin_once(node, timeout_sec=0.01)
+
+        assert _wait(lambda: pub.get_subscription_count() > 0 and messages, 30.0, spin), \
+            'estimator did not come up'
+
+        def publish(count: int, stamped: bool) -> None:
+            base = time.time_ns()
+            for i in range(count):
+                msg = JointState(name=['motor', 'load'], velocity=[10.0, 3.3],
+                                 effort=[1.0, -2.8])
+                if stamped:
+                    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(
+                        base + i * 10_000_000, 10 ** 9)
+                pub.publish(msg)
+                spin()
+
+        publish(50, stamped=True)
+        hint = "the first messages name the joints ['motor', 'load']"
+        assert _wait(lambda: any(hint in m for m in messages), 20.0, spin), messages[-3:]
+        # the right joint name now (the parameter can change while running); no stamps
+        client = node.create_client(SetParameters, '/joints_probe/set_parameters')
+        assert client.wait_for_service(timeout_sec=20.0)
+        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value='motor')
+        future = client.call_async(SetParameters.Request(
+            parameters=[Parameter(name='motor_joint', value=value)]))
+        assert _wait(future.done, 20.0, spin) and future.result().results[0].successful
+        messages.clear()
+        publish(200, stamped=False)
+        stalled = 'no efficiency measurement yet: the header stamps do not advance'
+        assert _wait(lambda: any(m.startswith(stalled) for m in messages), 20.0, spin), \
+            messages[-3:]
+        assert not any(hint in m for m in messages[-1:])      # its samples were seen
+        assert proc.poll() is None
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        proc.terminate()
+        proc.wait(timeout=10)

@@ -42,7 +42,7 @@ from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
-from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
+from gear_phm.nodes.transport import (EstimatePublisher, JointNames, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 
@@ -121,6 +121,7 @@ class EstimatorNode(Node):
         self.rows: list[tuple[float, float, float, float]] = []   # ... w_m, tau_m, w_l, tau_l
         self.batch_period: float = values['batch_period']
         self.decoder = JointStateDecoder(values['motor_joint'], values['load_joint'])
+        self.joint_names = JointNames()           # of messages without the joints
         self._due: int | None = None              # stamp from which an output is due [ns]
         self._set_window_watch()
         self.last_batch_ns: int | None = None     # node clock at the newest batch [ns]
@@ -190,6 +191,8 @@ class EstimatorNode(Node):
         if isinstance(sample, str):
             self.messages_received += 1
             self.pipeline.reject_message(sample)
+            if sample in ('missing_joint', 'short_arrays'):
+                self.joint_names.note(raw, (0,), (len(raw),))
             return
         stamp, w_m, tau_m, w_l, tau_l = sample
         self.stamps.append(stamp)
@@ -258,8 +261,9 @@ class EstimatorNode(Node):
     def _on_diagnostics_timer(self) -> None:
         now = self.get_clock().now().nanoseconds
         self._flush()
-        status = self.state.flagged(self.pipeline.status(self.status_name,
-                                                         self.messages_received))
+        status = self.state.flagged(self.joint_names.status(
+            self.pipeline.status(self.status_name, self.messages_received),
+            self.pipeline.samples_seen, self.values['motor_joint'], self.values['load_joint']))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 
@@ -280,6 +284,7 @@ class EstimatorNode(Node):
         self.config = config
         self.outputs.frame_id = self.loss_outputs.frame_id = values['frame_id']
         self.decoder = JointStateDecoder(values['motor_joint'], values['load_joint'])
+        self.joint_names = JointNames()
         self.pipeline.reconfigure(config)
         self.state.identity = state_identity(values)
         self._set_window_watch()

@@ -31,7 +31,7 @@ from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
-from gear_phm.nodes.transport import (EstimatePublisher, SampleLossPublisher,
+from gear_phm.nodes.transport import (EstimatePublisher, JointNames, SampleLossPublisher,
                                       subscribe_joint_states_raw)
 from gear_phm.transmissions import Transmission
 
@@ -83,6 +83,7 @@ class DrivesEstimator:
         self.diag_pub = node.create_publisher(DiagnosticArray, interfaces.DIAGNOSTICS,
                                               OUTPUT_QOS)
         self.messages_received = 0
+        self.joint_names = JointNames()         # of messages without a drive's joints
         self.raws: list[bytes] = []
         self._due: int | None = None
         self.batch_timer = node.create_timer(values['batch_period'], self.flush)
@@ -136,11 +137,14 @@ class DrivesEstimator:
             return
         self.raws = []
         now = self.node.get_clock().now().nanoseconds
-        batches = decode_joint_state_pairs(*packed(raws), self.pairs)
+        buffer = packed(raws)
+        batches = decode_joint_state_pairs(*buffer, self.pairs)
         for d, batch in zip(self.drives, batches):
             pipeline = d.pipeline
             for reason, count in Counter(reason for _, reason in batch.rejected_at).items():
                 pipeline.reject_message(reason, count)
+            if batch.rejected_at and not pipeline.samples_seen:
+                self.joint_names.note(*buffer)
             if not len(batch):
                 d.watch(now)
                 continue
@@ -164,7 +168,9 @@ class DrivesEstimator:
         statuses = []
         for d in self.drives:
             d.watch(now)
-            status = d.pipeline.status(d.status_name, self.messages_received)
+            status = self.joint_names.status(
+                d.pipeline.status(d.status_name, self.messages_received),
+                d.pipeline.samples_seen, d.drive.motor_joint, d.drive.load_joint)
             statuses.append(self.state.flagged(replace(status, hardware_id=d.drive.name)))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
         for d in self.drives:

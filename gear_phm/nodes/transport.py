@@ -13,6 +13,7 @@ whole updates to its :class:`~gear_phm.prognostics.HealthAssessor`.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from geometry_msgs.msg import Vector3Stamped
@@ -20,10 +21,11 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
-from gear_phm import interfaces
+from gear_phm import codec, interfaces
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, to_rclpy
 from gear_phm.prognostics.assessor import HealthState
+from gear_phm.status import StatusOut
 
 #: Pending stamps kept while waiting for the rest of an update; older ones are processed.
 MAX_PENDING_STAMPS = 64
@@ -37,6 +39,36 @@ def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) 
     :class:`gear_phm.codec.JointStateDecoder`)."""
     return node.create_subscription(JointState, interfaces.JOINT_STATES, on_message,
                                     SENSOR_QOS, raw=True)
+
+
+class JointNames:
+    """The joint-name lists of the first rejected JointState messages, for the status.
+
+    While no message has had the drive's joints, the estimator's status says which joints the
+    messages do name (:func:`gear_phm.codec.joints_hint`): a wrong ``motor_joint`` is then
+    plain on /diagnostics. At most :attr:`KEEP` distinct lists are kept.
+    """
+
+    KEEP = 4
+
+    def __init__(self) -> None:
+        self.names: list[tuple[str, ...]] = []
+        self._looks = 0
+
+    def note(self, buffer: bytes, offsets: Any, lengths: Any) -> None:
+        """Keep the names of payloads whose joints were not found (the first KEEP calls)."""
+        if self._looks < self.KEEP:
+            self._looks += 1
+            for names in codec.joint_names(buffer, offsets, lengths, self.KEEP):
+                if names not in self.names and len(self.names) < self.KEEP:
+                    self.names.append(names)
+
+    def status(self, status: StatusOut, samples_seen: int, motor_joint: str,
+               load_joint: str) -> StatusOut:
+        """``status`` with the hint appended while no sample was seen."""
+        hint = codec.joints_hint(self.names, motor_joint, load_joint) if not samples_seen \
+            else ''
+        return replace(status, message=f'{status.message}; {hint}') if hint else status
 
 
 def topic_of(drive: str | None, topic: str) -> str:

@@ -385,13 +385,8 @@ class _Run:
             drive = '' if self.drive is None else f' (drive {self.drive})'
             found = '; '.join(f'{count} messages {MESSAGE_REASON_TEXT.get(reason, reason)}'
                               for reason, count in self.pipeline.counts.items() if count)
-            named = (f'; the first messages name the joints '
-                     f'{" or ".join(str(list(n)) for n in names)}' if names else '')
-            if len(names) > 1 and not any({self.motor_joint, self.load_joint} <= set(n)
-                                          for n in names) \
-                    and {self.motor_joint, self.load_joint} <= {j for n in names for j in n}:
-                named += ' (both joints must be in one message, as joint_state_broadcaster ' \
-                         'publishes them)'
+            hint = codec.joints_hint(names, self.motor_joint, self.load_joint)
+            named = f'; {hint}' if hint else ''
             raise AnalysisError(f'no message of topic {self.topic} has joints '
                                 f'{self.motor_joint!r} and {self.load_joint!r}{drive} with a '
                                 f'speed and a torque each: {found or "no message"}{named}')
