@@ -120,7 +120,8 @@ def test_node_survives_garbage_and_keeps_estimating() -> None:
 def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advance() -> None:
     """The estimator's status says why it has no measurement, on /diagnostics.
 
-    A bench client that names other joints, then one that leaves header.stamp at 0.
+    A bench client that names other joints, then one that leaves header.stamp at 0, then one
+    whose load torque reads the other way.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -149,11 +150,16 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
         assert _wait(lambda: pub.get_subscription_count() > 0 and messages, 30.0, spin), \
             'estimator did not come up'
 
-        def publish(count: int, stamped: bool) -> None:
+        def publish(count: int, stamped: bool, reversed_load: bool = False) -> None:
             base = time.time_ns()
             for i in range(count):
                 msg = JointState(name=['motor', 'load'], velocity=[10.0, 3.3],
                                  effort=[1.0, -2.8])
+                if reversed_load:       # 50 samples opposing (eta 0.9), 50 aiding, ...
+                    aiding = (i // 50) % 2 == 1
+                    msg.velocity = [10.0, 10.0 / 3.0]
+                    msg.effort = [-0.9, -3.0] if aiding else [1.0, 2.7]
+                    msg.effort[1] = -msg.effort[1]      # the load torque read the other way
                 if stamped:
                     msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(
                         base + i * 10_000_000, 10 ** 9)
@@ -176,6 +182,12 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
         assert _wait(lambda: any(m.startswith(stalled) for m in messages), 20.0, spin), \
             messages[-3:]
         assert not any(hint in m for m in messages[-1:])      # its samples were seen
+        # a load torque sensor that reads the other way: the status names the sign to flip
+        messages.clear()
+        publish(600, stamped=True, reversed_load=True)
+        reversed_sign = "the load torque's sign looks reversed"
+        assert _wait(lambda: any(reversed_sign in m and 'set load_effort_sign to -1' in m
+                                 for m in messages), 20.0, spin), messages[-3:]
         assert proc.poll() is None
     finally:
         node.destroy_node()

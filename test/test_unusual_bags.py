@@ -39,6 +39,9 @@ def _variant(out: Path, change: str) -> Path:
                 msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
             elif change == 'no effort':
                 msg.effort = np.zeros(0)
+            elif change.endswith('torque reversed'):        # a sensor read the other way
+                k = msg.name.index(change.split()[0])
+                msg.effort = msg.effort * np.where(np.arange(msg.effort.size) == k, -1.0, 1.0)
             if change == 'split joints':        # two devices: one joint per message
                 for k, name in enumerate(msg.name):
                     part = joint_state(header=msg.header, name=[name],
@@ -56,7 +59,8 @@ def _variant(out: Path, change: str) -> Path:
 def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp('stamp_source')
     return {change: _variant(root / change.replace(' ', '_'), change)
-            for change in ('unchanged', 'zero stamps', 'no effort', 'split joints')}
+            for change in ('unchanged', 'zero stamps', 'no effort', 'split joints',
+                           'load torque reversed', 'motor torque reversed')}
 
 
 def _analyze(bag: Path, out: Path, *extra: str) -> int:
@@ -106,6 +110,26 @@ def test_joints_not_found_lists_the_joints_the_messages_name(
     error = capsys.readouterr().err
     assert "name the joints ['motor'] or ['load'] (both joints must be in one message" in error
     assert not (tmp_path / 'rotor').exists() and not (tmp_path / 'split').exists()
+
+
+@pytest.mark.parametrize('joint', ['load', 'motor'])
+def test_a_reversed_torque_sign_is_named_and_its_parameter_mends_it(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        joint: str) -> None:
+    """A torque read the other way: exit 2 naming the sign to flip; flipped, the same u."""
+    bag = bags[f'{joint} torque reversed']
+    assert _analyze(bag, tmp_path / 'as_is') == 2
+    error = capsys.readouterr().err
+    assert f"the {joint} torque's sign looks reversed" in error, error
+    assert f'(--param {joint}_effort_sign=-1)' in error
+    assert not (tmp_path / 'as_is').exists()
+    assert _analyze(bag, tmp_path / 'mended', '--param', f'{joint}_effort_sign=-1') == 0
+    assert _analyze(bags['unchanged'], tmp_path / 'unchanged') == 0
+    mended, unchanged = (json.loads((tmp_path / name / 'summary.json').read_text())
+                         for name in ('mended', 'unchanged'))
+    assert mended['u'] == pytest.approx(unchanged['u'], rel=1e-9)
+    assert mended['counts'] == unchanged['counts']
+    assert mended['reversed_torque'] == unchanged['reversed_torque'] == ''
 
 
 def test_estimator_status_names_stamps_that_do_not_advance() -> None:

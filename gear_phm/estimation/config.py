@@ -18,6 +18,11 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('motor_inertia', 0.0, 'rotor inertia J_m on the motor shaft', 'kg m^2', 0.0, 1e6),
     ParamSpec('learn_motor_inertia', True, 'learn the rotor inertia that motor_inertia leaves '
               'in the windows (a torque that includes J_m dw/dt; it matters at high ratios)'),
+    ParamSpec('motor_effort_sign', 1, '+1: the motor effort is the torque the motor applies to '
+              'its shaft (README "Conventions"); -1: the opposite sign', '-', -1, 1),
+    ParamSpec('load_effort_sign', 1, '+1: the load effort is the torque the gearbox output '
+              'applies to the load (README "Conventions"); -1: the opposite sign, e.g. a torque '
+              'sensor that reads the reaction', '-', -1, 1),
     ParamSpec('load_inertia', 0.0,
               'inertia between the load torque sensor and the gear (usually 0)', 'kg m^2', 0.0,
               1e6),
@@ -85,6 +90,8 @@ class EstimatorConfig:
     load_torque_noise: float = float(DEFAULTS['load_torque_noise'])
     load_speed_noise: float = float(DEFAULTS['load_speed_noise'])
     motor_inertia: float = float(DEFAULTS['motor_inertia'])
+    motor_effort_sign: int = int(DEFAULTS['motor_effort_sign'])
+    load_effort_sign: int = int(DEFAULTS['load_effort_sign'])
     load_inertia: float = float(DEFAULTS['load_inertia'])
     window: float = float(DEFAULTS['window'])
     min_window: float = float(DEFAULTS['min_window'])
@@ -113,6 +120,9 @@ class EstimatorConfig:
 
     def __post_init__(self) -> None:
         check_values(PARAMETERS, asdict(self))
+        for name in ('motor_effort_sign', 'load_effort_sign'):
+            if getattr(self, name) not in (-1, 1):
+                raise ValueError(f'{name} must be 1 or -1, got {getattr(self, name)!r}')
         if self.min_window >= self.window:
             raise ValueError(f'min_window must be < window ({self.window!r} s), '
                              f'got {self.min_window!r}')

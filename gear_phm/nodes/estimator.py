@@ -167,6 +167,8 @@ class EstimatorNode(Node):
         """Thresholds of the per-sample guess of when an energy window closes."""
         c = self.config
         self._speed_threshold, self._power_threshold = c.speed_threshold, c.power_threshold
+        # the powers' signs as the pipeline reads them (motor_effort_sign, load_effort_sign)
+        self._motor_sign, self._load_sign = float(c.motor_effort_sign), -float(c.load_effort_sign)
         self._window_ns = int(c.window * 1e9)
         self._min_window_ns = int(c.min_window * 1e9)
         self._gap_ns = int(c.sensor_timeout * 1e9)
@@ -200,7 +202,8 @@ class EstimatorNode(Node):
         # the power-flow code, as estimation.powerflow.classify (NaN gives idle)
         code = 0
         if abs(w_m) > self._speed_threshold:
-            p_m, p_l, threshold = tau_m * w_m, -tau_l * w_l, self._power_threshold
+            p_m, p_l = self._motor_sign * tau_m * w_m, self._load_sign * tau_l * w_l
+            threshold = self._power_threshold
             if p_m > threshold:
                 code = 1 if p_l < -threshold else 3 if p_l > threshold else 0
             elif p_m < -threshold:

@@ -263,6 +263,13 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         analyses, readers, elapsed = stream.execute(
             bags, None if staging is None or target is None else staging / target.name,
             progress)
+        for run, drive_analysis in zip(runs, analyses):
+            fix = run.pipeline.reversed_torque_fix()
+            if fix is not None:
+                where = (f'--param {fix[0]}={fix[1]}' if run.drive is None
+                         else f'{fix[0]}: {fix[1]} in the entry of drive {run.drive}')
+                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
+                                    f'{drive_analysis.summary["reversed_torque"]} ({where})')
         stalled = stalled_stamps(analyses[0].summary)     # the drives share the stamps
         if stalled:
             remedy = ("; analyse on the bag's record times instead: stamp_source='log' "
