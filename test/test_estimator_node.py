@@ -121,7 +121,7 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
     """The estimator's status says why it has no measurement, on /diagnostics.
 
     A bench client that names other joints, then one that leaves header.stamp at 0, then one
-    whose load torque reads the other way.
+    whose load torque reads the other way, then a gearbox of another ratio.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -150,10 +150,11 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
         assert _wait(lambda: pub.get_subscription_count() > 0 and messages, 30.0, spin), \
             'estimator did not come up'
 
-        def publish(count: int, stamped: bool, reversed_load: bool = False) -> None:
+        def publish(count: int, stamped: bool, reversed_load: bool = False,
+                    load_speed: float = 3.3) -> None:
             base = time.time_ns()
             for i in range(count):
-                msg = JointState(name=['motor', 'load'], velocity=[10.0, 3.3],
+                msg = JointState(name=['motor', 'load'], velocity=[10.0, load_speed],
                                  effort=[1.0, -2.8])
                 if reversed_load:       # 50 samples opposing (eta 0.9), 50 aiding, ...
                     aiding = (i // 50) % 2 == 1
@@ -188,6 +189,11 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
         reversed_sign = "the load torque's sign looks reversed"
         assert _wait(lambda: any(reversed_sign in m and 'set load_effort_sign to -1' in m
                                  for m in messages), 20.0, spin), messages[-3:]
+        # a gearbox of ratio 5 under ratio:=3.0: the speeds contradict the parameter
+        messages.clear()
+        publish(1500, stamped=True, load_speed=2.0)
+        assert _wait(lambda: any('the speeds give ratio' in m and 'the ratio parameter is 3'
+                                 in m for m in messages), 20.0, spin), messages[-3:]
         assert proc.poll() is None
     finally:
         node.destroy_node()

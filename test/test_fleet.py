@@ -10,6 +10,7 @@ import functools
 import json
 import math
 from pathlib import Path
+import shutil
 import subprocess
 import sys
 
@@ -44,7 +45,16 @@ def _make_fleet(directory: Path) -> None:
     broken = root / 'unit_broken'
     broken.mkdir()
     (broken / 'rec.mcap').write_bytes(b'\x89MCAP0\r\n' + b'\x00' * 100)   # corrupt bag
-    (root / 'unit_02' / 'unit.yaml').write_text('ratio: 30.0\n')       # per-unit option
+    # unit_02 is a gearbox of ratio 30, given in its unit.yaml (a per-unit option; its speeds
+    # would refuse --ratio 3.0)
+    result = run('simulate', '--fleet', '1', '--recordings', '2', '--duration', '40',
+                 '--gap', '86400', '--wear', 'linear', '--friction-initial', '0.05',
+                 '--wear-rate', '1e-3', '--seed', '5', '--ratio', '30.0', '--out',
+                 str(directory / 'r30'))
+    assert result.returncode == 0, result.stderr
+    shutil.rmtree(root / 'unit_02')
+    (directory / 'r30' / 'unit_00').rename(root / 'unit_02')
+    (root / 'unit_02' / 'unit.yaml').write_text('ratio: 30.0\n')
 
 
 #: The options of every fleet analysis of ``fleet`` here.

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+import re
 
 import numpy as np
 import pytest
@@ -130,6 +131,24 @@ def test_a_reversed_torque_sign_is_named_and_its_parameter_mends_it(
     assert mended['u'] == pytest.approx(unchanged['u'], rel=1e-9)
     assert mended['counts'] == unchanged['counts']
     assert mended['reversed_torque'] == unchanged['reversed_torque'] == ''
+
+
+def test_a_ratio_the_speeds_contradict_is_refused(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """bags/healthy is R 3: its speeds refuse 5.0 and 1/3, and take 3.05 (within 2 %)."""
+    for ratio, printed in (('5.0', '5'), ('0.3333', '0.3333')):
+        assert main(['analyze', str(bags['unchanged']), '--ratio', ratio, '--out',
+                     str(tmp_path / ratio), '--no-plot', '--no-progress']) == 2
+        error = capsys.readouterr().err
+        given = re.search(r'the speeds give ratio ([0-9.]+) ', error)
+        assert given and float(given.group(1)) == pytest.approx(3.0, rel=2e-3), error
+        assert f'the ratio parameter is {printed}:' in error and '(--ratio)' in error, error
+        assert not (tmp_path / ratio).exists()
+    assert main(['analyze', str(bags['unchanged']), '--ratio', '3.05', '--out',
+                 str(tmp_path / 'close'), '--no-plot', '--no-progress']) == 0
+    summary = json.loads((tmp_path / 'close' / 'summary.json').read_text())
+    assert summary['speed_ratio'] == pytest.approx(3.0, rel=0.002)
+    assert summary['ratio_check'] == ''
 
 
 def test_estimator_status_names_stamps_that_do_not_advance() -> None:

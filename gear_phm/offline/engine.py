@@ -264,6 +264,12 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
             bags, None if staging is None or target is None else staging / target.name,
             progress)
         for run, drive_analysis in zip(runs, analyses):
+            mismatch = run.pipeline.ratio_check()
+            if mismatch:
+                where = ('--ratio' if run.drive is None
+                         else f'the ratio in the entry of drive {run.drive}')
+                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
+                                    f'{mismatch} ({where})')
             fix = run.pipeline.reversed_torque_fix()
             if fix is not None:
                 where = (f'--param {fix[0]}={fix[1]}' if run.drive is None
