@@ -40,6 +40,8 @@ def _variant(out: Path, change: str) -> Path:
                 msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
             elif change == 'no effort':
                 msg.effort = np.zeros(0)
+            elif change == 'motor torque in mN m':
+                msg.effort = msg.effort * np.array([1000.0, 1.0])
             elif change.endswith('torque reversed'):        # a sensor read the other way
                 k = msg.name.index(change.split()[0])
                 msg.effort = msg.effort * np.where(np.arange(msg.effort.size) == k, -1.0, 1.0)
@@ -61,7 +63,8 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp('stamp_source')
     return {change: _variant(root / change.replace(' ', '_'), change)
             for change in ('unchanged', 'zero stamps', 'no effort', 'split joints',
-                           'load torque reversed', 'motor torque reversed')}
+                           'load torque reversed', 'motor torque reversed',
+                           'motor torque in mN m')}
 
 
 def _analyze(bag: Path, out: Path, *extra: str) -> int:
@@ -149,6 +152,19 @@ def test_a_ratio_the_speeds_contradict_is_refused(
     summary = json.loads((tmp_path / 'close' / 'summary.json').read_text())
     assert summary['speed_ratio'] == pytest.approx(3.0, rel=0.002)
     assert summary['ratio_check'] == ''
+
+
+def test_torques_in_different_units_are_named(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A motor torque in mN m: its windows give out more energy than they take in."""
+    assert _analyze(bags['motor torque in mN m'], tmp_path / 'out') == 2
+    error = capsys.readouterr().err
+    assert 'of the windows give out more energy than they take in' in error, error
+    assert 'are both torques in N m' in error
+    assert not (tmp_path / 'out').exists()
+    assert _analyze(bags['unchanged'], tmp_path / 'unchanged') == 0
+    summary = json.loads((tmp_path / 'unchanged' / 'summary.json').read_text())
+    assert summary['windows_over_unity'] == 0 and summary['over_unity'] == ''
 
 
 def test_estimator_status_names_stamps_that_do_not_advance() -> None:

@@ -73,6 +73,11 @@ REVERSED_MIN = 200
 #: and the speeds' ratio that is reported, from this many moving samples.
 RATIO_CHECK_TOLERANCE = 0.02
 RATIO_CHECK_MIN = 500
+#: :meth:`EstimatorPipeline.over_unity`: a window's efficiency this many sigma above 1 is
+#: impossible; from this share of the measured windows, and this many, it is reported.
+OVER_UNITY_Z = 5.0
+OVER_UNITY_SHARE = 0.25
+OVER_UNITY_MIN = 5
 
 
 def _ns(seconds: float) -> int:
@@ -161,6 +166,11 @@ class EstimatorPipeline:
         self.power_samples = 0
         self.impossible_samples = 0
         self.impossible_load_larger = 0
+        #: windows measured, those whose efficiency is above 1 by OVER_UNITY_Z sigma, and the
+        #: largest of these (:meth:`over_unity`)
+        self.windows_measured = 0
+        self.windows_over_unity = 0
+        self.largest_efficiency = 0.0
         #: moving samples, and their sums of w_m w_l and w_l^2 (:meth:`ratio_check`)
         self.speed_samples = 0
         self.speed_products = 0.0
@@ -683,6 +693,10 @@ class EstimatorPipeline:
         if isinstance(result, str):
             self.counts[result] += 1
             return []
+        self.windows_measured += 1          # over_unity
+        if result.eta - 1.0 > OVER_UNITY_Z * math.sqrt(max(result.eta_variance, 0.0)):
+            self.windows_over_unity += 1
+            self.largest_efficiency = max(self.largest_efficiency, result.eta)
         # the filter runs on operating time; a window is motion throughout, so its age
         # (half its duration) is the same in stamp and in operating time
         operating = self._window_operating_time(window)
@@ -844,6 +858,7 @@ class EstimatorPipeline:
             'counts': dict(self.counts), 'timed_out': self.timed_out,
             'reversed_torque': self.reversed_torque(),
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
+            'windows_over_unity': self.windows_over_unity, 'over_unity': self.over_unity(),
         }
 
     def reversed_torque(self) -> str:
@@ -866,6 +881,24 @@ class EstimatorPipeline:
                 f'give out power at both shafts, which no gearbox does: the '
                 f'{name.split("_")[0]} torque\'s sign looks reversed (README "Conventions"); '
                 f'set {name} to {value}')
+
+    def over_unity(self) -> str:
+        """Return why the windows' energies look wrong when many give out more than they take.
+
+        No gearbox gives out more energy than it takes in: an efficiency above 1 by
+        :data:`OVER_UNITY_Z` of its own sigma is noise in one window of several hundred. When
+        at least :data:`OVER_UNITY_SHARE` of the measured windows (and :data:`OVER_UNITY_MIN`)
+        are so, the torques are most likely in different units or scales (a motor torque in
+        mN m made a healthy bags/healthy read u 2.99 and ERROR "end of life": its aiding
+        windows had efficiencies near 900). '' otherwise.
+        """
+        n, bad = self.windows_measured, self.windows_over_unity
+        if bad < OVER_UNITY_MIN or bad < OVER_UNITY_SHARE * n:
+            return ''
+        return (f'{100.0 * bad / n:.3g} % of the windows give out more energy than they take '
+                f'in (efficiency up to {self.largest_efficiency:.4g}), which no gearbox does: '
+                f"are both torques in N m, the motor's at the motor and the load's at the "
+                f'load (README "Conventions")?')
 
     def speed_ratio(self) -> float:
         """Return the ratio the speeds give, |sum w_m w_l / sum w_l^2| [-] (NaN before)."""
@@ -934,7 +967,8 @@ class EstimatorPipeline:
         if abs(drift) > OFFSET_DRIFT_Z:     # a report of its own, not a level (not wear)
             message += (f'; direction offset drifted {drift:+.3g} sigma since it settled '
                         f'(now {summary["direction_offset"]:.4g})')
-        for problem in (summary.get('reversed_torque', ''), summary.get('ratio_check', '')):
+        for problem in (summary.get('reversed_torque', ''), summary.get('ratio_check', ''),
+                        summary.get('over_unity', '')):
             if problem:
                 message = problem if level == OK else f'{message}; {problem}'
                 level = WARN

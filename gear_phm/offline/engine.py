@@ -270,6 +270,10 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                          else f'the ratio in the entry of drive {run.drive}')
                 raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
                                     f'{mismatch} ({where})')
+            energy = run.pipeline.over_unity()
+            if energy:
+                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
+                                    f'{energy}')
             fix = run.pipeline.reversed_torque_fix()
             if fix is not None:
                 where = (f'--param {fix[0]}={fix[1]}' if run.drive is None
