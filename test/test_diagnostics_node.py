@@ -232,15 +232,16 @@ def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
 
 
 def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
-    """Five topics (an older estimator) complete an update once a later update has them too.
+    """Five topics (an older estimator) complete an update once LEGACY_LAG later ones have them.
 
     The first update of a current estimator waits for its gear_phm/operating_time (whatever
-    the order of arrival) and carries its x as the operating time [s]; from then on every
-    update needs it.
+    the order of arrival, within LEGACY_LAG updates) and carries its x as the operating time
+    [s]; from then on every update needs it.
     """
     from types import SimpleNamespace
 
-    from gear_phm.nodes.transport import EstimateAssembler
+    from gear_phm.nodes.transport import EstimateAssembler, LEGACY_LAG
+    assert LEGACY_LAG == 3
     assembler = EstimateAssembler()
 
     def feed(stamp_ns: int, topics: tuple[str, ...]) -> list:
@@ -250,20 +251,23 @@ def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
         return out
 
     assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []           # may still get operating time
-    assert feed(2, LEGACY_ESTIMATOR_TOPICS[:1]) == []       # a later topic: still may
-    old = feed(2, LEGACY_ESTIMATOR_TOPICS[1:])              # a later update: 1 is complete
+    assert feed(2, LEGACY_ESTIMATOR_TOPICS) == []           # still may (a current estimator
+    assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []           # sends it before update 2)
+    assert feed(4, LEGACY_ESTIMATOR_TOPICS[:1]) == []       # a later topic: still may
+    old = feed(4, LEGACY_ESTIMATOR_TOPICS[1:])              # 3 later updates: 1 is complete
     assert [e.stamp_ns for e in old] == [1] and math.isnan(old[0].operating_time)
     first = feed(2, (OPERATING_TIME,))                      # arrived last, not dropped
     assert [(e.stamp_ns, e.operating_time) for e in first] == [(2, 0.1)]
-    assert feed(3, LEGACY_ESTIMATOR_TOPICS) == []           # now every update waits for it
-    assert feed(4, LEGACY_ESTIMATOR_TOPICS) == []
+    assert feed(5, LEGACY_ESTIMATOR_TOPICS) == []           # now every update waits for it
     done = assembler.add(OPERATING_TIME, 3, SimpleNamespace(x=42.0, y=0.0, z=0.0))
     assert [(e.stamp_ns, e.operating_time) for e in done] == [(3, 42.0)]
     assert assembler.dropped == {}
-    # a current estimator whose first operating time the node takes after some topics of
-    # the next update (separate subscriptions): the first update still gets it
-    assembler = EstimateAssembler()
-    assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []
-    assert feed(2, LEGACY_ESTIMATOR_TOPICS[:3]) == []
-    late = assembler.add(OPERATING_TIME, 1, SimpleNamespace(x=5.0, y=0.0, z=0.0))
-    assert [(e.stamp_ns, e.operating_time) for e in late] == [(1, 5.0)]
+    # a current estimator whose first operating time the node takes after the next updates'
+    # other topics (separate subscriptions, taken in turn): the first update still gets it
+    for ahead in (LEGACY_ESTIMATOR_TOPICS[:3], LEGACY_ESTIMATOR_TOPICS):
+        assembler = EstimateAssembler()
+        assert feed(1, LEGACY_ESTIMATOR_TOPICS) == []
+        assert feed(2, ahead) == [] and feed(3, ahead) == []
+        late = assembler.add(OPERATING_TIME, 1, SimpleNamespace(x=5.0, y=0.0, z=0.0))
+        assert [(e.stamp_ns, e.operating_time) for e in late] == [(1, 5.0)]
+        assert assembler.dropped == {}
