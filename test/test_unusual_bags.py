@@ -45,6 +45,8 @@ def _variant(out: Path, change: str) -> Path:
             elif change.endswith('torque reversed'):        # a sensor read the other way
                 k = msg.name.index(change.split()[0])
                 msg.effort = msg.effort * np.where(np.arange(msg.effort.size) == k, -1.0, 1.0)
+            if change == 'every message twice':
+                writer.write(target, log_ns, store.serialize_cdr(msg, joint_state.__msgtype__))
             if change == 'split joints':        # two devices: one joint per message
                 for k, name in enumerate(msg.name):
                     part = joint_state(header=msg.header, name=[name],
@@ -64,7 +66,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {change: _variant(root / change.replace(' ', '_'), change)
             for change in ('unchanged', 'zero stamps', 'no effort', 'split joints',
                            'load torque reversed', 'motor torque reversed',
-                           'motor torque in mN m')}
+                           'motor torque in mN m', 'every message twice')}
 
 
 def _analyze(bag: Path, out: Path, *extra: str) -> int:
@@ -165,6 +167,33 @@ def test_torques_in_different_units_are_named(
     assert _analyze(bags['unchanged'], tmp_path / 'unchanged') == 0
     summary = json.loads((tmp_path / 'unchanged' / 'summary.json').read_text())
     assert summary['windows_over_unity'] == 0 and summary['over_unity'] == ''
+
+
+def test_every_message_twice_gives_the_same_estimate_and_counts_the_copies(
+        bags: dict[str, Path], tmp_path: Path) -> None:
+    """A copy carries nothing: the same estimate; each copy counts as a duplicate_stamp.
+
+    The stamp screen does not cut the stream at the copies (before 2026-11-27 each copy ended
+    a segment: such a bag analysed 2.6 times slower).
+    """
+    from gear_phm.estimation.stamps import Segment, StampScreen
+    assert _analyze(bags['every message twice'], tmp_path / 'twice') == 0
+    assert _analyze(bags['unchanged'], tmp_path / 'once') == 0
+    twice, once = (json.loads((tmp_path / name / 'summary.json').read_text())
+                   for name in ('twice', 'once'))
+    for key in ('u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'operating_time_s'):
+        assert twice[key] == pytest.approx(once[key], rel=1e-9), key
+    assert twice['samples_used'] == once['samples_used']
+    assert twice['filter_updates'] == once['filter_updates']
+    assert twice['counts']['duplicate_stamp'] == once['counts']['duplicate_stamp'] + MESSAGES
+    assert twice['messages'] == 2 * once['messages']
+    stamps = np.repeat(np.arange(1, 1001, dtype=np.int64) * 10_000_000, 2)
+    steps = StampScreen(10, 500_000_000, 5_000_000_000).screen(stamps).steps
+    segments = [step for step in steps if isinstance(step, Segment)]
+    assert len(segments) == 1 and segments[0].index.size == 1000
+    dropped = sum(step[1] for step in steps if isinstance(step, tuple)) \
+        + segments[0].drops.size
+    assert dropped == 1000
 
 
 def test_estimator_status_names_stamps_that_do_not_advance() -> None:

@@ -411,7 +411,9 @@ class EstimatorPipeline:
         """Accepted samples, in sequence: the estimator (restarted first after a confirmed
         run of earlier stamps); each estimate carries the missing count at its stamp.
         ``marks``: (mark, number of this segment's samples before it), see
-        :meth:`on_batch_marked`."""
+        :meth:`on_batch_marked`. The duplicates the screen dropped between the segment's samples
+        count as if each cut it (until 2026-11-27 each did): from the next sample on, and in
+        the snapshot of a mark before that sample."""
         if segment.reset_before:
             self.counts['stamp_reset'] += 1
             self._reset_estimator()
@@ -421,7 +423,13 @@ class EstimatorPipeline:
         missing = before + np.cumsum(segment.missing)
         self.samples_missing = int(missing[-1])
         prior = np.full(index.size, np.iinfo(np.int64).min)
-        outputs, marked = self._process(part, [a[index] for a in arrays], prior, marks)
+        dropped, dropped_after = None, ()
+        if segment.drops.size:          # duplicates between its samples (not a cut)
+            dropped = np.bincount(np.searchsorted(index, segment.drops),
+                                  minlength=index.size).astype(np.int64)
+            dropped_after = [int(np.count_nonzero(segment.drops > index[k])) for _, k in marks]
+        outputs, marked = self._process(part, [a[index] for a in arrays], prior, marks,
+                                        dropped, dropped_after)
         snapshots = []
         for k, snap in marked:              # k samples of the segment before the mark
             snap.values['samples_missing'] = int(missing[k - 1])
@@ -461,10 +469,16 @@ class EstimatorPipeline:
 
     # --- core --------------------------------------------------------------------------------
     def _process(self, stamps: np.ndarray, arrays: list[np.ndarray], prior: np.ndarray,
-                 marks: Sequence[tuple[int, int]] = ()
+                 marks: Sequence[tuple[int, int]] = (), dropped: np.ndarray | None = None,
+                 dropped_after: Sequence[int] = ()
                  ) -> tuple[list[FrictionEstimate], list[tuple[int, StatusSnapshot]]]:
         """The estimator over samples in sequence; ``marks`` (mark, local position k), with
-        0 < k < n, get a snapshot of the state after samples 0..k-1."""
+        0 < k < n, get a snapshot of the state after samples 0..k-1.
+
+        ``dropped``: duplicate stamps dropped just before each sample (the screen's, inside
+        the segment), counted from that sample on; ``dropped_after``: of them, those after
+        each mark's sample k (not in its snapshot).
+        """
         n = stamps.size
         if n == 0:
             return [], []
@@ -539,7 +553,13 @@ class EstimatorPipeline:
         rejected = self._count_samples(n, duplicate, backwards, nonfinite, zero_speed,
                                        deadband, impossible)
         used_cum = self.samples_used + np.cumsum(usable)
-        rejected_cum = self.samples_rejected + np.cumsum(rejected)
+        plain_cum = self.samples_rejected + np.cumsum(rejected)    # the marks' suffixes
+        rejected_cum = plain_cum
+        if dropped is not None:
+            total = int(dropped.sum())
+            self.counts['duplicate_stamp'] += total
+            self.samples_seen += total
+            rejected_cum = plain_cum + np.cumsum(dropped)
         self.samples_used = int(used_cum[-1])
         self.samples_rejected = int(rejected_cum[-1])
         masks = {'duplicate_stamp': duplicate, 'backwards': backwards, 'nonfinite': nonfinite,
@@ -557,9 +577,12 @@ class EstimatorPipeline:
             publish = np.empty(0, dtype=np.int64)
         outputs: list[FrictionEstimate] = []
         marked: list[tuple[int, StatusSnapshot]] = []
-        pending = [(mark, k, suffix) for (mark, k), suffix
-                   in zip(marks, self._suffixes([k for _, k in marks], masks, used_cum,
-                                                rejected_cum, gap_at, short_at))]
+        suffixes = self._suffixes([k for _, k in marks], masks, used_cum, plain_cum, gap_at,
+                                  short_at)
+        for suffix, after in zip(suffixes, dropped_after):
+            for key in ('duplicate_stamp', 'samples_seen', 'samples_rejected'):
+                suffix[key] += after
+        pending = [(mark, k, suffix) for (mark, k), suffix in zip(marks, suffixes)]
 
         def take(before: int, run: np.ndarray | None = None) -> None:
             """Snapshot the marks at or before sample ``before`` (its events not yet run);

@@ -6,7 +6,8 @@ stream's timeline, and counts the samples the timeline shows missing:
 - **In sequence**: a stamp ``s`` with ``0 < s - last <= jump`` is accepted (``last`` is the
   newest accepted stamp; ``jump`` is :data:`JUMP_PERIODS` expected sample periods, at most
   ``max_gap``, the estimator's sensor_timeout).
-- **Equal** to ``last``: dropped as ``duplicate_stamp``.
+- **Equal** to ``last``: dropped as ``duplicate_stamp``; the open segment goes on after it
+  (:attr:`Segment.drops`), counted as if it cut it.
 - **Slightly earlier** (within ``jump`` before ``last``): dropped as ``backwards`` (out of
   order, or a small clock step back: the samples resume once their stamps pass ``last``).
 - **Far earlier** (more than ``jump`` before ``last``, e.g. a zero stamp) or **far later**
@@ -57,6 +58,9 @@ class Segment:
     index: np.ndarray
     missing: np.ndarray
     reset_before: bool = False
+    #: positions of the duplicate stamps dropped between the segment's samples (each of them
+    #: counts as ``duplicate_stamp`` from the next sample on); a segment is not cut at them
+    drops: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
 
 
 @dataclass
@@ -204,6 +208,7 @@ class StampScreen:
         steps: list[Segment | tuple[str, int]] = []
         index_chunks: list[np.ndarray] = []       # the open segment
         missing_chunks: list[np.ndarray] = []
+        inner_drops: list[int] = []               # duplicates inside it
         reset = [False]
 
         def accept(index: np.ndarray, prev: int | None) -> None:
@@ -212,12 +217,19 @@ class StampScreen:
             self.last = int(stamps[index[-1]])
 
         def close_segment() -> None:
+            trailing = 0                          # duplicates after its last sample
             if index_chunks:
-                steps.append(Segment(np.concatenate(index_chunks),
-                                     np.concatenate(missing_chunks), reset[0]))
+                index = np.concatenate(index_chunks)
+                drops = np.asarray(inner_drops, dtype=np.int64)
+                trailing = int(np.count_nonzero(drops > index[-1]))
+                steps.append(Segment(index, np.concatenate(missing_chunks), reset[0],
+                                     drops[drops < index[-1]]))
                 index_chunks.clear()
                 missing_chunks.clear()
+            inner_drops.clear()
             reset[0] = False
+            if trailing:
+                steps.append(('duplicate_stamp', trailing))
 
         def drop(reason: str, count: int = 1) -> None:
             close_segment()
@@ -289,7 +301,10 @@ class StampScreen:
             if last is None:
                 kind = 'start'
             elif s == last:
-                drop('duplicate_stamp')
+                if index_chunks:            # the segment goes on after it (not cut)
+                    inner_drops.append(i)
+                else:
+                    drop('duplicate_stamp')
                 i += 1
                 continue
             elif s > last:
