@@ -510,8 +510,6 @@ class EstimatorPipeline:
         deadband = ok & (code == 0) & ~zero_speed
         impossible = ok & (code == IMPOSSIBLE)
         usable = ok & (code > 0)
-        # evidence of a reversed torque sign (reversed_torque): samples out of the deadband,
-        # those that give out power at both shafts, and of them those where the load's is larger
         # the speeds' own ratio (ratio_check): least squares of w_m on w_l while moving.
         # Element-wise sums, not ``@``: a BLAS dot of a batch runs OpenBLAS's threads, whose
         # spinning doubled the CPU time of an 8-drive analysis (7.4-9.0 s against 3.9-4.9 s)
@@ -520,6 +518,8 @@ class EstimatorPipeline:
         self.speed_samples += int(np.count_nonzero(moving))
         self.speed_products += float(np.sum(w_m[moving] * w_l_moving))
         self.load_speed_squares += float(np.sum(w_l_moving * w_l_moving))
+        # evidence of a reversed torque sign (reversed_torque): samples out of the deadband,
+        # those that give out power at both shafts, and of them those where the load's is larger
         self.power_samples += int(np.count_nonzero(ok & (code != 0)))
         self.impossible_samples += int(np.count_nonzero(impossible))
         self.impossible_load_larger += int(np.count_nonzero(impossible

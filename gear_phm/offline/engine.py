@@ -263,23 +263,10 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         analyses, readers, elapsed = stream.execute(
             bags, None if staging is None or target is None else staging / target.name,
             progress)
-        for run, drive_analysis in zip(runs, analyses):
-            mismatch = run.pipeline.ratio_check()
-            if mismatch:
-                where = ('--ratio' if run.drive is None
-                         else f'the ratio in the entry of drive {run.drive}')
-                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
-                                    f'{mismatch} ({where})')
-            energy = run.pipeline.over_unity()
-            if energy:
-                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
-                                    f'{energy}')
-            fix = run.pipeline.reversed_torque_fix()
-            if fix is not None:
-                where = (f'--param {fix[0]}={fix[1]}' if run.drive is None
-                         else f'{fix[0]}: {fix[1]} in the entry of drive {run.drive}')
-                raise AnalysisError(f'{"" if run.drive is None else f"drive {run.drive}: "}'
-                                    f'{drive_analysis.summary["reversed_torque"]} ({where})')
+        for run in runs:
+            refusal = _refusal(run)
+            if refusal:
+                raise AnalysisError(refusal)
         stalled = stalled_stamps(analyses[0].summary)     # the drives share the stamps
         if stalled:
             remedy = ("; analyse on the bag's record times instead: stamp_source='log' "
@@ -310,6 +297,27 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
+
+
+def _refusal(run: _Run) -> str:
+    """Return why a run's data contradict its parameters ('' when they do not).
+
+    The estimator's checks (ratio against the speeds, energy out above energy in, a reversed
+    torque sign), the first that fails, with where the user sets the parameter:
+    :func:`analyze_bag` stops on it.
+    """
+    pipeline, drive = run.pipeline, run.drive
+    fix = pipeline.reversed_torque_fix()
+    entry = f'in the entry of drive {drive}'
+    for problem, where in (
+            (pipeline.ratio_check(), '--ratio' if drive is None else f'the ratio {entry}'),
+            (pipeline.over_unity(), ''),
+            (pipeline.reversed_torque(), '' if fix is None else
+             f'--param {fix[0]}={fix[1]}' if drive is None else f'{fix[0]}: {fix[1]} {entry}')):
+        if problem:
+            return (('' if drive is None else f'drive {drive}: ') + problem
+                    + (f' ({where})' if where else ''))
+    return ''
 
 
 def _drives(transmissions: Any) -> tuple[Transmission, ...]:
@@ -566,7 +574,7 @@ class _Stream:
         self.log_stamps = stamp_source == 'log'
         #: the joint-name lists of the stream's first messages (for the error of a run that
         #: found none of its joints)
-        self.names: list[tuple[str, ...]] = []
+        self.names: list[tuple[str, ...]] | None = None
         self.diag_period_ns = int(1e9 / diagnostics_rate)
         self.want_truth = want_truth
         self.pairs = [(run.motor_joint, run.load_joint) for run in self.runs]
@@ -590,8 +598,8 @@ class _Stream:
         except BagError as exc:
             raise AnalysisError(str(exc)) from None
         elapsed = time.perf_counter() - started
-        return ([run.result(bags, readers, elapsed, self.names) for run in self.runs], readers,
-                elapsed)
+        return ([run.result(bags, readers, elapsed, self.names or ()) for run in self.runs],
+                readers, elapsed)
 
     def _truth_topics(self, bag: Any) -> dict[str, tuple[_Run, str]]:
         """Return {bag topic: (run, canonical truth topic)} of the truth the bag holds."""
@@ -651,7 +659,7 @@ class _Stream:
             ticks.append(self.next_tick)
             self.next_tick += self.diag_period_ns
         cuts = np.searchsorted(times, ticks, side='left').tolist()
-        if not self.names:
+        if self.names is None:           # the first batch's (once, even if it names none)
             self.names = codec.joint_names(raw.buffer, raw.offsets, raw.lengths)
         decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
                                                  self.pairs)
