@@ -15,7 +15,11 @@ The decoded updates are cached per life as OUT/cache/<rate>hz_life_<seed>.npz (a
 costs only the assessor). Writes OUT/table.md and OUT/replay.json.
 
 Usage: .venv/bin/python bench/rul_replay.py [ENSEMBLE] [--out OUT] [--workers 2] [--nice 10]
-       [--seeds 1 2 ...]
+       [--seeds 1 2 ...] [--param NAME=VALUE ...]
+
+``--param`` overrides a health parameter (:class:`~gear_phm.prognostics.HealthConfig`) for
+every life, as ``gear-phm analyze --param`` would: a default is scored on the whole ensemble
+before it is changed.
 """
 from __future__ import annotations
 
@@ -92,16 +96,16 @@ def estimates(stamps: np.ndarray, values: np.ndarray) -> list[Any]:
     return out
 
 
-def replay_life(task: tuple[Path, Path]) -> dict[str, Any]:
+def replay_life(task: tuple[Path, Path, dict[str, Any]]) -> dict[str, Any]:
     """Assess and score one life; return its life.json, scores and timings."""
-    directory, out = task
+    directory, out, overrides = task
     started = time.perf_counter()
     life = json.loads((directory / 'bag' / 'life.json').read_text())
     name = f"{life['rate_hz']:g}hz_life_{life['seed']}"
     stamps, values = decoded(directory / 'a', out / 'cache' / f'{name}.npz')
     updates = estimates(stamps, values)
     config = HealthConfig(ratio=float(life['ratio']),
-                          eta_opposing_min=float(life['eta_opposing_min']))
+                          eta_opposing_min=float(life['eta_opposing_min'])).replace(**overrides)
     assessor = HealthAssessor(config)
     assessing = time.perf_counter()
     states = [s for s in assessor.on_estimates(updates) if s is not None]
@@ -122,11 +126,22 @@ def replay_life(task: tuple[Path, Path]) -> dict[str, Any]:
             t_eol = truth_eol(directory / 'bag', u_eol)
         onset = life['onset_s'] if life['onset_s'] is not None else float(t[0])
         score = acceptance(t, median, p5, p95, float(t_eol), float(onset), (t, level))
+    changes = [(s.stamp_ns * 1e-9, s.level, s.message.split(':')[0].split(';')[0])
+               for s, before in zip(states[1:], states) if s.level != before.level]
     trace = {'t': t, 'median': median, 'p5': p5, 'p95': p95, 'level': level}
     np.savez(out / 'cache' / f'{name}.states.npz', **trace)
     return {'life': life, 'evaluation': {'acceptance': score}, 'directory': str(directory),
             'seconds': time.perf_counter() - started, 'assess_seconds': assessed,
-            'updates': len(updates)}
+            'updates': len(updates), 'changes': changes}
+
+
+def _parameter(text: str) -> tuple[str, Any]:
+    """Return (name, value) of a ``NAME=VALUE`` option; the value's type is the field's."""
+    name, _, value = text.partition('=')
+    default = getattr(HealthConfig(), name, None)
+    if default is None or not value:
+        raise SystemExit(f'--param {text!r}: not NAME=VALUE of a health parameter')
+    return name, type(default)(value)
 
 
 def main() -> int:
@@ -138,7 +153,10 @@ def main() -> int:
     parser.add_argument('--nice', type=int, default=10)
     parser.add_argument('--seeds', type=int, nargs='*', default=None,
                         help='only these seeds (default: every life in ENSEMBLE)')
+    parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
+                        help='a health parameter for every life (repeatable)')
     args = parser.parse_args()
+    overrides = dict(_parameter(text) for text in args.param)
     os.nice(args.nice)
     lives = sorted((p for p in args.ensemble.glob('*hz/life_*') if (p / 'a').is_dir()),
                    key=lambda p: (p.parent.name, int(p.name.split('_')[1])))
@@ -148,7 +166,7 @@ def main() -> int:
     (args.out / 'cache').mkdir(exist_ok=True)
     started = time.perf_counter()
     with Pool(args.workers) as pool:
-        results = pool.map(replay_life, [(p, args.out) for p in lives], chunksize=1)
+        results = pool.map(replay_life, [(p, args.out, overrides) for p in lives], chunksize=1)
     elapsed = time.perf_counter() - started
     assess = sum(r['assess_seconds'] for r in results)
     updates = sum(r['updates'] for r in results)
@@ -158,6 +176,8 @@ def main() -> int:
     print('\n\n'.join(text))
     (args.out / 'table.md').write_text('\n\n'.join(text) + '\n', encoding='utf-8')
     summary = {'lives': len(results), 'gear_phm': groups(results),
+               'level_changes': {f"{r['life']['rate_hz']:g}hz_life_{r['life']['seed']}":
+                                 r['changes'] for r in results if r['changes']},
                'assess_seconds': assess, 'updates': updates}
     (args.out / 'replay.json').write_text(json.dumps(_json_ready(summary), indent=2) + '\n',
                                           encoding='utf-8')

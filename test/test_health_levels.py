@@ -42,7 +42,7 @@ def test_dwell_and_hysteresis_thresholds_exact() -> None:
                            level_hysteresis=0.05, level_dwell=5.0, level_clear_dwell=5.0)
     assert tracker.eta_clear == pytest.approx(0.81)
     assert tracker.u_clear == pytest.approx(0.2375)
-    assert tracker.rul_clear == pytest.approx(105.0)
+    assert tracker.rul_clear == pytest.approx(200.0)          # RUL_CLEAR_FACTOR, not 1 + h
     # below eta_warn from t = 10 s: WARN only once it has held 5 s (at t = 15 s)
     levels = [tracker.update(t, 0.1, 0.79 if t >= 10.0 else 0.9, math.inf)[0]
               for t in np.arange(0.0, 20.0, 1.0)]
@@ -55,14 +55,14 @@ def test_dwell_and_hysteresis_thresholds_exact() -> None:
     assert tracker.update(101.0, 0.1, 0.82, math.inf)[0] == WARN
     assert tracker.update(105.9, 0.1, 0.82, math.inf)[0] == WARN
     assert tracker.update(106.0, 0.1, 0.82, math.inf) == (OK, 'ok')
-    # a RUL p5 between 100 s and 105 s keeps a RUL WARN, above 105 s clears it
+    # a RUL p5 between 100 s and 200 s keeps a RUL WARN, above 200 s clears it
     tracker.reset()
     assert tracker.update(0.0, 0.1, 0.9, 50.0)[0] == OK
     assert tracker.update(5.0, 0.1, 0.9, 50.0)[0] == WARN
-    assert tracker.update(50.0, 0.1, 0.9, 104.0)[0] == WARN
-    assert tracker.update(60.0, 0.1, 0.9, 104.0)[0] == WARN
-    assert tracker.update(61.0, 0.1, 0.9, 106.0)[0] == WARN
-    assert tracker.update(66.0, 0.1, 0.9, 106.0)[0] == OK
+    assert tracker.update(50.0, 0.1, 0.9, 199.0)[0] == WARN
+    assert tracker.update(60.0, 0.1, 0.9, 199.0)[0] == WARN
+    assert tracker.update(61.0, 0.1, 0.9, 201.0)[0] == WARN
+    assert tracker.update(66.0, 0.1, 0.9, 201.0)[0] == OK
 
 
 def test_rul_warn_is_entered_on_the_median_and_cleared_on_the_5_percent_bound() -> None:
@@ -81,17 +81,37 @@ def test_rul_warn_is_entered_on_the_median_and_cleared_on_the_5_percent_bound() 
     assert tracker.update(700.0, 0.1, 0.9, 3000.0, rul_median=3500.0)[0] == OK
     level, message = tracker.update(705.0, 0.1, 0.9, 3000.0, rul_median=3500.0)
     assert level == WARN and message == 'RUL 3500 s of operation < 3600 s'
-    # ... which a median back above the horizon does not clear while p5 is below 3780 s
+    # ... which a median back above the horizon does not clear while p5 is below 7200 s
     level, message = tracker.update(800.0, 0.1, 0.9, 3700.0, rul_median=9000.0)
-    assert level == WARN and 'p5 3700 s' in message and 'above 3780 s' in message
-    assert tracker.update(900.0, 0.1, 0.9, 3700.0, rul_median=9000.0)[0] == WARN
-    # p5 above warn_horizon (1 + h): OK after the dwell
-    assert tracker.update(901.0, 0.1, 0.9, 3800.0, rul_median=9000.0)[0] == WARN
-    assert tracker.update(906.0, 0.1, 0.9, 3800.0, rul_median=9000.0) == (OK, 'ok')
+    assert level == WARN and 'p5 3700 s' in message and 'above 7200 s' in message
+    assert tracker.update(900.0, 0.1, 0.9, 7100.0, rul_median=15000.0)[0] == WARN
+    assert tracker.update(905.0, 0.1, 0.9, 7100.0, rul_median=15000.0)[0] == WARN
+    # p5 above RUL_CLEAR_FACTOR warn_horizon: OK after the dwell
+    assert tracker.update(906.0, 0.1, 0.9, 7300.0, rul_median=15000.0)[0] == WARN
+    assert tracker.update(911.0, 0.1, 0.9, 7300.0, rul_median=15000.0) == (OK, 'ok')
     # with the old rule (entered on p5) the first stretch would have warned
     old = LevelTracker(0.25, 'eta_opposing_min', 0.8, 3600.0,
                        level_hysteresis=0.05, level_dwell=5.0)
     assert [old.update(t, 0.1, 0.9, 3300.0)[0] for t in (0.0, 5.0)] == [OK, WARN]
+
+
+def test_an_early_pessimistic_rul_warns_once_through_the_true_end_of_life() -> None:
+    """Random life 75 (100 Hz, Wiener wear from 10 947 s, true end of life 22 736 s).
+
+    The new regime's first fits: median 1316 s, p5 218 s at 11 401 s (true RUL 11 300 s);
+    500 s later median 12 725 s, p5 5090 s; the true end of life within the horizon from
+    19 136 s. With the RUL WARN cleared at p5 above 1.05 warn_horizon it went WARN, OK
+    (16 298 s), WARN (19 562 s); above twice the horizon it is one WARN.
+    """
+    stretches = [(10947.0, 11396.0, 30000.0, 8000.0), (11396.0, 11933.0, 1316.0, 218.0),
+                 (11933.0, 19136.0, 12725.0, 5090.0), (19136.0, 22736.0, 3000.0, 1000.0)]
+    tracker = LevelTracker(0.08, 'eta_opposing_min', 0.9, 3600.0)        # the defaults
+    levels = []
+    for start, end, median, p5 in stretches:
+        for t in np.arange(start, end, 10.0):
+            levels.append(tracker.update(t, 0.05, 0.95, p5, rul_median=median)[0])
+    assert transitions(levels) == [(OK, WARN)]
+    assert tracker.rul_clear == pytest.approx(7200.0)
 
 
 def test_noisy_crossing_gives_exactly_one_transition() -> None:

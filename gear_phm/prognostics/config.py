@@ -52,7 +52,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               nan_means='derived: eta_opposing_min + 0.25 (eta_healthy - eta_opposing_min), '
                         'eta_healthy the healthy eta_D learned once the filter has settled'),
     ParamSpec('warn_horizon', 3600.0, 'WARN when the RUL median in operating time is below '
-              'this; it clears once the RUL 5 % bound is above it (1 + level_hysteresis)',
+              'this; it clears once the RUL 5 % bound is above twice this',
               's', 0.0, 1e12),
     ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
               '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
@@ -68,7 +68,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               2**31 - 1),
     ParamSpec('nis_window', 20, 'number of recent NIS values averaged for the filter check',
               '-', 1, 100_000),
-    ParamSpec('nis_probability', 0.999, 'chi-square probability of the NIS-average bound '
+    # 1 - 1e-6, not 0.999: the test runs on every new NIS value, so a long life holds
+    # thousands of windows, and at 0.999 a consistent filter crossed the bound (a WARN, then
+    # OK, then WARN again on random lives 28 and 89; docs/prognostics.md, "Levels")
+    ParamSpec('nis_probability', 0.999999, 'chi-square probability of the NIS-average bound '
               '(model mismatch, WARN, above)', '-', 0.5, 1.0 - 1e-12),
     ParamSpec('max_u_sigma', 1.0, 'ERROR (filter lost the signal) when sigma_u exceeds this',
               '-', 1e-9, 1e6),
@@ -76,7 +79,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'window exceeds this; a mean above the chi-square bound alone is a model '
               'mismatch (WARN)', '-', 1.0, 1e12),
     ParamSpec('level_hysteresis', 0.05, 'a level is left when its value is back by this '
-              "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0, RUL 0)",
+              "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0)",
               '-', 0.0, 0.5),
     ParamSpec('level_dwell', 5.0, 'a level change must hold this long in stamp time before '
               'it is reported (leaving a WARN or ERROR condition: level_clear_dwell)', 's',
