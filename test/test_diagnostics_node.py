@@ -21,8 +21,8 @@ from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 
 from gear_phm.bagio import BagReader, recover  # noqa: E402
-from gear_phm.interfaces import (DIAGNOSTICS, HEALTH_RUL, LEGACY_ESTIMATOR_TOPICS,  # noqa: E402
-                                 OPERATING_TIME, stamp_to_ns)
+from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
+                                 LEGACY_ESTIMATOR_TOPICS, OPERATING_TIME, stamp_to_ns)
 from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
 from helpers.diagnostics import Feeder, start, wait_for  # noqa: E402
 from helpers.processes import stop  # noqa: E402
@@ -229,6 +229,43 @@ def test_kill_9_recording_is_recoverable(ros: Node, tmp_path: Path,
         mcap_count = sum(1 for _ in make_reader(stream, validate_crcs=True).iter_messages(
             topics=[name]))
     assert mcap_count == len(stamps)
+
+
+def test_assembler_keeps_stamp_order_and_waits_for_a_topic_that_comes_late() -> None:
+    """A current estimator's update whose operating time comes after the next updates' topics.
+
+    Under load the node took update 1's gear_phm/operating_time (which carries the window
+    measurement, y and z) after update 2 was complete: update 1 went without it, and its
+    measurement was missing from the RUL's history. It now waits, and the updates come out
+    in stamp order; after STRAGGLER_LAG later complete updates it goes without (counted).
+    """
+    from types import SimpleNamespace
+
+    from gear_phm.nodes.transport import EstimateAssembler, STRAGGLER_LAG
+    assembler = EstimateAssembler()
+    every = tuple(ESTIMATOR_TOPICS)
+    others = tuple(t for t in every if t != OPERATING_TIME)
+
+    def feed(stamp_ns: int, topics: tuple[str, ...], x: float = 0.1) -> list:
+        out = []
+        for topic in topics:
+            out += assembler.add(topic, stamp_ns, SimpleNamespace(x=x, y=0.2, z=1e-6))
+        return out
+
+    assert [e.stamp_ns for e in feed(1, every, 7.0)] == [1]         # operating time seen
+    assert feed(2, others) == []
+    assert feed(3, every) == []                  # complete, but 2 still waits for its own
+    late = feed(2, (OPERATING_TIME,), 8.0)
+    assert [(e.stamp_ns, e.operating_time) for e in late] == [(2, 8.0), (3, 0.1)]
+    assert assembler.dropped == {}
+    # a topic that never comes: the update goes without it after STRAGGLER_LAG later ones
+    assert feed(4, others) == []
+    for stamp in range(5, 5 + STRAGGLER_LAG):
+        assert feed(stamp, every) == []
+    out = feed(5 + STRAGGLER_LAG, every)
+    assert [e.stamp_ns for e in out] == list(range(4, 6 + STRAGGLER_LAG))
+    assert math.isnan(out[0].operating_time) and out[1].operating_time == 0.1
+    assert assembler.dropped == {'partial_update': 1}
 
 
 def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:

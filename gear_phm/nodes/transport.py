@@ -32,6 +32,10 @@ MAX_PENDING_STAMPS = 64
 #: Later updates with the five legacy topics after which an update without operating time is
 #: taken as an older estimator's (EstimateAssembler).
 LEGACY_LAG = 3
+#: Later complete updates after which an update still missing a topic is processed without
+#: it (EstimateAssembler). Within the outputs' depth 10: a topic that lags by more loses
+#: messages in its queue anyway.
+STRAGGLER_LAG = 8
 #: Stamps further back than this are a new run (replay restarted), not stragglers [ns].
 RESTART_JUMP_NS = 10 * 10**9
 
@@ -154,9 +158,15 @@ class HealthPublisher:
 class EstimateAssembler:
     """The estimator's topics in, whole :class:`FrictionEstimate` records out.
 
-    Messages are grouped by stamp; a group is complete with all seven estimator topics. Until
-    ``gear_phm/operating_time`` has been seen (an older estimator or bag does not publish it),
-    a group with the five of :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
+    Messages are grouped by stamp; a group is complete with all seven estimator topics, and
+    groups are processed in stamp order: one that misses a topic holds the later ones back
+    until it is complete or :data:`STRAGGLER_LAG` later groups are (then it goes without the
+    topic, counted as ``partial_update``). The seven subscriptions are taken in turn, and
+    under load one topic's message can come after the next update's others; an update
+    processed then without its window measurement (``gear_phm/operating_time`` y, z) is
+    missing from the RUL's history. Until ``gear_phm/operating_time`` has been seen (an older
+    estimator or bag does not publish it), a group with the five of
+    :data:`~gear_phm.interfaces.LEGACY_ESTIMATOR_TOPICS` is complete
     once :data:`LEGACY_LAG` later groups have those five too: that many updates late, and its
     estimate carries no operating time (the assessor then uses the stamps). Stragglers of an
     update already processed are dropped (``late_stamp``); when more than
@@ -204,7 +214,7 @@ class EstimateAssembler:
         group = self.pending.setdefault(stamp_ns, {})
         group[topic] = vector
         if interfaces.OPERATING_TIME in self.expected and self.expected.issubset(group):
-            return self.flush(up_to=stamp_ns)
+            return self._ready()
         if interfaces.OPERATING_TIME not in self.expected and self.expected.issubset(group):
             # an older estimator: an update is complete once LEGACY_LAG later ones are. A
             # current one sends the operating time of an update before the next update, but
@@ -219,6 +229,26 @@ class EstimateAssembler:
         if len(self.pending) > MAX_PENDING_STAMPS:
             return self.flush(up_to=min(self.pending))
         return []
+
+    def _ready(self) -> list[FrictionEstimate]:
+        """The complete groups from the oldest on, up to the first that still waits.
+
+        A group missing a topic waits until STRAGGLER_LAG later groups are complete.
+        """
+        estimates: list[FrictionEstimate] = []
+        while self.pending:
+            stamps = sorted(self.pending)
+            complete = [self.expected.issubset(self.pending[s]) for s in stamps]
+            if all(complete):
+                return estimates + self.flush()
+            waiting = complete.index(False)
+            if sum(complete[waiting + 1:]) <= STRAGGLER_LAG:
+                if waiting:
+                    estimates += self.flush(up_to=stamps[waiting - 1])
+                return estimates
+            self._drop('partial_update')      # given up on its missing topic: counted
+            estimates += self.flush(up_to=stamps[waiting])
+        return estimates
 
     def flush(self, up_to: int | None = None) -> list[FrictionEstimate]:
         """Pending groups with stamps <= ``up_to`` (all if None), in stamp order."""
