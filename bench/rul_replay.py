@@ -141,6 +141,8 @@ def _parameter(text: str) -> tuple[str, Any]:
     default = getattr(HealthConfig(), name, None)
     if default is None or not value:
         raise SystemExit(f'--param {text!r}: not NAME=VALUE of a health parameter')
+    if isinstance(default, bool):
+        return name, value.lower() in ('1', 'true', 'yes')
     return name, type(default)(value)
 
 

@@ -10,10 +10,10 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
 - WARN: RUL median (operating time) < ``warn_horizon`` [s], cleared only once the RUL's 5 %
-  bound is above :data:`RUL_CLEAR_FACTOR` times it; eta_D < ``eta_warn`` (by default
-  derived from the healthy eta_D learned once the filter has settled,
-  :class:`LevelTracker`); or a model mismatch (mean NIS above its chi-square bound while the
-  estimate still tracks).
+  bound is above :data:`~gear_phm.prognostics.config.RUL_CLEAR_FACTOR` times it; eta_D <
+  ``eta_warn`` (by default derived from the healthy eta_D learned once the filter has
+  settled, :class:`LevelTracker`); or a model mismatch (mean NIS above its chi-square bound
+  while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
   current.
@@ -32,17 +32,9 @@ from typing import Any
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 from gear_phm.prognostics.calibration import BAND_Z
-from gear_phm.prognostics.config import DEFAULTS, derived_eta_warn, HEALTHY_SETTLED_SHARE
+from gear_phm.prognostics.config import (DEFAULTS, derived_eta_warn, HEALTHY_SETTLED_SHARE,
+                                         RUL_CLEAR_FACTOR)
 from gear_phm.status import ERROR, OK, WARN
-
-
-#: The RUL WARN clears once the RUL's 5 % bound is above this many times ``warn_horizon``:
-#: a factor, not the other conditions' hysteresis (a fraction of the distance from a new
-#: gearbox, whose RUL is inf). With 1.05, stochastic wear took two lives of the random-life
-#: ensemble (28, 75) through WARN, OK, WARN: an early, pessimistic RUL of the new regime
-#: (median 1316 s, truth 11 300 s) warned, its p5 rose to 3900-5100 s and cleared it, and
-#: the true end of life warned again (docs/prognostics.md, "Health levels").
-RUL_CLEAR_FACTOR = 2.0
 
 
 def chi_square_mean_bound(window: int, probability: float) -> float:
@@ -350,5 +342,4 @@ class LevelTracker:
         return OK, 'ok'
 
 
-__all__ = ['DivergenceDetector', 'Latch', 'LevelTracker', 'RUL_CLEAR_FACTOR',
-           'chi_square_mean_bound']
+__all__ = ['DivergenceDetector', 'Latch', 'LevelTracker', 'chi_square_mean_bound']
