@@ -663,9 +663,9 @@ class _Stream:
             self.names = codec.joint_names(raw.buffer, raw.offsets, raw.lengths)
         decoded = codec.decode_joint_state_pairs(raw.buffer, raw.offsets, raw.lengths,
                                                  self.pairs)
-        if self.log_stamps:
-            decoded = [replace(batch, stamp_ns=np.asarray(times, dtype=np.int64)[
-                batch.message_index]) for batch in decoded]
+        if self.log_stamps:             # each drive's samples at their messages' log times
+            logged = np.asarray(times, dtype=np.int64)
+            decoded = [replace(batch, stamp_ns=logged[batch.message_index]) for batch in decoded]
         self._write([run._step(batch, len(raw), cuts)
                      for run, batch in zip(self.runs, decoded)], ticks, writer)
         bar.update(len(raw))
