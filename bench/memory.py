@@ -7,13 +7,14 @@
   and its growth against the smallest bag. The bags are deleted after use.
 - ``--mode logic``: the code of both nodes (EstimatorPipeline, then HealthAssessor on its
   estimates) fed 3,600,000 simulated samples (one hour at 1 kHz) in this process; RSS at
-  the start, at the 10-minute mark and at the 1-hour mark.
+  the start, at the 10-minute mark and at the 1-hour mark. ``--hours 24``: a simulated day,
+  RSS at each hour and the slope after the first [MiB/h].
 - ``--mode nodes``: the estimator and diagnostics nodes as processes over DDS, fed by the
   flood publisher at ``--rate`` for ``--duration`` s; RSS of each node from /proc at the
   start and at the end.
 
 Usage: .venv/bin/python bench/memory.py [--mode analyze|logic|nodes|all] [--samples N ...]
-[--tmp DIR] [--no-append]
+[--hours H] [--tmp DIR] [--no-append]
 """
 from __future__ import annotations
 
@@ -90,7 +91,13 @@ def analyze(sizes: list[int], tmp: str | None) -> list[list[str]]:
     return rows
 
 
-def logic(samples: int, rate: float) -> list[list[str]]:
+def logic(samples: int, rate: float, hours: int = 1) -> list[list[str]]:
+    """Feed ``hours`` times ``samples`` (an hour of input) to both nodes' code; RSS rows.
+
+    Marks: the start, the 10-minute mark of the first hour, and the end of each hour; with
+    more than one hour, the least-squares slope of the hourly marks after the first hour
+    [MiB per hour of input] and what it implies over a day.
+    """
     from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
     from gear_phm.prognostics import HealthAssessor, HealthConfig
     from gear_phm.simulation import SimulationConfig, simulate
@@ -99,29 +106,39 @@ def logic(samples: int, rate: float) -> list[list[str]]:
     estimator = EstimatorPipeline(EstimatorConfig(ratio=ratio))
     health = HealthAssessor(HealthConfig(ratio=ratio))
     block = min(60_000, max(samples // 60, 1))  # one minute of 1 kHz samples per batch
-    ten_minutes = samples // 6                  # the 10-minute mark of the hour
+    ten_minutes = samples // 6                  # the 10-minute mark of the first hour
+    total = samples * hours
     marks = {0: rss_mib()}
+    hourly: list[float] = []
     start = time.perf_counter()
-    for first in range(0, samples, block):
-        t = (np.arange(first, min(first + block, samples)) / rate)
+    for first in range(0, total, block):
+        last = min(first + block, total, (first // samples + 1) * samples)
+        t = (np.arange(first, last) / rate)
         result = simulate(config, t)
         outputs = estimator.on_batch((t * 1e9).astype(np.int64) + 10**9, result.velocity_motor,
                                      result.effort_motor, result.velocity_load,
                                      result.effort_load)
         for estimate in outputs:
             health.on_estimate(estimate)
-        done = first + len(t)
-        if done >= ten_minutes and 'ten' not in marks:
+        if last >= ten_minutes and 'ten' not in marks:
             marks['ten'] = rss_mib()
-        if done == samples:
-            marks['end'] = rss_mib()
+        if last % samples == 0:
+            hourly.append(rss_mib())
     elapsed = time.perf_counter() - start
-    ten, hour = marks['ten'], marks['end']
-    return [['samples (1 kHz)', 'RSS [MiB]', 'growth vs 10-min mark'],
+    ten, hour = marks['ten'], hourly[0]
+    rows = [['samples (1 kHz)', 'RSS [MiB]', 'growth vs 10-min mark'],
             ['0 (start)', f'{marks[0]:.1f}', '-'],
             [f'{ten_minutes:,} (10 min)', f'{ten:.1f}', '0.0 %'],
-            [f'{samples:,} (1 h)', f'{hour:.1f}', f'{(hour - ten) / ten * 100:+.1f} %'],
-            ['run time', f'{elapsed:.1f} s', f'{samples / elapsed:,.0f} samples/s']]
+            [f'{samples:,} (1 h)', f'{hour:.1f}', f'{(hour - ten) / ten * 100:+.1f} %']]
+    for h, rss in enumerate(hourly[1:], start=2):
+        rows.append([f'{samples * h:,} ({h} h)', f'{rss:.1f}',
+                     f'{(rss - ten) / ten * 100:+.1f} %'])
+    if len(hourly) > 2:
+        slope = float(np.polyfit(np.arange(1, len(hourly) + 1), hourly, 1)[0])
+        rows.append(['slope after the first hour', f'{slope:+.3f} MiB/h',
+                     f'{24 * slope:+.1f} MiB/day'])
+    rows.append(['run time', f'{elapsed:.1f} s', f'{total / elapsed:,.0f} samples/s'])
+    return rows
 
 
 def nodes(rate: float, duration: float) -> list[list[str]]:
@@ -157,6 +174,8 @@ def main() -> int:
     parser.add_argument('--samples', type=int, nargs='+',
                         default=[300_000, 3_000_000, 10_000_000, 40_000_000],
                         help='analyze mode: bag sizes; logic mode: the first')
+    parser.add_argument('--hours', type=int, default=1,
+                        help='logic mode: hours of input (each --samples samples)')
     parser.add_argument('--tmp', default=None, help='analyze mode: where the bags go')
     parser.add_argument('--rate', type=float, default=2000.0, help='nodes mode input [Hz]')
     parser.add_argument('--duration', type=float, default=300.0, help='nodes mode [s]')
@@ -167,9 +186,10 @@ def main() -> int:
         append_section('Memory: peak RSS of offline analysis against bag length',
                        analyze(args.samples, args.tmp), out=out)
     if args.mode in ('logic', 'all'):
-        append_section("Memory: both nodes' code, one hour of 1 kHz input (in process)",
-                       logic(args.samples[0] if args.mode == 'logic' else 3_600_000, 1000.0),
-                       out=out)
+        hours = args.hours if args.mode == 'logic' else 1
+        append_section(f"Memory: both nodes' code, {hours} h of 1 kHz input (in process)",
+                       logic(args.samples[0] if args.mode == 'logic' else 3_600_000, 1000.0,
+                             hours), out=out)
     if args.mode in ('nodes', 'all'):
         append_section(f'Memory: node processes over DDS, {args.rate:.0f} Hz for '
                        f'{args.duration:.0f} s', nodes(args.rate, args.duration), out=out)
