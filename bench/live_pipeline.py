@@ -1,5 +1,7 @@
-"""Live throughput, CPU, idle cost and latency of the estimator over real DDS, each as a ratio
-to a bare rclpy subscriber with the same QoS and executor, measured in the same run.
+"""Live throughput, CPU, idle cost and latency of the estimator over real DDS.
+
+Each as a ratio to a bare rclpy subscriber with the same QoS and executor, measured in the same
+run.
 
 - **Throughput**: for each target (bare subscriber = baseline, estimator, estimator +
   diagnostics; on request ``'bare subscriber (serialized)'``, a raw subscription) and each
@@ -73,9 +75,11 @@ def load_average() -> str:
 
 
 class Observer:
-    """rclpy node in this process: reads /diagnostics counts and estimate latencies. It
-    spins an EventsExecutor, the lightest wake-up rclpy offers, so its own delay adds
-    little to the latency it measures."""
+    """rclpy node in this process: reads /diagnostics counts and estimate latencies.
+
+    It spins an EventsExecutor, the lightest wake-up rclpy offers, so its own delay adds little to
+    the latency it measures.
+    """
 
     def __init__(self) -> None:
         import rclpy

@@ -47,9 +47,11 @@ CLOCK = '/clock'
 
 
 def drive_topic(drive: str, topic: str) -> str:
-    """Return one drive's topic of many (issue 25): ``gear_phm/friction`` ->
-    ``gear_phm/<drive>/friction``, ``gear_phm/truth/friction`` -> ``gear_phm/<drive>/truth/
-    friction``."""
+    """Return one drive's topic of many (issue 25).
+
+    ``gear_phm/friction`` -> ``gear_phm/<drive>/friction``, ``gear_phm/truth/friction`` ->
+    ``gear_phm/<drive>/truth/friction``.
+    """
     head, slash, tail = topic.partition('/')
     return f'{head}/{drive}/{tail}' if slash else f'{drive}/{topic}'
 
@@ -157,8 +159,10 @@ def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vec
 
 
 def health_outputs(state: HealthState) -> tuple[Vector3Out, ...]:
-    """Return gear_phm/health/rul and gear_phm/health/efficiency of one health state
-    (:data:`HEALTH_LAYOUT`)."""
+    """Return gear_phm/health/rul and gear_phm/health/efficiency of one health state.
+
+    See :data:`HEALTH_LAYOUT`.
+    """
     outputs = []
     for topic, get in _HEALTH_GETTERS:
         x, y, z = get(state)
@@ -180,8 +184,10 @@ def vector3_columns(records: Sequence[Any], layout: Layout
 
 
 def vector3_stamped_cdr(output: Vector3Out) -> bytes:
-    """Little-endian CDR of a geometry_msgs/Vector3Stamped, packed directly (about 50 times
-    faster than the generic serializer; the tests check it is byte-identical)."""
+    """Little-endian CDR of a geometry_msgs/Vector3Stamped, packed directly.
+
+    About 50 times faster than the generic serializer; the tests check it is byte-identical.
+    """
     sec, nanosec = divmod(int(output.stamp_ns), 1_000_000_000)
     frame, packer = _vector3_packer(output.frame_id)
     return packer(b'\x00\x01\x00\x00', sec, nanosec, len(frame), frame, float(output.x),
@@ -274,8 +280,11 @@ def estimate_from_vectors(stamp_ns: int, vectors: dict[str, Any]) -> FrictionEst
 
 def sample_loss_output(stamp_ns: int, samples_missing: int, loss_ratio: float,
                        period_s: float | None, frame_id: str = '') -> Vector3Out:
-    """``gear_phm/sample_loss``: x = samples missing so far, y = share missing over the last
-    status period, z = expected sample period [s] (NaN before it is known)."""
+    """Return the ``gear_phm/sample_loss`` output.
+
+    x = samples missing so far, y = share missing over the last status period, z = expected
+    sample period [s] (NaN before it is known).
+    """
     return Vector3Out(SAMPLE_LOSS, stamp_ns, float(samples_missing), float(loss_ratio),
                       math.nan if period_s is None else float(period_s), frame_id)
 

@@ -1,6 +1,8 @@
-"""What BagReader accepts as a bag path, and what it says when it cannot read one: bare .db3
-and .mcap files are read; a cut-off MCAP file is called truncated with the recover advice,
-which no complete file gets."""
+"""What BagReader accepts as a bag path, and what it says when it cannot read one.
+
+Bare .db3 and .mcap files are read; a cut-off MCAP file is called truncated with the recover
+advice, which no complete file gets.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -69,8 +71,10 @@ def test_bare_mcap_is_read_without_recover_advice(tmp_path: Path) -> None:
 @pytest.mark.parametrize('layout', ['directory', 'bare file', 'directory without metadata'])
 def test_truncated_mcap_says_truncated_and_suggests_recover(tmp_path: Path,
                                                             layout: str) -> None:
-    """A recording killed before it closed: its .mcap has no footer. The error says so in
-    one line and names gear-phm recover."""
+    """A recording killed before it closed: its .mcap has no footer.
+
+    The error says so in one line and names gear-phm recover.
+    """
     bag = tmp_path / 'bag'
     shutil.copytree(HEALTHY, bag)
     mcap_file = next(bag.glob('*.mcap'))
@@ -94,8 +98,10 @@ def test_truncated_mcap_says_truncated_and_suggests_recover(tmp_path: Path,
 
 
 def test_complete_but_corrupt_mcap_gets_no_recover_advice(tmp_path: Path) -> None:
-    """A flipped byte inside a chunk of a complete file: an error naming the checksum, and
-    no advice to run recover (the file is not truncated)."""
+    """A flipped byte inside a chunk of a complete file: an error naming the checksum.
+
+    No advice to run recover is given (the file is not truncated).
+    """
     path = tmp_path / 'bad.mcap'
     with open(path, 'wb') as stream:
         writer = Writer(stream, chunk_size=4096)

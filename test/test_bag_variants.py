@@ -1,7 +1,10 @@
-"""The same recording stored differently gives the same estimate: bags/wearing rewritten with
-mcap's Writer with /joint_states on two channels (merged recordings, a second publisher with
-other QoS), and without chunk index or statistics, read through BagReader.raw_batches and fed
-to the estimator pipeline, give the original's u to 1e-9 from all 30 000 messages."""
+"""The same recording stored differently gives the same estimate.
+
+bags/wearing rewritten with mcap's Writer with /joint_states on two channels (merged
+recordings, a second publisher with other QoS), and without chunk index or statistics, read
+through BagReader.raw_batches and fed to the estimator pipeline, give the original's u to 1e-9
+from all 30 000 messages.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -33,9 +36,11 @@ def qos_yaml(reliability: int) -> str:
 
 
 def rewrite(directory: Path, split_channels: bool, **writer_args) -> Path:
-    """bags/wearing as a rosbag2 directory (its metadata.yaml, same file name) whose MCAP file
-    mcap's Writer wrote with ``writer_args``; with ``split_channels``, /joint_states messages
-    alternate between two channels that differ in their QoS."""
+    """Rewrite bags/wearing with mcap's Writer (``writer_args``) as a rosbag2 directory.
+
+    The directory has its metadata.yaml and the same file name; with ``split_channels``,
+    /joint_states messages alternate between two channels that differ in their QoS.
+    """
     directory.mkdir()
     source = next(WEARING.glob('*.mcap'))
     shutil.copy(WEARING / 'metadata.yaml', directory / 'metadata.yaml')
@@ -65,8 +70,10 @@ def rewrite(directory: Path, split_channels: bool, **writer_args) -> Path:
 
 
 def estimate(bag: Path) -> tuple[dict, str]:
-    """The estimator pipeline's summary after every /joint_states message, and how the bag
-    was read."""
+    """Run the estimator pipeline over the bag's /joint_states messages.
+
+    Returns the pipeline's summary after every /joint_states message, and how the bag was read.
+    """
     pipeline = EstimatorPipeline(EstimatorConfig(ratio=3.0))
     with BagReader(bag) as reader:
         topic = reader.require_topic('joint_states', interfaces.JOINT_STATE_TYPE)
@@ -110,8 +117,10 @@ def test_variant_gives_the_original_u(variants: dict[str, Path], original: dict,
 
 
 def test_variants_through_gear_phm_analyze(variants: dict[str, Path], tmp_path: Path) -> None:
-    """The same through the CLI users run: ``gear-phm analyze`` of each variant gives the
-    original bag's u and sigma to 1e-9 (summary.json)."""
+    """The same through the CLI users run: ``gear-phm analyze`` of each variant.
+
+    It gives the original bag's u and sigma to 1e-9 (summary.json).
+    """
     import json
 
     from gear_phm.cli.main import main

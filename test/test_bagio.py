@@ -1,5 +1,7 @@
-"""bagio: rosbag2 MCAP writing (mcap's Writer) read back by rosbags and by mcap's own reader;
-errors; the crash-safety contract (flushed chunks survive kill -9) and recovery."""
+"""bagio: rosbag2 MCAP writing (mcap's Writer) read back by rosbags and by mcap's own reader.
+
+Also errors; the crash-safety contract (flushed chunks survive kill -9) and recovery.
+"""
 from __future__ import annotations
 
 import math
@@ -94,8 +96,10 @@ def test_fast_vector3_cdr_matches_rosbags(frame_id: str) -> None:
                           st.lists(st.tuples(st.text(max_size=7), st.text(max_size=7)),
                                    max_size=4)), max_size=3))
 def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list) -> None:
-    """Every string length mod 4 (alignment), unicode, empty arrays and lists; packed alone
-    and, by numpy, among others (diagnostic_arrays_cdr)."""
+    """Every string length mod 4 (alignment), unicode, empty arrays and lists.
+
+    Packed alone and, by numpy, among others (diagnostic_arrays_cdr).
+    """
     from gear_phm.bagio.writer import diagnostic_array_cdr, diagnostic_arrays_cdr, to_rosbags
     output = DiagnosticsOut(stamp_ns, tuple(StatusOut(level, name, message, hardware_id,
                                                       tuple(values))
@@ -111,8 +115,10 @@ def test_fast_diagnostic_array_cdr_matches_rosbags(stamp_ns: int, statuses: list
 
 
 def test_writer_is_deterministic(tmp_path: Path) -> None:
-    """Same calls, same bytes: without a flush period no clock decides where chunks end (with
-    one, a slow machine closes chunks elsewhere)."""
+    """Same calls, same bytes: without a flush period no clock decides where chunks end.
+
+    With one, a slow machine closes chunks elsewhere.
+    """
     write_bag(tmp_path / 'a', 300, flush_period_s=None, chunk_size=4096)
     write_bag(tmp_path / 'b', 300, flush_period_s=None, chunk_size=4096)
     files_a = sorted(p.name for p in (tmp_path / 'a').iterdir())
@@ -243,9 +249,11 @@ def test_recover_cli(tmp_path: Path) -> None:
 @pytest.mark.parametrize('compression', [None, 'zstd', 'lz4'])
 def test_writer_output_is_read_by_mcap_with_crcs_and_summary(tmp_path: Path,
                                                              compression: str | None) -> None:
-    """Through mcap's reader with CRC validation: every message (any log-time order, any
-    payload), and a summary whose statistics and indexes agree with the data; a flush closes
-    the open chunk."""
+    """Through mcap's reader with CRC validation: every message, and a consistent summary.
+
+    Every message (any log-time order, any payload), and a summary whose statistics and indexes
+    agree with the data; a flush closes the open chunk.
+    """
     rng = np.random.default_rng(3)
     bag = tmp_path / 'bag'
     written = []

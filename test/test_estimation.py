@@ -23,7 +23,7 @@ CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
 
 
 def _topics(estimates: list) -> list:
-    """The estimator topics' records of each estimate, as the transports publish them."""
+    """Return the estimator topics' records of each estimate, as the transports publish them."""
     return [o for e in estimates for o in interfaces.estimate_outputs(e)]
 
 
@@ -289,9 +289,11 @@ def test_tracks_wear_ramp_and_detects_step() -> None:
 
 
 def test_filter_runs_on_operating_time_across_a_week_long_gap() -> None:
-    """Two recordings of a wearing plant, the second stamped 7 days later (issue 13): u after
-    the gap stays within 1 sigma of the same data without the gap (stamp time would predict
-    u + 5e-4 1/s * 7 days = u + 302), and the operating time is the moving time only."""
+    """Two recordings of a wearing plant, the second stamped 7 days later (issue 13).
+
+    u after the gap stays within 1 sigma of the same data without the gap (stamp time would
+    predict u + 5e-4 1/s * 7 days = u + 302), and the operating time is the moving time only.
+    """
     wear = lambda s: 0.1 + 5e-4 * s  # noqa: E731
     run = lever_plant(6, 240.0, wear, wear_clock='operating')
     week_ns = 7 * 86400 * 10**9
@@ -354,8 +356,11 @@ def test_backwards_stamps_reset_the_estimator_when_policy_is_reset() -> None:
 
 
 def test_sensor_timeout_is_flagged_publishes_nothing_and_live_equals_offline() -> None:
-    """A timeout is a status (WARN, counted once), not an output group: the open window is
-    closed by the next sample, as offline, so the outputs equal a run without on_silence."""
+    """A timeout is a status (WARN, counted once), not an output group.
+
+    The open window is closed by the next sample, as offline, so the outputs equal a run without
+    on_silence.
+    """
     run = lever_plant(4, 40.0, 0.1)
     pipeline = EstimatorPipeline(CONFIG)
     out = _feed(pipeline, run, 0, 10000)
@@ -384,7 +389,7 @@ def test_one_output_group_per_stamp() -> None:
 
 
 def _cdr(stamp_ns: int, names, velocity, effort) -> bytes:
-    """A serialized JointState (no positions)."""
+    """Return a serialized JointState (no positions)."""
     types = TYPESTORE.types
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     msg = types['sensor_msgs/msg/JointState'](
@@ -433,9 +438,11 @@ def test_config_validation_names_field_and_value() -> None:
 
 
 def test_process_noise_adapts_to_a_wear_rate_jump_and_stays_small_on_slow_wear() -> None:
-    """u's wear rate jumps from 0 to 5e-4 1/s at 200 s of operation: q rises by decades and
-    u tracks within 3 sigma soon after; on constant u, q falls below 1e-13 1/s^3 (prior
-    1e-11)."""
+    """The wear rate of u jumps from 0 to 5e-4 1/s at 200 s of operation.
+
+    q rises by decades and u tracks within 3 sigma soon after; on constant u, q falls below
+    1e-13 1/s^3 (prior 1e-11).
+    """
     jump = lambda s: 0.1 + 5e-4 * np.clip(s - 200.0, 0.0, None)  # noqa: E731
     run = lever_plant(3, 400.0, jump, wear_clock='operating')
     pipeline = EstimatorPipeline(CONFIG)

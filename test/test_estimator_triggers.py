@@ -1,6 +1,8 @@
-"""The estimator node's per-message callback, without DDS: it batches samples, yet processes
-each output as soon as the sample it is stamped with (or the next) has arrived, and the
-outputs equal one offline pass over the same samples."""
+"""The estimator node's per-message callback, without DDS.
+
+It batches samples, yet processes each output as soon as the sample it is stamped with (or
+the next) has arrived, and the outputs equal one offline pass over the same samples.
+"""
 from __future__ import annotations
 
 import types

@@ -1,7 +1,9 @@
-"""The live pipeline through real node processes over DDS: every sample of a 10 kHz burst is
-accounted for, stray stamps change nothing, a looping replay resets once per loop, and when
-the input stops the diagnostics node turns STALE in time with no stamp repeated on any output
-topic."""
+"""The live pipeline through real node processes over DDS.
+
+Every sample of a 10 kHz burst is accounted for, stray stamps change nothing, a looping
+replay resets once per loop, and when the input stops the diagnostics node turns STALE in
+time with no stamp repeated on any output topic.
+"""
 from __future__ import annotations
 
 from collections import Counter

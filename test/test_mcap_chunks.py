@@ -1,7 +1,10 @@
-"""The MCAP path of BagReader.raw_batches: exactly the messages that were written, per topic in
-log-time order (equal times in file order), from bags of several writers and writer options.
-Files the fast chunk reader cannot prove complete, and files whose own index contradicts their
-content (built record by record here), are read another way with the same answer."""
+"""The MCAP path of BagReader.raw_batches: exactly the messages that were written.
+
+Per topic in log-time order (equal times in file order), from bags of several writers and
+writer options. Files the fast chunk reader cannot prove complete, and files whose own index
+contradicts their content (built record by record here), are read another way with the same
+answer.
+"""
 from __future__ import annotations
 
 import io
@@ -50,7 +53,7 @@ def vector_cdr(i: int) -> bytes:
 
 
 def interleaved(count: int, order: np.ndarray | None = None) -> Messages:
-    """JointState at 1 kHz with a Vector3Stamped every 10th message, log times distinct."""
+    """Return JointState at 1 kHz with a Vector3Stamped every 10th message, log times distinct."""
     messages = []
     for i in range(count):
         t_ns = 10**9 + i * 10**6
@@ -63,7 +66,7 @@ def interleaved(count: int, order: np.ndarray | None = None) -> Messages:
 
 
 def written(messages: Messages) -> dict[str, list[tuple[int, bytes]]]:
-    """What a conforming reader gives: per topic, by log time, equal times in file order."""
+    """Return what a conforming reader gives: per topic, by log time, equal times in file order."""
     out: dict[str, list[tuple[int, bytes]]] = {}
     for topic, t_ns, data in messages:
         out.setdefault(topic, []).append((t_ns, data))
@@ -96,9 +99,11 @@ def qos_yaml(reliability: int) -> str:
 
 def write_mcap(path: Path, messages: Messages, channels_per_topic: int = 1,
                **writer_args) -> Path:
-    """A bare .mcap file written with mcap's Writer (``writer_args`` choose chunk size,
-    compression, indexes, statistics); message k of a topic goes to its channel
-    k % channels_per_topic (channels differ in their QoS metadata)."""
+    """Write a bare .mcap file with mcap's Writer.
+
+    ``writer_args`` choose chunk size, compression, indexes, statistics; message k of a topic
+    goes to its channel k % channels_per_topic (channels differ in their QoS metadata).
+    """
     with open(path, 'wb') as stream:
         writer = Writer(stream, **writer_args)
         writer.start(profile='ros2', library='test')
@@ -123,7 +128,7 @@ def write_mcap(path: Path, messages: Messages, channels_per_topic: int = 1,
 def craft_mcap(path: Path, chunks: list[Messages], *, unindexed: frozenset = frozenset(),
                statistics: str = 'indexed', index_chunks: bool | list[bool] = True,
                loose: Messages = (), start_ns: dict[int, int] | None = None) -> Path:
-    """An MCAP file built record by record, uncompressed, to contradict itself on purpose.
+    """Build an MCAP file record by record, uncompressed, to contradict itself on purpose.
 
     ``chunks``: the messages of each chunk. ``unindexed``: (chunk, position) pairs left out of
     the message indexes. ``statistics``: 'indexed' counts what the indexes list, 'content'
@@ -221,8 +226,10 @@ def test_gear_phm_writer_bag_is_read_exactly(tmp_path: Path) -> None:
                                            (StoragePlugin.SQLITE3, 'rosbags')])
 def test_rosbags_writer_bags_are_read_exactly(tmp_path: Path, storage: StoragePlugin,
                                               kind: str) -> None:
-    """Bags from an independent writer (rosbags): its MCAP takes the chunk path, sqlite3
-    goes through rosbags; both give what was written."""
+    """Bags from an independent writer (rosbags), MCAP and sqlite3, give what was written.
+
+    Its MCAP takes the chunk path, sqlite3 goes through rosbags.
+    """
     bag = tmp_path / 'bag'
     messages = interleaved(2000)
     with Ros2Writer(bag, version=9, storage_plugin=storage) as writer:
@@ -251,9 +258,11 @@ def test_rosbags_writer_bags_are_read_exactly(tmp_path: Path, storage: StoragePl
     f'{k}={getattr(v, "name", v)}' for k, v in value.items()))
 def test_mcap_writer_options_give_every_message(tmp_path: Path, options: dict,
                                                 kind: str) -> None:
-    """A bare .mcap file from mcap's Writer with each option that drops an index: the chunk
-    reader reads it when it can prove the answer complete, mcap's reader otherwise; the
-    messages are those written either way."""
+    """A bare .mcap file from mcap's Writer with each option that drops an index.
+
+    The chunk reader reads it when it can prove the answer complete, mcap's reader otherwise;
+    the messages are those written either way.
+    """
     messages = interleaved(1500)
     path = write_mcap(tmp_path / 'bag.mcap', messages, chunk_size=4096, **options)
     result, used = fast(path)
@@ -280,8 +289,10 @@ def test_out_of_order_and_overlapping_chunks_come_out_in_log_time_order(tmp_path
 @pytest.mark.parametrize('shuffle', [False, True])
 def test_two_channels_of_one_topic_are_merged_in_log_time_order(tmp_path: Path,
                                                                 shuffle: bool) -> None:
-    """A topic on two channels (merged recordings, a second publisher with other QoS):
-    one stream in log-time order, never going back in time."""
+    """A topic on two channels (merged recordings, a second publisher with other QoS).
+
+    It comes out as one stream in log-time order, never going back in time.
+    """
     rng = np.random.default_rng(11)
     count = 3000
     order = None
@@ -296,8 +307,10 @@ def test_two_channels_of_one_topic_are_merged_in_log_time_order(tmp_path: Path,
 
 
 def test_equal_log_times_across_chunks_keep_file_order(tmp_path: Path) -> None:
-    """Many messages share each log time and chunks split such groups: equal times come
-    out in file order, as mcap's own reader orders them."""
+    """Many messages share each log time and chunks split such groups.
+
+    Equal times come out in file order, as mcap's own reader orders them.
+    """
     messages = [('/joint_states', 10**9 + (i // 7) * 10**6, joint_state_cdr(i))
                 for i in range(700)]
     path = write_mcap(tmp_path / 'bag.mcap', messages, chunk_size=1000, channels_per_topic=3)
@@ -307,8 +320,10 @@ def test_equal_log_times_across_chunks_keep_file_order(tmp_path: Path) -> None:
 
 
 def test_bag_split_over_two_files_is_merged(tmp_path: Path) -> None:
-    """A directory of .mcap files without metadata.yaml (a split recording): the files are
-    read together, one log-time ordered stream per topic."""
+    """A directory of .mcap files without metadata.yaml (a split recording).
+
+    The files are read together, one log-time ordered stream per topic.
+    """
     messages = interleaved(1200)
     bag = tmp_path / 'split'
     bag.mkdir()
@@ -320,8 +335,10 @@ def test_bag_split_over_two_files_is_merged(tmp_path: Path) -> None:
 
 
 def test_metadata_counts_that_disagree_with_the_index_are_not_trusted(tmp_path: Path) -> None:
-    """metadata.yaml says /joint_states has more messages than the file's index lists: the
-    file is read in full instead of trusting the index."""
+    """metadata.yaml says /joint_states has more messages than the file's index lists.
+
+    The file is read in full instead of trusting the index.
+    """
     bag = tmp_path / 'bag'
     messages = interleaved(500)
     with Ros2Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
@@ -359,8 +376,10 @@ def chunked(messages: Messages, size: int) -> list[Messages]:
 
 
 def test_message_left_out_of_the_index_is_read_from_the_chunk(tmp_path: Path) -> None:
-    """No statistics to check the index against: every chunk is read, and a message that
-    its message index misses is found among the chunk's records."""
+    """No statistics to check the index against: every chunk is read.
+
+    A message that its message index misses is found among the chunk's records.
+    """
     messages = interleaved(400)
     path = craft_mcap(tmp_path / 'f.mcap', chunked(messages, 100),
                       unindexed=frozenset({(2, 17), (3, 0)}), statistics='none')
@@ -373,8 +392,7 @@ def test_message_left_out_of_the_index_is_read_from_the_chunk(tmp_path: Path) ->
                                   'message outside chunks', 'start time too late'])
 def test_index_that_disagrees_with_the_content_is_not_trusted(tmp_path: Path,
                                                               case: str) -> None:
-    """The chunk reader declines before yielding anything, and mcap's reader gives every
-    message."""
+    """The chunk reader declines before yielding anything; mcap's reader gives every message."""
     messages = interleaved(400)
     chunks = chunked(messages, 100)
     loose: Messages = []
@@ -399,9 +417,11 @@ def test_index_that_disagrees_with_the_content_is_not_trusted(tmp_path: Path,
 @pytest.mark.parametrize('chunk, kind', [(0, 'mcap-scan'), (2, 'mcap-chunks+scan')])
 def test_message_index_that_points_wrong_falls_back(tmp_path: Path, chunk: int,
                                                     kind: str) -> None:
-    """A message index entry whose log time differs from its message's. Found in the first
-    chunk: nothing was yielded, mcap's reader reads the file. Found later: mcap's reader
-    continues after the messages already given, once it agrees with them."""
+    """A message index entry whose log time differs from its message's.
+
+    Found in the first chunk: nothing was yielded, mcap's reader reads the file. Found later:
+    mcap's reader continues after the messages already given, once it agrees with them.
+    """
     messages = interleaved(1000)
     path = write_mcap(tmp_path / 'bag.mcap', messages, chunk_size=8192,
                       compression=CompressionType.ZSTD)
@@ -430,8 +450,10 @@ def test_bare_files_of_other_kinds_are_declined_not_misread(tmp_path: Path) -> N
 
 
 def test_chunk_reader_is_as_good_as_mcap_on_a_random_file(tmp_path: Path) -> None:
-    """Random channels, payload sizes and log times (with repeats), compared with mcap's own
-    reader in log-time order."""
+    """Random channels, payload sizes and log times (with repeats).
+
+    Compared with mcap's own reader in log-time order.
+    """
     from mcap.reader import make_reader
     rng = np.random.default_rng(3)
     stream = io.BytesIO()
@@ -457,8 +479,10 @@ def test_chunk_reader_is_as_good_as_mcap_on_a_random_file(tmp_path: Path) -> Non
 
 
 def test_rosbags_reads_after_raw_batches_released_its_index(tmp_path: Path) -> None:
-    """raw_batches frees rosbags' chunk index while it reads (the fast reader has its own);
-    raw_messages on the same open bag has rosbags read it again: every message, in order."""
+    """raw_batches frees rosbags' chunk index while it reads (the fast reader has its own).
+
+    raw_messages on the same open bag has rosbags read it again: every message, in order.
+    """
     messages = interleaved(400)
     bag = write_mcap(tmp_path / 'bag.mcap', messages, chunk_size=4000)
     with BagReader(bag) as reader:

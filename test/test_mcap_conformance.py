@@ -1,8 +1,10 @@
-"""The MCAP project's conformance inputs (``../shared/mcap-conformance``): for every file, the
-package's MCAP reading (chunk reader, mcap's reader where it declines) gives exactly the
-messages the file's JSON lists, per channel in log-time order; the chunk reader alone either
-gives exactly them or declines, and it does answer for chunked files with indexes and
-channels in the summary."""
+"""The MCAP project's conformance inputs (``../shared/mcap-conformance``).
+
+For every file, the package's MCAP reading (chunk reader, mcap's reader where it declines)
+gives exactly the messages the file's JSON lists, per channel in log-time order; the chunk
+reader alone either gives exactly them or declines, and it does answer for chunked files with
+indexes and channels in the summary.
+"""
 from __future__ import annotations
 
 import json
@@ -15,8 +17,10 @@ from helpers import conformance
 
 
 def expected_messages(path: Path) -> dict[str, list[tuple[int, bytes]]]:
-    """Per topic, the (log time, data) of the JSON's Message records, by log time (equal
-    times in file order). Each topic has one channel in this suite (checked)."""
+    """Per topic, the (log time, data) of the JSON's Message records, by log time.
+
+    Equal times in file order. Each topic has one channel in this suite (checked).
+    """
     records = json.loads(path.with_suffix('.json').read_text())['records']
     topics: dict[int, str] = {}
     out: dict[str, list[tuple[int, bytes]]] = {}

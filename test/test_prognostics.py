@@ -136,9 +136,11 @@ def test_status_key_values_exact_keys_and_inf() -> None:
 
 
 def _linear_wear(utilisation: float, gap: float = 0.0) -> HealthAssessor:
-    """Assessor after u = 0.05 + 1.5e-4 s (s: operating time [s]) estimated every 10 s of
-    operation, each step taking 10 / ``utilisation`` s of stamp time, and a stamp gap of
-    ``gap`` [s] without operation halfway; WARN below 3000 s of RUL."""
+    """Assessor after linear wear u = 0.05 + 1.5e-4 s (s: operating time [s]).
+
+    Estimated every 10 s of operation, each step taking 10 / ``utilisation`` s of stamp time,
+    and a stamp gap of ``gap`` [s] without operation halfway; WARN below 3000 s of RUL.
+    """
     monitor = HealthAssessor(HealthConfig(warn_horizon=3000.0, eta_warn=0.6, level_dwell=0.0))
     for k, s in enumerate(np.arange(0.0, 2000.0, 10.0)):
         t = s / utilisation + (gap if k >= 100 else 0.0)
@@ -149,9 +151,11 @@ def _linear_wear(utilisation: float, gap: float = 0.0) -> HealthAssessor:
 
 
 def test_rul_runs_on_operating_time_and_converts_by_the_utilisation() -> None:
-    """Issue 13: the fit runs on operating time, so rul_operating is the same whatever the
-    stamps; rul (elapsed time) = rul_operating / utilisation, here 0.25 (and a week-long idle
-    gap lowers it to operating / elapsed over the whole history)."""
+    """Issue 13: the fit runs on operating time, so rul_operating is the same whatever the stamps.
+
+    rul (elapsed time) = rul_operating / utilisation, here 0.25 (and a week-long idle gap lowers
+    it to operating / elapsed over the whole history).
+    """
     full, quarter = _linear_wear(1.0).latest, _linear_wear(0.25).latest
     assert full is not None and quarter is not None
     # u_eol 0.6 (eta_opposing_min 0.5, R 3) at s = 3666.7 s; the newest estimate is at 1990 s
@@ -253,8 +257,10 @@ def test_metrics_inputs_validated_and_infinite_predictions() -> None:
 
 # --- acceptance: alpha-lambda on simulated wear through the real filter ----------------------
 def _run(kind: str, seed: int) -> dict:
-    """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s,
-    filtered by the estimator's FrictionFilter, scored from t_start = 60 s."""
+    """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s.
+
+    Filtered by the estimator's FrictionFilter, scored from t_start = 60 s.
+    """
     monitor = HealthAssessor(HealthConfig(mc_samples=500))
     wear = Wear.reaching(kind, 0.05, monitor.u_eol, 3600.0, exponent=3.0)
     kf = FrictionFilter(0.05, 0.5, 1e-3, 1e-12, 10.83, 3)
@@ -282,10 +288,12 @@ def _run(kind: str, seed: int) -> dict:
 @pytest.mark.parametrize('seed', [0, 1, 2])
 def test_alpha_lambda_passes_at_three_quarter_life_and_the_band_holds(kind: str,
                                                                       seed: int) -> None:
-    """Whole-history fit, no tuning. At half life exponential and power-law (p = 3) wear are
-    not always told apart through this slow filter (process_noise 1e-12): the median can be
-    off by more than alpha, but the p5-p95 band holds the true RUL. (At 3/4 of life the band
-    is a few % wide and the filter's lag, which P does not carry, can put the truth outside.)
+    """Whole-history fit, no tuning.
+
+    At half life exponential and power-law (p = 3) wear are not always told apart through this
+    slow filter (process_noise 1e-12): the median can be off by more than alpha, but the p5-p95
+    band holds the true RUL. (At 3/4 of life the band is a few % wide and the filter's lag, which
+    P does not carry, can put the truth outside.)
     """
     result = _run(kind, seed)
     checks = {check['lam']: check for check in result['alpha_lambda']}
@@ -335,8 +343,10 @@ def test_end_of_life_on_the_opposing_reading_when_the_directions_disagree() -> N
 
 
 def test_utilisation_is_measured_from_the_first_update_with_operating_time() -> None:
-    """A first update without operating time (lost to a callback race, or an older estimator)
-    does not count as motion: the utilisation of a gearbox moving half the time is 0.5.
+    """A first update without operating time does not count as motion.
+
+    Its operating time is lost to a callback race, or it comes from an older estimator: the
+    utilisation of a gearbox moving half the time is 0.5.
 
     Measured in the suite (test_diagnostics_node.py, live node): 0.5013 while the first
     interval was taken as motion throughout.

@@ -1,7 +1,9 @@
-"""``gear-phm recover``: damaged chunks dropped and reported (never re-checksummed), every
-other record kept (schemas, schemaless channels, attachments, metadata), originals kept,
-non-MCAP input refused with one line, and the "run gear-phm recover" advice only for files
-that really lack their footer or summary."""
+"""``gear-phm recover``: damaged chunks dropped and reported (never re-checksummed).
+
+Every other record kept (schemas, schemaless channels, attachments, metadata), originals
+kept, non-MCAP input refused with one line, and the "run gear-phm recover" advice only for
+files that really lack their footer or summary.
+"""
 from __future__ import annotations
 
 import io
@@ -50,8 +52,10 @@ def clean_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def rechunked(source: Path, out: Path, exclude: set[tuple[str, int, int]]) -> None:
-    """Copy the bag ``source`` to ``out`` in 64 KiB chunks, without the messages whose
-    (topic, log time, sequence) is in ``exclude``."""
+    """Copy the bag ``source`` to ``out`` in 64 KiB chunks.
+
+    The messages whose (topic, log time, sequence) is in ``exclude`` are left out.
+    """
     [mcap_file] = source.glob('*.mcap')
     with open(mcap_file, 'rb') as stream, \
             Rosbag2McapWriter(out, chunk_size=1 << 16, flush_period_s=None) as writer:
@@ -218,8 +222,11 @@ def test_conformance_file_is_intact_and_its_cut_copy_recovers_every_record(
 
 
 def test_schemaless_and_attachment_files(tmp_path: Path) -> None:
-    """The two cases by name: through the CLI, a schemaless channel (no traceback, nothing
-    rewritten in place) and an attachment come out as the JSON lists them."""
+    """The two cases by name, through the CLI: a schemaless channel and an attachment.
+
+    Both come out as the JSON lists them; the schemaless channel without traceback and with
+    nothing rewritten in place.
+    """
     suite = conformance.require()
     for name in ('OneSchemalessMessage/OneSchemalessMessage-ch-chx-mx-st-sum',
                  'OneAttachment/OneAttachment-ax-st-sum'):

@@ -1,6 +1,8 @@
-"""Stamp screening and loss counting (gear_phm.estimation.stamps) through the pipeline: stray
-stamps are dropped and counted without touching the estimate, runs reset or are accepted,
-gaps are counted as samples_missing, for any batch split."""
+"""Stamp screening and loss counting (gear_phm.estimation.stamps) through the pipeline.
+
+Stray stamps are dropped and counted without touching the estimate, runs reset or are
+accepted, gaps are counted as samples_missing, for any batch split.
+"""
 from __future__ import annotations
 
 from hypothesis import given, settings
@@ -34,13 +36,18 @@ def _feed(pipeline: EstimatorPipeline, columns, cuts=()) -> list:
 
 
 def _insert(columns, at: int, stamp: int):
-    """The stream with one extra sample stamped ``stamp`` (values of sample ``at``) before
-    sample ``at``."""
+    """Return the stream with one extra sample stamped ``stamp`` before sample ``at``.
+
+    The extra sample has the values of sample ``at``.
+    """
     return [np.insert(c, at, stamp if k == 0 else c[at]) for k, c in enumerate(columns)]
 
 
 def _same(got, expected) -> bool:
-    """Same stamps; u and covariance equal up to float rounding of the batch split."""
+    """Return whether ``got`` matches ``expected``.
+
+    Same stamps; u and covariance equal up to float rounding of the batch split.
+    """
     return [e.stamp_ns for e in got] == [e.stamp_ns for e in expected] and np.allclose(
         [(e.u, *e.covariance) for e in got], [(e.u, *e.covariance) for e in expected],
         rtol=1e-9, atol=1e-15)
@@ -206,8 +213,11 @@ def test_screen_decisions_do_not_depend_on_batch_split(cuts: list[int]) -> None:
 
 
 def test_heavy_bursty_loss_is_counted_once_never_as_rejected_too() -> None:
-    """Loss that leaves gaps longer than the jump limit again and again (an overloaded node
-    at 10 kHz): every gap is counted missing, no received sample is dropped."""
+    """Loss that leaves gaps longer than the jump limit again and again.
+
+    As in an overloaded node at 10 kHz: every gap is counted missing, no received sample is
+    dropped.
+    """
     stamps = _stamps((1.0, 1e-4), (3.0, 1e-4))
     rng = np.random.default_rng(4)
     keep = np.ones(stamps.size, dtype=bool)

@@ -51,14 +51,19 @@ class IndexMismatch(NotIndexed):
 
 
 class CorruptChunk(GearPhmError):
-    """A chunk or record is damaged (checksum, bounds, record types): no reader should trust
-    its bytes."""
+    """A chunk or record is damaged (checksum, bounds, record types).
+
+    No reader should trust its bytes.
+    """
 
 
 @dataclass(frozen=True)
 class RawBatch:
-    """Messages of one topic: payload ``i`` is ``buffer[offsets[i]:offsets[i] + lengths[i]]``,
-    logged at ``log_time_ns[i]`` [ns]. Ordered by log time."""
+    """Messages of one topic, ordered by log time.
+
+    Payload ``i`` is ``buffer[offsets[i]:offsets[i] + lengths[i]]``, logged at
+    ``log_time_ns[i]`` [ns].
+    """
 
     topic: str
     log_time_ns: np.ndarray
@@ -86,7 +91,7 @@ class RawBatch:
         return cls(topic, times, b''.join(raw for _, raw in messages), offsets, lengths)
 
     def take(self, index: np.ndarray) -> RawBatch:
-        """The messages at ``index``, copied into a compact buffer of their own."""
+        """Return the messages at ``index``, copied into a compact buffer of their own."""
         offsets, lengths = self.offsets[index], self.lengths[index]
         starts = np.zeros(index.size, dtype=np.int64)
         np.cumsum(lengths[:-1], out=starts[1:])
@@ -222,8 +227,10 @@ class _ChunkTable:
         self.counts = np.zeros(cids.size, dtype=np.int64)
 
     def entries(self, row: int) -> slice:
-        """Where the channels of chunk ``row`` are in :attr:`cids`, :attr:`offsets` and
-        :attr:`counts`."""
+        """Return where the channels of chunk ``row`` are.
+
+        They are at this slice of :attr:`cids`, :attr:`offsets` and :attr:`counts`.
+        """
         first = self.columns['first_entry']
         return slice(int(first[row]), int(first[row + 1]) if row + 1 < first.size
                      else int(self.cids.size))
@@ -242,8 +249,10 @@ class _ChunkTable:
 
 
 def _walk(data: bytes, start: int, end: int, where: str) -> Iterator[tuple[int, int, int]]:
-    """(op, record offset, body length) of the records in ``data[start:end]``; CorruptChunk
-    when one overruns ``end``."""
+    """(op, record offset, body length) of the records in ``data[start:end]``.
+
+    CorruptChunk when one overruns ``end``.
+    """
     try:
         yield from records(data, start, end)
     except FormatError as exc:
@@ -251,7 +260,7 @@ def _walk(data: bytes, start: int, end: int, where: str) -> Iterator[tuple[int, 
 
 
 def _channel_topic(body: bytes) -> str | None:
-    """The topic of the Channel record ``body``, None when it does not parse."""
+    """Return the topic of the Channel record ``body``, None when it does not parse."""
     try:
         channel = parse_record(Opcode.CHANNEL, body)
     except FormatError:
@@ -295,8 +304,10 @@ class McapChunkReader:
         self.close()
 
     def message_counts(self, topics: Iterable[str]) -> dict[str, int] | None:
-        """Messages per topic that the indexes list, or None when a chunk has no message
-        index (then the count is only known after reading)."""
+        """Return the messages per topic that the indexes list.
+
+        None when a chunk has no message index (then the count is only known after reading).
+        """
         if self._counts is None:
             return None
         return {topic: self._counts.get(topic, 0) for topic in topics}
@@ -358,9 +369,11 @@ class McapChunkReader:
 
     @staticmethod
     def _read_summary(table: _ChunkTable, summary_start: int) -> Statistics | None:
-        """Read the summary section record by record into ``table`` (its chunk indexes and
-        channels); return its statistics. NotIndexed when it does not parse or lacks chunk
-        indexes or channels."""
+        """Read the summary section record by record into ``table``; return its statistics.
+
+        ``table`` gets the section's chunk indexes and channels. NotIndexed when it does not parse
+        or lacks chunk indexes or channels.
+        """
         from mcap.exceptions import McapError
         from mcap.stream_reader import StreamReader
 
@@ -388,8 +401,11 @@ class McapChunkReader:
 
     @staticmethod
     def _check_data_section(table: _ChunkTable, summary_start: int) -> None:
-        """No message, chunk or stray message index outside the indexed chunks, and every
-        channel record agrees with the summary (reads only the records between chunks)."""
+        """Check the records between the indexed chunks against the summary.
+
+        No message, chunk or stray message index outside the indexed chunks, and every channel
+        record agrees with the summary (reads only the records between chunks).
+        """
         path, stream, topics = table.path, table.stream, table.topics
         at = 8
         first = True
@@ -433,8 +449,11 @@ class McapChunkReader:
 
     @staticmethod
     def _check_message_indexes(chunk: _Chunk, topics: dict[int, str]) -> dict[int, int]:
-        """The message index records after ``chunk`` are those its chunk index lists, with
-        log times inside its time range; return the indexed messages per channel."""
+        """Check the message indexes after ``chunk``; return the indexed messages per channel.
+
+        The message index records after ``chunk`` must be those its chunk index lists, with log
+        times inside its time range.
+        """
         start = chunk.start_offset + chunk.length
         chunk.stream.seek(start)
         region = chunk.stream.read(chunk.index_length)
@@ -471,8 +490,10 @@ class McapChunkReader:
     # --- reading ---------------------------------------------------------------------------
 
     def _plan(self, wanted: set[str]) -> list[tuple[_ChunkTable, np.ndarray]]:
-        """The chunks to read for topics ``wanted``: (table, rows) in (start time, number)
-        order, one pair per run of rows from one file."""
+        """Return the chunks to read for topics ``wanted``, in (start time, number) order.
+
+        As (table, rows) pairs, one pair per run of rows from one file.
+        """
         numbers, starts, keep = [], [], []
         for table in self._tables:
             ids = [cid for cid, topic in table.topics.items() if topic in wanted]
@@ -497,16 +518,20 @@ class McapChunkReader:
                 for part, rows in zip(np.split(which, cut), np.split(order, cut))]
 
     def _chunks(self, wanted: set[str]) -> Iterator[tuple[_Chunk, dict[int, str]]]:
-        """The chunks to read for topics ``wanted`` in (start time, number) order, with their
-        channels of ``wanted`` topics."""
+        """Yield the chunks to read for topics ``wanted`` in (start time, number) order.
+
+        Each with its channels of ``wanted`` topics.
+        """
         for table, rows in self._plan(wanted):
             channels = {cid: topic for cid, topic in table.topics.items() if topic in wanted}
             for row in rows.tolist():
                 yield table.chunk(row), channels
 
     def batches(self, topics: Iterable[str]) -> Iterator[RawBatch]:
-        """RawBatch per topic and chunk, in log-time order per topic (a message that a later
-        chunk could precede is held back and merged into that chunk's batch)."""
+        """Yield a RawBatch per topic and chunk, in log-time order per topic.
+
+        A message that a later chunk could precede is held back and merged into that chunk's batch.
+        """
         chunks = self._chunks(set(topics))
         carry: dict[str, _Part] = {}
         upcoming = next(chunks, None)
@@ -533,9 +558,11 @@ class McapChunkReader:
             yield part.batch
 
     def _read(self, chunk: _Chunk, channels: dict[int, str]) -> dict[str, _Part]:
-        """The messages of ``channels`` in one chunk, per topic, sorted by (log time, file
-        order). The message indexes are checked against the records they point at, and the
-        records must tile the chunk; messages the index missed are read from the chunk."""
+        """Return the messages of ``channels`` in one chunk, per topic, by (log time, file order).
+
+        The message indexes are checked against the records they point at, and the records must
+        tile the chunk; messages the index missed are read from the chunk.
+        """
         indexes, data = self._decompressed(chunk)
         parts_cid, parts_time, parts_offset = [], [], []
         base = chunk.start_offset + chunk.length
@@ -593,9 +620,11 @@ class McapChunkReader:
     @staticmethod
     def _unindexed(chunk: _Chunk, data: bytes, records: np.ndarray,
                    lengths: np.ndarray) -> list[tuple[int, int, int, int]]:
-        """Check that the indexed message records and the records between them tile the
-        chunk; return the messages that no index lists as (channel, log time, record
-        offset, record length)."""
+        """Check that the indexed message records and the records between them tile the chunk.
+
+        Return the messages that no index lists as (channel, log time, record offset, record
+        length).
+        """
         if records.size:
             order = np.argsort(records, kind='stable') if (np.diff(records) < 0).any() \
                 else np.arange(records.size)
@@ -665,9 +694,11 @@ class McapChunkReader:
 
 def scan_batches(paths: Iterable[str | Path], topics: Iterable[str],
                  batch_size: int = 20000) -> Iterator[RawBatch]:
-    """Every message of ``topics`` in ``paths``, read linearly with mcap's own reader (chunk
-    checksums checked), per topic in log-time order with equal times in file order. Needs no
-    index or summary; holds the wanted messages in memory to sort them."""
+    """Yield every message of ``topics`` in ``paths``, read linearly with mcap's own reader.
+
+    Chunk checksums are checked; per topic in log-time order with equal times in file order.
+    Needs no index or summary; holds the wanted messages in memory to sort them.
+    """
     from mcap.reader import NonSeekingReader
 
     wanted = set(topics)
@@ -699,8 +730,10 @@ def scan_batches(paths: Iterable[str | Path], topics: Iterable[str],
 
 
 class _Fingerprint:
-    """Count, log times and sizes of the messages of one topic yielded so far (to check that
-    a fallback reader agrees with what the fast reader already gave)."""
+    """Count, log times and sizes of the messages of one topic yielded so far.
+
+    To check that a fallback reader agrees with what the fast reader already gave.
+    """
 
     def __init__(self) -> None:
         self.count = 0
@@ -717,11 +750,13 @@ class _Fingerprint:
 
 
 class McapBatchReader:
-    """Raw batches from MCAP files: :class:`McapChunkReader` when it can prove its answer,
-    else mcap's linear reader (:func:`scan_batches`). :attr:`kind` says which was used:
-    'mcap-chunks', 'mcap-scan', or 'mcap-chunks+scan' when a chunk contradicted its index
-    after batches were yielded (the scan then continues where the fast reader stopped,
-    after checking that it agrees with what was yielded); :attr:`reason` why it fell back.
+    """Raw batches from MCAP files, by the fast chunk reader or else mcap's linear reader.
+
+    :class:`McapChunkReader` when it can prove its answer, else mcap's linear reader
+    (:func:`scan_batches`). :attr:`kind` says which was used: 'mcap-chunks', 'mcap-scan', or
+    'mcap-chunks+scan' when a chunk contradicted its index after batches were yielded (the scan
+    then continues where the fast reader stopped, after checking that it agrees with what was
+    yielded); :attr:`reason` why it fell back.
     """
 
     def __init__(self, paths: Iterable[str | Path]) -> None:
@@ -731,9 +766,11 @@ class McapBatchReader:
 
     def batches(self, topics: Iterable[str], batch_size: int = 20000,
                 expected: Mapping[str, int] | None = None) -> Iterator[RawBatch]:
-        """RawBatches of ``topics``, per topic in log-time order. ``expected``: message
-        counts per topic known from elsewhere (rosbag2 metadata); indexes that count
-        differently are not trusted."""
+        """Yield the RawBatches of ``topics``, per topic in log-time order.
+
+        ``expected``: message counts per topic known from elsewhere (rosbag2 metadata); indexes
+        that count differently are not trusted.
+        """
         wanted = sorted(set(topics))
         try:
             reader = McapChunkReader(self.paths)
@@ -772,8 +809,10 @@ class McapBatchReader:
 
 def _resume(batches: Iterator[RawBatch], given: dict[str, _Fingerprint],
             reason: str) -> Iterator[RawBatch]:
-    """``batches`` without the messages already yielded per topic (``given``), after checking
-    that they are the same messages."""
+    """Yield ``batches`` without the messages already yielded per topic (``given``).
+
+    Checks first that they are the same messages.
+    """
     seen = {topic: _Fingerprint() for topic in given}
     for batch in batches:
         done, check = given[batch.topic], seen[batch.topic]

@@ -36,9 +36,11 @@ def _to_jazzy(value: Any) -> Any:
 
 
 class _CompactChunks:
-    """rosbags' chunk index of one MCAP file (``McapReader.chunks``) kept as integer columns,
-    about 150 bytes a chunk instead of about 1 KB of ChunkInfo objects and dicts (12 MB for
-    40M samples of 1 kHz); iterating makes the ChunkInfo records again."""
+    """rosbags' chunk index of one MCAP file (``McapReader.chunks``) kept as integer columns.
+
+    About 150 bytes a chunk instead of about 1 KB of ChunkInfo objects and dicts (12 MB for 40M
+    samples of 1 kHz); iterating makes the ChunkInfo records again.
+    """
 
     def __init__(self) -> None:
         self._fields = array('Q')       # per chunk: the 7 integer fields of _INTS
@@ -92,8 +94,10 @@ class _CompactMcapReader(McapReader):
 
 
 def _compact_chunk_indexes(reader: AnyReader) -> None:
-    """Have rosbags keep the chunk indexes of ``reader``'s MCAP files compactly (before
-    ``open``; per instance, rosbags' classes are left as they are)."""
+    """Have rosbags keep the chunk indexes of ``reader``'s MCAP files compactly.
+
+    Before ``open``; per instance, rosbags' classes are left as they are.
+    """
     for bag in reader.readers:
         storage = getattr(bag, 'storage', None)
         if isinstance(storage, McapReader) and not storage.chunks:
@@ -113,8 +117,11 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
-    """A BagError with the recover advice if one of ``files`` (MCAP) really lacks its
-    footer or summary (:func:`gear_phm.bagio.recover_scan.unfinished`), else None."""
+    """Return a BagError with the recover advice, or None.
+
+    The error if one of ``files`` (MCAP) really lacks its footer or summary
+    (:func:`gear_phm.bagio.recover_scan.unfinished`), else None.
+    """
     for file in sorted(files):
         reason = unfinished(file) if file.suffix == '.mcap' else None
         if reason:
@@ -125,8 +132,11 @@ def _truncation_error(bag: Path, files: Iterable[Path]) -> BagError | None:
 
 
 def _bag_paths(path: Path) -> list[Path]:
-    """Paths to hand to AnyReader: a rosbag2 directory, its storage files (.mcap, .db3)
-    when it has no metadata.yaml, or a ROS1 .bag file."""
+    """Return the paths to hand to AnyReader.
+
+    A rosbag2 directory, its storage files (.mcap, .db3) when it has no metadata.yaml, or a ROS1
+    .bag file.
+    """
     if not path.exists():
         raise BagError(f'bag not found: {path}')
     if path.is_dir():
@@ -226,7 +236,10 @@ class BagReader:
         return sorted(t for t, kind in self.topics.items() if kind == msgtype)
 
     def resolve_topic(self, topic: str) -> str:
-        """The bag's spelling of ``topic``: a relative name and its absolute form are the same."""
+        """Return the bag's spelling of ``topic``.
+
+        A relative name and its absolute form are the same.
+        """
         topics = self.topics
         for candidate in (topic, '/' + topic.lstrip('/'), topic.lstrip('/')):
             if candidate in topics:
@@ -251,8 +264,10 @@ class BagReader:
 
     def _records(self, topics: Iterable[str] | None, start_ns: int | None,
                  stop_ns: int | None, decode: bool) -> Iterator[tuple[Any, int, Any]]:
-        """(connection, log time [ns], raw bytes or decoded message); a read or decode error
-        becomes one BagError naming the bag."""
+        """Yield (connection, log time [ns], raw bytes or decoded message).
+
+        A read or decode error becomes one BagError naming the bag.
+        """
         connections = self._connections(topics)
         if not connections:
             return
@@ -318,17 +333,22 @@ class BagReader:
             yield RawBatch.from_messages(topic, messages)
 
     def _release_index(self, storages: list[McapReader]) -> None:
-        """Free rosbags' chunk index of ``storages`` (about 1 KB a chunk: 12 MB for 40M
-        samples of 1 kHz) while the fast reader, with its own compact index, reads them;
-        :meth:`messages` and :meth:`raw_messages` have rosbags read it again first."""
+        """Free rosbags' chunk index of ``storages`` while the fast reader reads them.
+
+        The index takes about 1 KB a chunk (12 MB for 40M samples of 1 kHz); the fast reader has
+        its own compact index. :meth:`messages` and :meth:`raw_messages` have rosbags read it again
+        first.
+        """
         for storage in storages:
             if storage not in self._released and storage.chunks:
                 storage.chunks.clear()
                 self._released.append(storage)
 
     def _plain_mcap_storages(self) -> list[McapReader] | None:
-        """rosbags' readers of the .mcap files of a rosbag2 bag stored as plain MCAP (no
-        file/message compression), else None."""
+        """Return rosbags' readers of the .mcap files of a bag stored as plain MCAP, else None.
+
+        The bag is a rosbag2 bag; plain MCAP: no file/message compression.
+        """
         reader = self.reader
         if not reader.is2:
             return None

@@ -30,7 +30,7 @@ def _natural(path: Path) -> list[object]:
 
 
 def _bag_files(directory: Path) -> list[Path]:
-    """The .mcap files of a rosbag2 directory: as metadata.yaml lists them, else all."""
+    """Return the .mcap files of a rosbag2 directory: as metadata.yaml lists them, else all."""
     listed = listed_files(directory)
     if listed is None:
         return sorted(directory.glob('*.mcap'), key=_natural)
@@ -41,7 +41,7 @@ def _bag_files(directory: Path) -> list[Path]:
 
 
 def _check_ros2(source: Scan) -> None:
-    """RecoverError unless every channel with messages is CDR with a ROS 2 schema."""
+    """Raise RecoverError unless every channel with messages is CDR with a ROS 2 schema."""
     for channel_id in source.counts:
         channel = source.channels.get(channel_id)
         if channel is None:

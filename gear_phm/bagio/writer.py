@@ -140,9 +140,11 @@ class Rosbag2McapWriter:
         self.write_raw(output.topic, output.stamp_ns if t_ns is None else t_ns, payload)
 
     def write_outputs(self, outputs: Iterable[Vector3Out | DiagnosticsOut]) -> None:
-        """Append many output records in order, each at its own stamp (the batch path of
-        ``gear-phm analyze``: the same records as :meth:`write_output`, with the per-message
-        bookkeeping done once per call)."""
+        """Append many output records in order, each at its own stamp.
+
+        The batch path of ``gear-phm analyze``: the same records as :meth:`write_output`, with the
+        per-message bookkeeping done once per call.
+        """
         add_message = self._writer.add_message
         entries: dict[str, TopicInfo] = {}
         first, last = None, None
@@ -169,9 +171,10 @@ class Rosbag2McapWriter:
     def write_vector3_columns(self, columns: Sequence[tuple[str, np.ndarray, np.ndarray]],
                               frame_id: str = '',
                               between: Sequence[tuple[int, DiagnosticsOut]] = ()) -> None:
-        """Append Vector3Stamped messages given as columns ``(topic, stamps [ns], xyz (N, 3))``,
-        in stamp order and, at equal stamps, in the order of ``columns`` (the order the nodes
-        publish them): the same file content as :meth:`write_outputs` of the same records.
+        """Append Vector3Stamped messages given as columns ``(topic, stamps [ns], xyz (N, 3))``.
+
+        They go in stamp order and, at equal stamps, in the order of ``columns`` (the order the
+        nodes publish them): the same file content as :meth:`write_outputs` of the same records.
         With ``batch`` the whole block is packed at once (:mod:`gear_phm.bagio.batch_writer`).
         ``between``: (limit [ns], record) pairs, limits ascending; each record is written
         after the messages stamped at or before its limit and before the later ones (packed
@@ -283,8 +286,10 @@ class Rosbag2McapWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Close the open chunk (if it holds a message), write it with its message indexes,
-        and push the file to the OS (and to disk, with ``fsync``)."""
+        """Close the open chunk (if it holds a message) and write it with its message indexes.
+
+        Then push the file to the OS (and to disk, with ``fsync``).
+        """
         if self._closed:
             return
         self._writer.flush()
@@ -330,8 +335,10 @@ def _header(stamp_ns: int, frame_id: str = '') -> Any:
 
 
 def diagnostic_array_cdr(output: DiagnosticsOut) -> bytes:
-    """Little-endian CDR of a diagnostic_msgs/DiagnosticArray, packed directly (the tests
-    check the bytes are identical to rosbags' serializer for any strings and list lengths).
+    """Little-endian CDR of a diagnostic_msgs/DiagnosticArray, packed directly.
+
+    The tests check the bytes are identical to rosbags' serializer for any strings and list
+    lengths.
 
     Offsets count from the end of the 4-byte encapsulation header, as CDR alignment does.
     Every string starts 4-aligned, so a string followed by another string or a uint32 takes
@@ -454,8 +461,10 @@ def _scatter(data: np.ndarray, starts: np.ndarray, rows: np.ndarray) -> None:
 
 
 def _cdr_text(text: str) -> bytes:
-    """A CDR string that starts 4-aligned (uint32 length with the NUL, UTF-8, NUL), padded
-    to a multiple of 4 bytes."""
+    """Return a CDR string that starts 4-aligned (uint32 length with the NUL, UTF-8, NUL).
+
+    It is padded to a multiple of 4 bytes.
+    """
     data = text.encode()
     count = len(data) + 1
     return _UINT32.pack(count) + data + _NULS[1 + (-count % 4)]
@@ -479,8 +488,10 @@ _LEVEL_HEADS = tuple(tuple(bytes((level,)) + bytes(-(r + 1) % 4) for r in range(
 
 
 def vector3_stamped_from_cdr(raw: bytes) -> tuple[int, float, float, float]:
-    """(stamp [ns], x, y, z) of a little-endian CDR geometry_msgs/Vector3Stamped; the inverse
-    of :func:`vector3_stamped_cdr`."""
+    """(stamp [ns], x, y, z) of a little-endian CDR geometry_msgs/Vector3Stamped.
+
+    The inverse of :func:`vector3_stamped_cdr`.
+    """
     sec, nanosec, length = struct.unpack_from('<iII', raw, 4)
     offset = 12 + length                         # after frame_id, from the CDR origin
     offset = (offset + 7) // 8 * 8

@@ -1,5 +1,7 @@
-"""``gear-phm recover PATH [--out OUT]``: make a recording readable again after a crash
-(``kill -9``) or damage, without rewriting the original and without laundering bad bytes.
+"""``gear-phm recover PATH [--out OUT]``: make a recording readable again.
+
+After a crash (``kill -9``) or damage, without rewriting the original and without laundering
+bad bytes.
 
 PATH is a rosbag2 directory (recovered in place, each replaced file kept as ``<name>.orig``,
 or into the new directory ``--out``) or one ``.mcap`` file (recovered into ``--out``, by

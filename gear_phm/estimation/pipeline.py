@@ -128,10 +128,11 @@ class StatusSnapshot:
 
 @dataclass(frozen=True)
 class _PredictionBase:
-    """A filter state the published estimates until the next update are predicted from:
-    x, P, time t [s] (inf: none yet), q [1/s^3], each direction's bias, the newest window's
-    efficiency and the last update's innovation, its variance and NIS, the mismatch
-    variances."""
+    """A filter state the published estimates until the next update are predicted from.
+
+    Its x, P, time t [s] (inf: none yet), q [1/s^3], each direction's bias, the newest window's
+    efficiency and the last update's innovation, its variance and NIS, the mismatch variances.
+    """
 
     x: np.ndarray
     p: np.ndarray
@@ -227,8 +228,9 @@ class EstimatorPipeline:
                               _ns(config.period_hold), config.backwards_policy == 'reset')
 
     def to_state(self) -> dict[str, Any]:
-        """What a restart needs to continue as if it never stopped (JSON-safe; see
-        :mod:`gear_phm.persistence`): the filter, counters, operating time and stamp origin.
+        """Return what a restart needs to continue as if it never stopped (JSON-safe).
+
+        The filter, counters, operating time and stamp origin (see :mod:`gear_phm.persistence`).
 
         Kept too: the open energy window and the previous sample, so that a restart loses no
         sample. Not kept: the stamp screen's learnt period (relearnt from the next samples).
@@ -287,7 +289,7 @@ class EstimatorPipeline:
         return (stamp_ns - self._origin_ns) * 1e-9
 
     def stamp_ns(self, t: float) -> int:
-        """The stamp [ns] of pipeline time ``t`` [s] (times count from the first sample)."""
+        """Return the stamp [ns] of pipeline time ``t`` [s] (times count from the first sample)."""
         if self._origin_ns is None:
             raise ValueError('no sample yet: pipeline time has no origin')
         return self._origin_ns + int(round(t * 1e9))
@@ -300,7 +302,7 @@ class EstimatorPipeline:
         self.samples_rejected += count
 
     def on_samples(self, samples: list[JointSample]) -> list[FrictionEstimate]:
-        """A buffer of samples (e.g. collected by the live node between timer ticks)."""
+        """Process a buffer of samples (e.g. collected by the live node between timer ticks)."""
         if not samples:
             return []
         columns = np.array([(s.motor_velocity, s.motor_effort, s.load_velocity, s.load_effort)
@@ -311,7 +313,7 @@ class EstimatorPipeline:
     def on_batch(self, stamp_ns: np.ndarray, motor_velocity: np.ndarray,
                  motor_effort: np.ndarray, load_velocity: np.ndarray,
                  load_effort: np.ndarray) -> list[FrictionEstimate]:
-        """Samples in arrival order: stamps [ns] (int64), speeds [rad/s], torques [N m]."""
+        """Process samples in arrival order: stamps [ns] (int64), speeds [rad/s], torques [N m]."""
         return self.on_batch_marked(stamp_ns, motor_velocity, motor_effort, load_velocity,
                                     load_effort)[0]
 
@@ -390,8 +392,11 @@ class EstimatorPipeline:
 
     def _snapshot(self, position: int, estimates: int, last_stamp: int | None,
                   suffix: dict[str, int] | None = None) -> StatusSnapshot:
-        """The status inputs now, less ``suffix``: counters of samples after the mark;
-        ``last_stamp``: the newest sample before the mark [ns] (None: none in this batch)."""
+        """Return the status inputs now, less ``suffix``.
+
+        ``suffix``: counters of samples after the mark; ``last_stamp``: the newest sample before
+        the mark [ns] (None: none in this batch).
+        """
         values = self.summary()
         period = self.screen.period_at(last_stamp)
         values['sample_period_s'] = math.nan if period is None else period * 1e-9
@@ -408,12 +413,14 @@ class EstimatorPipeline:
     def _process_segment(self, segment: Segment, stamps: np.ndarray,
                          arrays: list[np.ndarray], marks: Sequence[tuple[int, int]] = ()
                          ) -> tuple[list[FrictionEstimate], list[StatusSnapshot]]:
-        """Accepted samples, in sequence: the estimator (restarted first after a confirmed
-        run of earlier stamps); each estimate carries the missing count at its stamp.
-        ``marks``: (mark, number of this segment's samples before it), see
-        :meth:`on_batch_marked`. The duplicates the screen dropped between the segment's samples
-        count as if each cut it (until 2026-11-27 each did): from the next sample on, and in
-        the snapshot of a mark before that sample."""
+        """Run the estimator over accepted samples, in sequence.
+
+        It is restarted first after a confirmed run of earlier stamps; each estimate carries the
+        missing count at its stamp. ``marks``: (mark, number of this segment's samples before it),
+        see :meth:`on_batch_marked`. The duplicates the screen dropped between the segment's
+        samples count as if each cut it (until 2026-11-27 each did): from the next sample on, and
+        in the snapshot of a mark before that sample.
+        """
         if segment.reset_before:
             self.counts['stamp_reset'] += 1
             self._reset_estimator()
@@ -442,11 +449,13 @@ class EstimatorPipeline:
                 for o, k, hit in zip(outputs, at.tolist(), found)], snapshots
 
     def on_silence(self, silence_s: float) -> list[FrictionEstimate]:
-        """No sample has arrived for ``silence_s`` [s] (measured by the caller's clock, e.g. the
-        node clock since the last arrival). Past ``sensor_timeout`` the timeout is flagged
-        (``timed_out``, WARN in the status) and counted once. Nothing is published: an output
-        is always stamped with, and caused by, the newest sample it used, and the open window
-        is closed by the next sample as offline (the gap rule), so live equals offline.
+        """No sample has arrived for ``silence_s`` [s], measured by the caller's clock.
+
+        The clock is e.g. the node clock since the last arrival. Past ``sensor_timeout`` the
+        timeout is flagged (``timed_out``, WARN in the status) and counted once. Nothing is
+        published: an output is always stamped with, and caused by, the newest sample it used, and
+        the open window is closed by the next sample as offline (the gap rule), so live equals
+        offline.
         Sample stamps and the caller's clock may be in different time bases (a replayed bag
         without use_sim_time), so they are never mixed. Returns an empty list.
         """
@@ -459,9 +468,11 @@ class EstimatorPipeline:
         return []
 
     def next_output_stamp(self) -> int | None:
-        """The stamp [ns] from which the next sample crosses the publish_rate grid and gives
-        an output (None before the first sample or with publish_rate 0). A live node can
-        process at once a sample that reaches it, for low latency."""
+        """Return the stamp [ns] from which the next sample crosses the publish_rate grid.
+
+        That sample gives an output (None before the first sample or with publish_rate 0). A live
+        node can process at once a sample that reaches it, for low latency.
+        """
         rate = self.config.publish_rate
         if rate <= 0.0 or self._origin_ns is None or self._grid is None:
             return None
@@ -472,8 +483,10 @@ class EstimatorPipeline:
                  marks: Sequence[tuple[int, int]] = (), dropped: np.ndarray | None = None,
                  dropped_after: Sequence[int] = ()
                  ) -> tuple[list[FrictionEstimate], list[tuple[int, StatusSnapshot]]]:
-        """The estimator over samples in sequence; ``marks`` (mark, local position k), with
-        0 < k < n, get a snapshot of the state after samples 0..k-1.
+        """Run the estimator over samples in sequence.
+
+        ``marks`` (mark, local position k), with 0 < k < n, get a snapshot of the state after
+        samples 0..k-1.
 
         ``dropped``: duplicate stamps dropped just before each sample (the screen's, inside
         the segment), counted from that sample on; ``dropped_after``: of them, those after
@@ -588,8 +601,10 @@ class EstimatorPipeline:
         pending = [(mark, k, suffix) for (mark, k), suffix in zip(marks, suffixes)]
 
         def take(before: int, run: np.ndarray | None = None) -> None:
-            """Snapshot the marks at or before sample ``before`` (its events not yet run);
-            ``run``: publish positions about to be output (those before a mark count)."""
+            """Snapshot the marks at or before sample ``before`` (its events not yet run).
+
+            ``run``: publish positions about to be output (those before a mark count).
+            """
             while pending and pending[0][1] <= before:
                 mark, k, suffix = pending.pop(0)
                 count = len(outputs) + (0 if run is None else int(np.searchsorted(run, k)))
@@ -630,7 +645,7 @@ class EstimatorPipeline:
     def _suffixes(ks: list[int], masks: dict[str, np.ndarray], used_cum: np.ndarray,
                   rejected_cum: np.ndarray, gap_at: np.ndarray, short_at: np.ndarray
                   ) -> list[dict[str, int]]:
-        """The counters of the samples from each ``ks`` (0 < k < n) on, all marks at once.
+        """Return the counters of the samples from each ``ks`` (0 < k < n) on, all marks at once.
 
         ``masks``: per-sample rejections by reason; ``used_cum``, ``rejected_cum``: the
         cumulative counts; ``gap_at``, ``short_at``: the samples with a timeout, a short window.
@@ -650,10 +665,12 @@ class EstimatorPipeline:
 
     def _one_per_stamp(self, outputs: list[FrictionEstimate]
                        ) -> tuple[list[FrictionEstimate], list[bool]]:
-        """At most one estimate per stamp, whatever the batch split: an estimate whose stamp
-        equals the previous one's is dropped (the filter state it carries is in the next,
-        and so is its measurement, carried with the rate: :meth:`_merged`). Returns the
-        kept estimates and whether each output was kept."""
+        """At most one estimate per stamp, whatever the batch split.
+
+        An estimate whose stamp equals the previous one's is dropped (the filter state it carries
+        is in the next, and so is its measurement, carried with the rate: :meth:`_merged`).
+        Returns the kept estimates and whether each output was kept.
+        """
         kept, keep = [], []
         for output in outputs:
             if output.stamp_ns == self._last_group_stamp:
@@ -673,9 +690,12 @@ class EstimatorPipeline:
         return kept, keep
 
     def _merged(self, output: FrictionEstimate) -> tuple[float, float, float, float]:
-        """The carried measurement (if any), moved to ``output``'s operating time with its
-        rate, combined with ``output``'s own by inverse variance: (u [-], variance, direction
-        share h [-], bias subtracted [-]), h and the bias with the same weights."""
+        """Combine the carried measurement (if any) with ``output``'s own by inverse variance.
+
+        The carried one is first moved to ``output``'s operating time with its rate. Returns
+        (u [-], variance, direction share h [-], bias subtracted [-]), h and the bias with the same
+        weights.
+        """
         z, variance = output.measurement, output.measurement_variance
         h, bias = output.measurement_direction, output.measurement_bias
         if self._carry is None:
@@ -769,7 +789,7 @@ class EstimatorPipeline:
                                 0.5 if direction else -0.5, update.bias))]
 
     def _prediction_base(self) -> _PredictionBase:
-        """What the estimates published before the next filter update are predicted from."""
+        """Return what the estimates published before the next filter update are predicted from."""
         f = self.filter
         last = f.last
         return _PredictionBase(
@@ -833,9 +853,11 @@ class EstimatorPipeline:
                   rejected: int | None = None, operating_time: float | None = None,
                   measurement: tuple[float, float, float, float, float] | None = None
                   ) -> FrictionEstimate:
-        """The record at ``stamp_ns``; ``measurement``: (u [-], variance, operating time [s]
-        at which it measures u, direction share h [-], bias subtracted [-]) of the window
-        fused for it, carried here with the rate."""
+        """Return the record at ``stamp_ns``.
+
+        ``measurement``: (u [-], variance, operating time [s] at which it measures u, direction
+        share h [-], bias subtracted [-]) of the window fused for it, carried here with the rate.
+        """
         u, rate = float(x[0]), float(x[1])
         # each efficiency as its direction's windows read it: u plus that direction's bias
         eta_d = efficiencies(u + self.filter.direction_bias(0), self.config.ratio)[0]
@@ -860,7 +882,7 @@ class EstimatorPipeline:
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
-        """Final estimate and counters (JSON-friendly)."""
+        """Return the final estimate and counters (JSON-friendly)."""
         x, p = self.filter.x, self.filter.P
         eta_d = efficiencies(float(x[0]) + self.filter.direction_bias(0), self.config.ratio)[0]
         eta_i = efficiencies(float(x[0]) + self.filter.direction_bias(1), self.config.ratio)[1]
@@ -961,8 +983,10 @@ class EstimatorPipeline:
         return name, -int(getattr(self.config, name))
 
     def _close_status_period(self, seen: int, missing: int) -> float:
-        """Share of samples missing since the previous call (one status period), given the
-        counts of samples seen and missing at its end."""
+        """Return the share of samples missing since the previous call (one status period).
+
+        Given the counts of samples seen and missing at the end of that period.
+        """
         d_seen, d_missing = seen - self._status_mark[0], missing - self._status_mark[1]
         self._status_mark = (seen, missing)
         total = d_seen + d_missing
@@ -971,10 +995,12 @@ class EstimatorPipeline:
 
     def status(self, name: str, messages_received: int | None = None,
                snapshot: StatusSnapshot | None = None) -> StatusOut:
-        """DiagnosticStatus record: level, message, estimate and counters by reason. Each call
-        closes a status period: ``loss_ratio`` is the share of samples missing since the
-        previous call (WARN above ``loss_warn``). With ``snapshot`` (from
-        :meth:`on_batch_marked`), the status as of that mark."""
+        """Return the DiagnosticStatus record: level, message, estimate and counters by reason.
+
+        Each call closes a status period: ``loss_ratio`` is the share of samples missing since the
+        previous call (WARN above ``loss_warn``). With ``snapshot`` (from :meth:`on_batch_marked`),
+        the status as of that mark.
+        """
         summary = self.summary() if snapshot is None else snapshot.values
         loss = self._close_status_period(summary['samples_seen'], summary['samples_missing'])
         gated = (self.filter.consecutive_gated if snapshot is None

@@ -52,8 +52,11 @@ FAST_SPAN = 4096
 
 @dataclass
 class Segment:
-    """Accepted samples to process in order: positions in the screened array, the missing
-    samples counted just before each, and whether the estimator restarts before them."""
+    """Accepted samples to process in order.
+
+    Positions in the screened array, the missing samples counted just before each, and whether
+    the estimator restarts before them.
+    """
 
     index: np.ndarray
     missing: np.ndarray
@@ -65,9 +68,12 @@ class Segment:
 
 @dataclass
 class Screened:
-    """What :meth:`StampScreen.screen` made of an array of stamps: ``steps`` in order, each a
-    :class:`Segment` or a drop ``(reason, count)``; ``held``: positions of the trailing
-    samples held for a run (to be screened again in front of the next stamps)."""
+    """What :meth:`StampScreen.screen` made of an array of stamps.
+
+    ``steps`` in order, each a :class:`Segment` or a drop ``(reason, count)``; ``held``:
+    positions of the trailing samples held for a run (to be screened again in front of the next
+    stamps).
+    """
 
     steps: list[Segment | tuple[str, int]] = field(default_factory=list)
     held: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
@@ -96,7 +102,7 @@ class StampScreen:
 
     def configure(self, run_length: int, max_gap_ns: int, hold_ns: int,
                   allow_reset: bool) -> None:
-        """New parameters; the timeline and the period estimate are kept."""
+        """Set new parameters; the timeline and the period estimate are kept."""
         self.run_length, self.max_gap_ns = int(run_length), int(max_gap_ns)
         self.hold_ns, self.allow_reset = int(hold_ns), allow_reset
 
@@ -108,8 +114,11 @@ class StampScreen:
         return int(min(self.max_gap_ns, JUMP_PERIODS * self.period_ns))
 
     def period_at(self, stamp_ns: int | None) -> float | None:
-        """The period [ns] learnt from the samples of the last :meth:`screen` call up to
-        ``stamp_ns`` (None: before any of them)."""
+        """Return the period [ns] learnt up to ``stamp_ns``.
+
+        Learnt from the samples of the last :meth:`screen` call up to ``stamp_ns`` (None: before
+        any of them).
+        """
         period = self._period_before
         if stamp_ns is not None:
             for at, value in self.period_changes:
@@ -124,10 +133,13 @@ class StampScreen:
         return np.where(diffs > GAP_FACTOR * period, np.maximum(lost, 0), 0)
 
     def _add_diffs(self, diffs: np.ndarray, stop_on_change: bool) -> tuple[int, np.ndarray]:
-        """Feed timeline differences [ns] (each <= max_gap) to the period estimate; return how
-        many were consumed and the missing samples counted at each. With ``stop_on_change``
-        it stops right after a block that changes the period (the jump limit changes too).
-        Blocks are handled together with numpy; only block completions loop in Python."""
+        """Feed timeline differences [ns] (each <= max_gap) to the period estimate.
+
+        Return how many were consumed and the missing samples counted at each. With
+        ``stop_on_change`` it stops right after a block that changes the period (the jump limit
+        changes too). Blocks are handled together with numpy; only block completions loop in
+        Python.
+        """
         n = diffs.size
         first = BLOCK - self._block_size             # differences that complete the open block
         ends = np.arange(first - 1, n, BLOCK)         # positions completing a block
@@ -171,8 +183,11 @@ class StampScreen:
         return consumed, out
 
     def _count(self, stamps: np.ndarray, prev: int | None) -> np.ndarray:
-        """Missing samples before each of the accepted ``stamps`` (``prev``: the accepted
-        stamp before them, None after a restart); updates the period estimate."""
+        """Return the missing samples before each of the accepted ``stamps``.
+
+        ``prev``: the accepted stamp before them, None after a restart. Updates the period
+        estimate.
+        """
         n = stamps.size
         out = np.zeros(n, dtype=np.int64)
         if prev is None:

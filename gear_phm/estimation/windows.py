@@ -110,7 +110,7 @@ class EnergyIntegrator:
         self._last_usable = False
 
     def to_state(self) -> dict[str, Any]:
-        """The open window and the previous sample (JSON-safe): a restart continues them."""
+        """Return the open window and the previous sample (JSON-safe): a restart continues them."""
         open_ = None if self._open is None else [
             v if isinstance(v, int) else encode_float(v) for v in astuple(self._open)]
         last = None if self._last is None else [
@@ -118,8 +118,10 @@ class EnergyIntegrator:
         return {'open': open_, 'last': last, 'last_usable': self._last_usable}
 
     def from_state(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`to_state`; KeyError/ValueError/TypeError on a malformed dict (the
-        integrator is then unchanged)."""
+        """Restore :meth:`to_state`.
+
+        KeyError/ValueError/TypeError on a malformed dict (the integrator is then unchanged).
+        """
         open_, last = state['open'], state['last']
         restored = None
         if open_ is not None:
@@ -133,8 +135,11 @@ class EnergyIntegrator:
         self._last_usable = bool(state['last_usable'])
 
     def take_dropped_short(self) -> np.ndarray:
-        """Return and reset ``dropped_short``, as the positions in their batch of the samples
-        that closed those windows (the first after each)."""
+        """Return and reset ``dropped_short``.
+
+        The windows are given as the positions in their batch of the samples that closed them (the
+        first after each).
+        """
         dropped = np.concatenate(self._dropped_at) if self._dropped_at else np.empty(0, int)
         self._dropped_at, self.dropped_short = [], 0
         return dropped
@@ -160,8 +165,11 @@ class EnergyIntegrator:
 
     def process(self, t: np.ndarray, w_m: np.ndarray, tau_m: np.ndarray, w_l: np.ndarray,
                 tau_l: np.ndarray, code: np.ndarray, usable: np.ndarray) -> list[Window]:
-        """Add one batch (time-ordered). ``usable`` marks samples of phases 1-3 to integrate;
-        any other sample breaks the current window. Returns windows closed by this batch."""
+        """Add one batch (time-ordered); return the windows closed by this batch.
+
+        ``usable`` marks samples of phases 1-3 to integrate; any other sample breaks the current
+        window.
+        """
         n_raw = len(t)
         if n_raw == 0:
             return []
@@ -246,9 +254,12 @@ class EnergyIntegrator:
 
     def _short_segments(self, t_c: np.ndarray, break_at: np.ndarray, n: int,
                         last_usable: bool) -> tuple[np.ndarray, np.ndarray]:
-        """For each segment starting at ``break_at[k]``: whether it is one whole window that
-        is too short (and closes in this batch), and the index of the next segment that is
-        not. Empty arrays when ``min_duration`` is 0."""
+        """Find the segments that are one whole window that is too short.
+
+        For each segment starting at ``break_at[k]``: whether it is one whole window that is too
+        short (and closes in this batch), and the index of the next segment that is not. Empty
+        arrays when ``min_duration`` is 0.
+        """
         if self.min_duration <= 0.0 or break_at.size == 0:
             return np.empty(0, dtype=bool), np.empty(0, dtype=np.int64)
         ends = np.append(break_at[1:], n)

@@ -67,7 +67,7 @@ MAX_BUFFER = 200
 
 
 def config_from_values(values: dict[str, Any]) -> EstimatorConfig:
-    """EstimatorConfig from parameter values; ValueError with the reason."""
+    """Build an EstimatorConfig from parameter values; ValueError with the reason."""
     return EstimatorConfig(**{name: values[name] for name in CONFIG_FIELDS if name in values})
 
 
@@ -136,7 +136,7 @@ class EstimatorNode(Node):
         self.state.start_timer(self._save_state)
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
-        """The pipeline's state and its newest stamp (for a save)."""
+        """Return the pipeline's state and its newest stamp (for a save)."""
         state = self.pipeline.to_state()
         return state, state['last_stamp']
 
@@ -146,8 +146,11 @@ class EstimatorNode(Node):
         self.state.save()
 
     def destroy_node(self) -> None:
-        """Process the buffer without publishing (the context may be shut down), save the
-        state (SIGINT/SIGTERM and normal exits pass here), then destroy."""
+        """Process the buffer without publishing, save the state, then destroy.
+
+        Nothing is published because the context may be shut down. SIGINT/SIGTERM and normal exits
+        pass here.
+        """
         if self.drives is not None:
             self.drives.close()
             super().destroy_node()
@@ -184,8 +187,10 @@ class EstimatorNode(Node):
 
     # --- callbacks -----------------------------------------------------------------------------
     def _on_message(self, raw: bytes) -> None:
-        """One serialized JointState: decode and buffer it; process the buffer when an
-        output is due."""
+        """One serialized JointState: decode and buffer it.
+
+        Process the buffer when an output is due.
+        """
         try:
             sample = self.decoder.decode(raw)
         except Exception:  # never die on data; count it
@@ -228,8 +233,10 @@ class EstimatorNode(Node):
             self.batch_timer.reset()
 
     def _flush(self) -> None:
-        """Process the buffered samples as one batch (same results as one by one), publish
-        what is due."""
+        """Process the buffered samples as one batch and publish what is due.
+
+        Same results as one by one.
+        """
         self.batch_timer.cancel()
         stamps = self.stamps
         if not stamps:
@@ -252,8 +259,10 @@ class EstimatorNode(Node):
         self._due = pipeline.next_output_stamp()
 
     def _on_watchdog(self) -> None:
-        """No batch for sensor_timeout (node clock): flag the sensor timeout once and stop
-        until samples flow again (each batch restarts this timer). Publishes nothing."""
+        """No batch for sensor_timeout (node clock): flag the sensor timeout once.
+
+        Then stop until samples flow again (each batch restarts this timer). Publishes nothing.
+        """
         if self.last_batch_ns is None:
             return
         silence_s = (self.get_clock().now().nanoseconds - self.last_batch_ns) * 1e-9
@@ -302,8 +311,9 @@ def _spin(node: EstimatorNode) -> None:
 
 
 def _warm_up(config: EstimatorConfig, motor_joint: str, load_joint: str) -> None:
-    """Run a throw-away pipeline over 4 s of simulated samples, serialized and decoded as the
-    node does, before subscribing.
+    """Run a throw-away pipeline over 4 s of simulated samples before subscribing.
+
+    The samples are serialized and decoded as the node does.
 
     The first window close, filter update and numpy/LAPACK calls cost ~100 ms once; paid
     while the queue is filling, that stall dropped live samples at 1 kHz.

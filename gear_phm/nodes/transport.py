@@ -41,9 +41,11 @@ RESTART_JUMP_NS = 10 * 10**9
 
 
 def subscribe_joint_states_raw(node: Node, on_message: Callable[[bytes], None]) -> Any:
-    """Subscribe ``joint_states`` (sensor QoS) serialized: ``on_message`` gets the CDR bytes
-    of each message, with no Python message object built (decode them with
-    :class:`gear_phm.codec.JointStateDecoder`)."""
+    """Subscribe ``joint_states`` (sensor QoS) serialized.
+
+    ``on_message`` gets the CDR bytes of each message, with no Python message object built
+    (decode them with :class:`gear_phm.codec.JointStateDecoder`).
+    """
     return node.create_subscription(JointState, interfaces.JOINT_STATES, on_message,
                                     SENSOR_QOS, raw=True)
 
@@ -96,17 +98,21 @@ class EstimatePublisher:
                             for topic in interfaces.ESTIMATOR_TOPICS}
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
-        """Publish each estimate on the seven topics, serialized by the package's packer
-        (rclpy's ``publish`` takes CDR bytes: no Python message object per output)."""
+        """Publish each estimate on the seven topics, serialized by the package's packer.
+
+        rclpy's ``publish`` takes CDR bytes: no Python message object per output.
+        """
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id):
                 self._publishers[output.topic].publish(interfaces.vector3_stamped_cdr(output))
 
 
 class SampleLossPublisher:
-    """Publishes the estimator's loss count on ``gear_phm/sample_loss`` once per status
-    period, stamped with the newest accepted sample (nothing when no new sample came).
-    ``drive``: as :class:`EstimatePublisher`."""
+    """Publishes the estimator's loss count on ``gear_phm/sample_loss`` once per status period.
+
+    Stamped with the newest accepted sample (nothing when no new sample came). ``drive``: as
+    :class:`EstimatePublisher`.
+    """
 
     def __init__(self, node: Node, frame_id: str = '', drive: str | None = None) -> None:
         self.frame_id = frame_id
@@ -129,9 +135,11 @@ class SampleLossPublisher:
 
 
 class HealthPublisher:
-    """Publishes health states on ``gear_phm/health/rul`` and ``gear_phm/health/efficiency``;
+    """Publishes health states on ``gear_phm/health/rul`` and ``gear_phm/health/efficiency``.
+
     ``record`` (optional) also gets each message with its topic; ``drive``: as
-    :class:`EstimatePublisher` (``record`` gets the drive's topic)."""
+    :class:`EstimatePublisher` (``record`` gets the drive's topic).
+    """
 
     def __init__(self, node: Node, record: Callable[[str, Any], None] | None = None,
                  drive: str | None = None) -> None:
@@ -190,9 +198,11 @@ class EstimateAssembler:
                   on_estimates: Callable[[list[FrictionEstimate]], None],
                   on_message: Callable[[str, Vector3Stamped], None] | None = None,
                   drive: str | None = None) -> None:
-        """Subscribe the seven topics (``drive``'s: as :class:`EstimatePublisher`);
-        ``on_estimates`` gets each completed update, ``on_message`` (optional) every raw
-        message first with its topic (the drive's), e.g. to record it."""
+        """Subscribe the seven topics (``drive``'s: as :class:`EstimatePublisher`).
+
+        ``on_estimates`` gets each completed update, ``on_message`` (optional) every raw message
+        first with its topic (the drive's), e.g. to record it.
+        """
         for topic in interfaces.ESTIMATOR_TOPICS:
             def callback(msg: Vector3Stamped, topic: str = topic) -> None:
                 if on_message is not None:
@@ -231,7 +241,7 @@ class EstimateAssembler:
         return []
 
     def _ready(self) -> list[FrictionEstimate]:
-        """The complete groups from the oldest on, up to the first that still waits.
+        """Return the complete groups from the oldest on, up to the first that still waits.
 
         A group missing a topic waits until STRAGGLER_LAG later groups are complete.
         """

@@ -1,5 +1,6 @@
-"""Health assessment of a stream of friction estimates, shared by the diagnostics node and
-``gear-phm analyze`` (no ROS).
+"""Health assessment of a stream of friction estimates.
+
+Shared by the diagnostics node and ``gear-phm analyze`` (no ROS).
 
 Feed every :class:`~gear_phm.estimation.FrictionEstimate` to :meth:`HealthAssessor.on_estimate`;
 it returns the :class:`HealthState` of that update: end of life, RUL with its 5 %/95 % bounds,
@@ -42,8 +43,9 @@ RATIO_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class HealthState:
-    """Health at one estimate: level (OK/WARN/ERROR/STALE) and its reason (``message``),
-    the estimate's u [-] and sigma, efficiencies [-], RUL [s] with bounds, power-flow code,
+    """Health at one estimate: level (OK/WARN/ERROR/STALE) and its reason (``message``).
+
+    Also the estimate's u [-] and sigma, efficiencies [-], RUL [s] with bounds, power-flow code,
     sample counts, the end-of-life u [-] and the trend used.
 
     ``rul_operating`` is the RUL in seconds of operation, ``rul`` the same in elapsed (stamp)
@@ -74,7 +76,7 @@ class HealthState:
     eta_warn: float = math.nan
 
     def as_stale(self, silence: float) -> HealthState:
-        """This status turned STALE after ``silence`` [s] without input."""
+        """Return this status turned STALE after ``silence`` [s] without input."""
         return replace(self, level=STALE,
                        message=f'no estimator input for {silence:.3g} s (last: {self.message})')
 
@@ -96,7 +98,7 @@ _STATE_INTS = ('stamp_ns', 'level', 'power_flow', 'samples_used', 'samples_rejec
 
 
 def health_state_to_state(state: HealthState) -> dict[str, Any]:
-    """A :class:`HealthState` as a JSON-safe dict."""
+    """Return a :class:`HealthState` as a JSON-safe dict."""
     out: dict[str, Any] = {key: int(getattr(state, key)) for key in _STATE_INTS}
     out.update({key: encode_float(getattr(state, key))
                 for key in _STATE_FLOATS + _STATE_FLOATS_LATER})
@@ -186,9 +188,11 @@ class HealthAssessor:
 
     def _assess(self, estimate: FrictionEstimate, u_sigma: float,
                 read: tuple[float, float], suspect: bool) -> HealthState:
-        """One finite update (:meth:`on_estimates`): ``u_sigma`` [-], ``read`` eq 13's
-        readings (u_D, u_I) [-] of its efficiencies, ``suspect``: its efficiencies may not
-        match this assessor's ratio (:meth:`_ratio_mismatch` decides)."""
+        """Assess one finite update (:meth:`on_estimates`).
+
+        ``u_sigma`` [-], ``read`` eq 13's readings (u_D, u_I) [-] of its efficiencies, ``suspect``:
+        its efficiencies may not match this assessor's ratio (:meth:`_ratio_mismatch` decides).
+        """
         if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
             self.predictor.reset()                         # replay restarted
             self.divergence.reset()
@@ -302,9 +306,11 @@ class HealthAssessor:
         return estimate.t
 
     def to_state(self) -> dict[str, Any]:
-        """What a restart needs (JSON-safe, see :mod:`gear_phm.persistence`): the RUL
-        history and fit (on operating time), the utilisation, the NIS window, the level
-        latches and the latest state."""
+        """Return what a restart needs (JSON-safe, see :mod:`gear_phm.persistence`).
+
+        The RUL history and fit (on operating time), the utilisation, the NIS window, the level
+        latches and the latest state.
+        """
         latest = self.latest
         return {'predictor': self.predictor.to_state(), 'divergence': self.divergence.to_state(),
                 'levels': self.levels.to_state(), 'utilisation': self.utilisation.to_state(),
