@@ -11,7 +11,7 @@ PATHS = ['gear_phm', 'test', 'bench', 'setup.py']
 @pytest.mark.flake8
 @pytest.mark.linter
 def test_flake8(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)     # per-file-ignores in setup.cfg are relative to the root
+    monkeypatch.chdir(ROOT)     # PATHS and setup.cfg are relative to the root
     rc, errors = main_with_errors(argv=['--config', 'setup.cfg', *PATHS])
     assert rc == 0, \
         'Found %d code style errors / warnings:\n' % len(errors) + '\n'.join(errors)
