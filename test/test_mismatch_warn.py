@@ -108,6 +108,22 @@ def test_the_inertia_not_yet_applied_is_in_the_windows_variance() -> None:
     assert math.sqrt(none.left_variance(12.0, 80.0)) < 0.25 * J_M
 
 
+def test_left_variance_is_the_prior_when_no_fit_has_a_positive_weight() -> None:
+    """A provisional fit, but restored sums that leave no positive weight: the prior.
+
+    It returned None there, which failed in the measurement model (to_measurement).
+    """
+    learner = InertiaLearner()
+    _windows(learner, PROVISIONAL, J_M, 0)
+    state = learner.to_state()
+    state['sums'] = [0.0, -1e12]
+    restored = InertiaLearner()
+    restored.from_state(state)
+    assert restored.prior(12.0, 80.0) is None                # a provisional fit exists
+    prior = (12.0 / max(80.0, restored.kinetic_max)) ** 2
+    assert restored.left_variance(12.0, 80.0) == pytest.approx(prior)
+
+
 def test_the_mismatch_variance_is_not_short_where_it_dominates() -> None:
     """Windows scattered 4x more than their variance says, both directions, constant u.
 

@@ -65,18 +65,21 @@ def _light_class() -> type:
                 sys.modules.pop(name, None)
             else:
                 sys.modules[name] = old
-    return module.KalmanFilter
+    light: type = module.KalmanFilter
+    return light
 
 
 def _kalman_filter_class() -> type:
     """Return filterpy's ``KalmanFilter`` class, loaded light when filterpy is not imported yet."""
     if 'filterpy.kalman' in sys.modules:
-        return sys.modules['filterpy.kalman'].KalmanFilter
+        imported: type = sys.modules['filterpy.kalman'].KalmanFilter
+        return imported
     try:
         return _light_class()
     except Exception:  # noqa: B902 - any surprise in filterpy's layout: the normal import
         from filterpy.kalman import KalmanFilter
-        return KalmanFilter
+        normal: type = KalmanFilter
+        return normal
 
 
 #: filterpy's ``KalmanFilter``: the class of a full ``import filterpy.kalman`` if that came

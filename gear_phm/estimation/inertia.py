@@ -157,12 +157,16 @@ class InertiaLearner:
             # none applied: dJ^2 estimated without bias (E fitted^2 = dJ^2 + var), so a drive
             # without inertia left is not made conservative by the fit's own noise
             return max(fitted * fitted - variance, 0.0)
-        return self.prior(motor_energy, kinetic)
+        return self._prior(motor_energy, kinetic)     # no fit with a positive weight
 
     def prior(self, motor_energy: float, kinetic: float) -> float | None:
         """Return :meth:`left_variance`'s prior [kg^2 m^4], or None once dJ has a fit."""
         if self._sums[1] > 0.0 or any(fit is not None for fit in self._provisional):
             return None
+        return self._prior(motor_energy, kinetic)
+
+    def _prior(self, motor_energy: float, kinetic: float) -> float:
+        """Return (E_m / max(|K|, largest |K| seen))^2 [kg^2 m^4], 0 when both are 0."""
         scale = max(abs(kinetic), self.kinetic_max)
         return (motor_energy / scale) ** 2 if scale > 0.0 else 0.0
 

@@ -226,12 +226,14 @@ class FrictionFilter:
     @property
     def x(self) -> np.ndarray:
         """Posterior state [u, du/dt] (copy, shape (2,)); d is :attr:`direction_offset`."""
-        return self.kf.x[:2, 0].copy()
+        x: np.ndarray = self.kf.x[:2, 0].copy()
+        return x
 
     @property
     def P(self) -> np.ndarray:  # noqa: N802 (filterpy naming)
         """Posterior covariance of [u, du/dt] (copy, 2x2)."""
-        return self.kf.P[:2, :2].copy()
+        p: np.ndarray = self.kf.P[:2, :2].copy()
+        return p
 
     def predict(self, t: float) -> None:
         """Propagate to time ``t`` [s]; earlier times leave the state unchanged."""

@@ -17,7 +17,7 @@ import functools
 import itertools
 import math
 import operator
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -268,8 +268,9 @@ class EstimatorPipeline:
         carry = state.get('carry')          # added within schema 2 (2026-11-25)
         # h and the bias added within schema 2 (2026-11-27); an older carry's are 0 (its
         # measurement is not re-corrected)
-        carried = None if carry is None else tuple(
-            decode_float(v) for v in [*carry, 0.0, 0.0][:5])
+        carried = None if carry is None else cast(
+            'tuple[float, float, float, float, float]',
+            tuple(decode_float(v) for v in [*carry, 0.0, 0.0][:5]))
         if 'inertia' in state:              # added within schema 2 (2026-11-26)
             fresh.inertia.from_state(state['inertia'])
         if 'window' in state:               # added within schema 2 (2026-11-27)
@@ -286,6 +287,7 @@ class EstimatorPipeline:
         self._status_mark = (self.samples_seen, self.samples_missing)
 
     def _t(self, stamp_ns: int) -> float:
+        assert self._origin_ns is not None      # _process sets it before any _t
         return (stamp_ns - self._origin_ns) * 1e-9
 
     def stamp_ns(self, t: float) -> int:
@@ -430,7 +432,8 @@ class EstimatorPipeline:
         missing = before + np.cumsum(segment.missing)
         self.samples_missing = int(missing[-1])
         prior = np.full(index.size, np.iinfo(np.int64).min)
-        dropped, dropped_after = None, ()
+        dropped: np.ndarray | None = None
+        dropped_after: Sequence[int] = ()
         if segment.drops.size:          # duplicates between its samples (not a cut)
             dropped = np.bincount(np.searchsorted(index, segment.drops),
                                   minlength=index.size).astype(np.int64)
@@ -712,7 +715,7 @@ class EstimatorPipeline:
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
                        deadband: np.ndarray | None, impossible: np.ndarray | None) -> np.ndarray:
         self.samples_seen += n
-        rejected = duplicate | backwards
+        rejected: np.ndarray = duplicate | backwards
         for name, mask in (('duplicate_stamp', duplicate), ('backwards', backwards),
                            ('nonfinite', nonfinite), ('zero_speed', zero_speed),
                            ('deadband', deadband), ('impossible', impossible)):

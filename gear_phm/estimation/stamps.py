@@ -174,6 +174,7 @@ class StampScreen:
         if period is not None:
             out[:] = self._missing(used, period)
         elif ends.size and ends[0] < consumed:        # the first block: judge what waited
+            assert self.period_ns is not None         # that block set it
             waited = np.concatenate(self._waiting + [used])
             out[-1] = int(self._missing(waited, self.period_ns).sum())
             self._waiting = []
@@ -301,6 +302,7 @@ class StampScreen:
                 if kind == 'future':
                     follows = s > p                   # losses may leave any gap
                 elif kind == 'backwards':
+                    assert last is not None           # 'backwards' follows an accepted stamp
                     follows = p < s < last - jump     # still far behind the timeline
                 else:
                     follows = p < s <= p + jump       # the first stamps: in sequence

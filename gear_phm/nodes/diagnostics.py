@@ -341,7 +341,7 @@ class DiagnosticsNode(Node):
     # -- parameters (one transmission; with transmissions they are read-only) ----------------
     def _check_parameters(self, params: Sequence[Any]) -> SetParametersResult:
         """On-set: types, choices and cross-field rules of the whole resulting config."""
-        merged = self.channels[0].health_config.as_dict()
+        merged: dict[str, Any] = self.channels[0].health_config.as_dict()
         for param in params:
             if param.name in merged:
                 merged[param.name] = param.value

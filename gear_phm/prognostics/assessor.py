@@ -118,8 +118,8 @@ def health_state_from_state(state: dict[str, Any]) -> HealthState:
     values.update({key: decode_float(state.get(key, 'nan')) for key in _STATE_FLOATS_LATER})
     for name in ('rul', 'rul_operating'):
         rul = state[name]
-        values[name] = RulEstimate(*(decode_float(rul[k]) for k in _RUL_FIELDS),
-                                   str(rul['model']))
+        median, p5, p95 = (decode_float(rul[k]) for k in _RUL_FIELDS)
+        values[name] = RulEstimate(median, p5, p95, str(rul['model']))
     return HealthState(message=str(state['message']), trend=trend_from_state(state['trend']),
                        **values)
 
@@ -178,9 +178,14 @@ class HealthAssessor:
                                 columns[:, 5])
             suspect = (np.abs(expected - reported) > RATIO_TOLERANCE).tolist()
         readings_of = list(zip(u_d.tolist(), u_i.tolist()))
-        return [self._assess(estimate, sigmas[i], readings_of[i], suspect[i])
-                if usable[i] else self._reject('non_finite_estimate')
-                for i, estimate in enumerate(estimates)]
+        states: list[HealthState | None] = []
+        for i, estimate in enumerate(estimates):
+            if usable[i]:
+                states.append(self._assess(estimate, sigmas[i], readings_of[i], suspect[i]))
+            else:
+                self._reject('non_finite_estimate')
+                states.append(None)
+        return states
 
     def _reject(self, reason: str) -> None:
         """Count an unusable update."""

@@ -131,8 +131,10 @@ def trend_from_state(state: dict[str, Any]) -> Trend:
     model = state['model']
     if model not in (*MODELS, NONE):
         raise ValueError(f'unknown trend model {model!r}')
-    return Trend(model, *(decode_float(state[key]) for key in
-                          ('t_end', 'u_end', 'slope', 'slope_sigma', 'shape', 'span')),
+    t_end, u_end, slope, slope_sigma, shape, span = (
+        decode_float(state[key])
+        for key in ('t_end', 'u_end', 'slope', 'slope_sigma', 'shape', 'span'))
+    return Trend(model, t_end, u_end, slope, slope_sigma, shape, span,
                  tuple(decode_floats(state['covariance'])), int(state['points']),
                  decode_float(state['effective_points']), decode_float(state['weight']),
                  decode_float(state.get('scale', 1.0)),
@@ -352,7 +354,7 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     if not np.all(d > 0.0):
         return None
     outer = np.outer(d, d)
-    normalised = m / outer
+    normalised: np.ndarray = m / outer
     singular = np.linalg.svd(normalised, compute_uv=False)     # np.linalg.cond's 2-norm
     with np.errstate(divide='ignore', invalid='ignore'):
         condition = singular[0] / singular[-1]
@@ -470,7 +472,8 @@ def _akaike_weights(aicc: list[float]) -> np.ndarray:
     """Return the Akaike weights exp(-AICc / 2), normalised, of the laws in that order."""
     values = np.array(aicc)
     weights = np.exp(-0.5 * (values - values.min()))
-    return weights / weights.sum()
+    normalised: np.ndarray = weights / weights.sum()
+    return normalised
 
 
 def _shape_range(fit: _Fit, scale: float) -> tuple[float, float]:

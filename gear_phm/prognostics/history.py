@@ -169,7 +169,7 @@ class WearHistory:
         columns += [decode_floats(state[key]) if key in state else [0.0] * m
                     for key in ('wh', 'wb')]
         n = [int(v) for v in state['n']]
-        if int(state['max_points']) != m or any(len(c) != m for c in (*columns, n)):
+        if int(state['max_points']) != m or any(len(c) != m for c in columns) or len(n) != m:
             raise ValueError(f'history state must have {m} bins')
         width = decode_float(state['width'])
         if not width > 0.0:

@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 import math
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -144,7 +145,7 @@ def cumulative_relative_accuracy(t: ArrayLike, rul: ArrayLike, t_eol: float,
 
 
 def evaluate(t: ArrayLike, rul: ArrayLike, t_eol: float, alpha: float = ALPHA,
-             lambdas: Sequence[float] = LAMBDAS, t_start: float | None = None) -> dict:
+             lambdas: Sequence[float] = LAMBDAS, t_start: float | None = None) -> dict[str, Any]:
     """All metrics as a JSON-ready dict (non-finite numbers as the strings 'inf'/'-inf'/'nan')."""
     times, values, t_eol, start = _inputs(t, rul, t_eol, t_start)
     checks = [alpha_lambda(times, values, t_eol, lam, alpha, start) for lam in lambdas]
@@ -243,7 +244,7 @@ def level_transitions(t: ArrayLike, levels: ArrayLike, t_eol: float,
 
 
 def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
-                t_start: float | None = None) -> dict:
+                t_start: float | None = None) -> dict[str, Any]:
     """Issue 23's levels of a wear life, JSON-ready.
 
     ``sequence``: the transitions as 'FROM>TO' level names; ``passed`` when they are
@@ -267,7 +268,7 @@ def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
 
 def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
                t_start: float, levels: tuple[ArrayLike, ArrayLike] | None = None,
-               alpha: float = ALPHA) -> dict:
+               alpha: float = ALPHA) -> dict[str, Any]:
     """Issue 23's scores of one wear life from t_start = its onset [s], JSON-ready.
 
     ``t``, ``median``, ``p5``, ``p95``: every prediction (after t_eol too: ignored);
@@ -286,7 +287,7 @@ def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t
     held, counted = _held(times, p5, p95, t_eol, BAND_FROM, t_start)
     below, total = not_optimistic(times, p5, t_eol, NOT_OPTIMISTIC_FROM, t_start)
     finite = finite_from(times[before], values[before], t_eol, t_start)
-    result: dict = {
+    result: dict[str, object] = {
         't_start_s': t_start,
         'alpha_lambda': [asdict(check) for check in checks],
         'band': {'from_lambda': BAND_FROM, 'held': held, 'predictions': counted},
@@ -300,7 +301,7 @@ def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t
     return _json_ready(result)
 
 
-def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> dict:
+def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> dict[str, Any]:
     """Issue 23's score of a healthy life: every RUL inf and every level OK, JSON-ready."""
     values = np.asarray(median, dtype=float).ravel()
     finite = int(np.isfinite(values).sum())
@@ -313,6 +314,14 @@ def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> di
 
 def _name(level: int) -> str:
     return LEVEL_NAMES.get(level, str(level))
+
+
+@overload
+def _json_ready(value: dict[str, Any]) -> dict[str, Any]: ...
+
+
+@overload
+def _json_ready(value: object) -> object: ...
 
 
 def _json_ready(value: object) -> object:
