@@ -9,7 +9,9 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 import importlib
+import signal
 import sys
+from types import FrameType
 
 from gear_phm.errors import GearPhmError
 
@@ -27,8 +29,21 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+#: Commands whose process stops on SIGTERM as on Ctrl-C: staged outputs are removed, nothing
+#: half-written is left (monitor runs ROS nodes; rclpy handles its signals).
+STOPPED_ON_SIGTERM = frozenset(SUBCOMMANDS) - {'monitor'}
+
+
 class CliError(GearPhmError):
     """A problem with the user's input: printed on one line, exit status 2."""
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that cleanup runs (exit status 143)."""
+
+
+def _terminate(signum: int, frame: FrameType | None) -> None:
+    raise Terminated
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -60,6 +75,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(command if command in SUBCOMMANDS else None)
     args = parser.parse_args(argv)
     args.ros_args = ros_args
+    if args.command in STOPPED_ON_SIGTERM:
+        signal.signal(signal.SIGTERM, _terminate)
     try:
         return int(args._run(args) or 0)
     except CliError as exc:
@@ -68,6 +85,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'gear-phm {args.command}: interrupted', file=sys.stderr)
         return 130
+    except Terminated:
+        print(f'gear-phm {args.command}: terminated', file=sys.stderr)
+        return 128 + signal.SIGTERM
 
 
 if __name__ == '__main__':

@@ -20,9 +20,12 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+import errno
 import json
 import math
 from pathlib import Path
+import shutil
+import tempfile
 
 import numpy as np
 
@@ -44,6 +47,8 @@ JOINT_NAMES = (str(MOTOR_JOINT.default), str(LOAD_JOINT.default))
 
 #: Samples simulated per chunk (bounds memory for long runs).
 CHUNK = 20_000
+#: Bytes written before the bag's final size is projected from them (:func:`write_drives`).
+PROJECT_AFTER = 4 << 20
 #: The random life's record, next to the bag's files in --out.
 LIFE_FILE = 'life.json'
 #: Default of --duration (the random life draws its own).
@@ -241,6 +246,10 @@ def write_drives(out: Path, drives: Sequence[_Drive],
     ``drives``: per drive its configuration, its (motor, load) joint names and its (friction,
     efficiency) truth topics. Each drive has its own simulator; all share the stamps. Returns
     the number of samples (JointState messages); see :func:`write_simulation`.
+
+    Raises OSError (ENOSPC) as soon as the bag's size, projected from what has been written,
+    exceeds the free space of ``out``'s file system: a long run is refused in its first
+    megabytes, not when the disk is full.
     """
     count = int(math.floor(duration * rate + 1e-9))
     start_ns = int(round(start_time * 1e9))
@@ -259,7 +268,25 @@ def write_drives(out: Path, drives: Sequence[_Drive],
             times = operating_offset + (stamps_ns - start_ns) * 1e-9
             results = [simulator.sample(times) for simulator in simulators]
             _write_chunk(writer, results, stamps_ns, first, names, truth_every, truth_topics)
+            _check_space(out, first + index.size, count)
     return count
+
+
+def _check_space(out: Path, done: int, count: int) -> None:
+    """Raise OSError (ENOSPC) if ``count`` samples will not fit on ``out``'s file system.
+
+    Projected from the ``done`` samples that ``out`` holds now, once they take
+    :data:`PROJECT_AFTER` bytes or more.
+    """
+    written = sum(path.stat().st_size for path in out.iterdir() if path.is_file())
+    if written < PROJECT_AFTER or done >= count:
+        return
+    projected = written * count / done
+    free = shutil.disk_usage(out).free
+    if projected - written > free:
+        msg = (f'{count:,} samples would take about {projected / 1e9:.3g} GB; '
+               f'{free / 1e9:.3g} GB are free')
+        raise OSError(errno.ENOSPC, msg)
 
 
 def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -> int:
@@ -319,30 +346,46 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
         raise CliError(f'--random-life must be an integer >= 0, got {args.random_life}')
     try:
         life = random_life(args.random_life, args.rate)
-        write_simulation(out, life.config(), life.duration, args.rate, args.start_time,
-                         (args.motor_joint, args.load_joint), args.truth_every,
-                         None if args.compression == 'none' else args.compression)
-        text = json.dumps(life.to_json(), indent=2)
-        (out / LIFE_FILE).write_text(text + '\n', encoding='utf-8')
     except ValueError as exc:
         raise CliError(str(exc)) from None
-    except (OSError, BagError) as exc:
-        raise CliError(f'cannot write {out}: {exc}') from None
+    text = json.dumps(life.to_json(), indent=2)
+
+    def write(target: Path) -> int:
+        count = write_simulation(target, life.config(), life.duration, args.rate,
+                                 args.start_time, (args.motor_joint, args.load_joint),
+                                 args.truth_every,
+                                 None if args.compression == 'none' else args.compression)
+        (target / LIFE_FILE).write_text(text + '\n', encoding='utf-8')
+        return count
+    _writing(out, write)
     print(text)
     return 0
 
 
-def _writing(out: Path, write: Callable[[], int]) -> int:
-    """Return what ``write`` returns; its errors as CliError.
+def _writing(out: Path, write: Callable[[Path], int]) -> int:
+    """Return what ``write`` returns, written whole into ``out`` or not at all.
 
-    ValueError: e.g. the wear trajectory jams the gearbox within the run.
+    ``write`` gets a directory in a hidden staging folder beside ``out``, which becomes
+    ``out`` once it is complete; on any error (and on Ctrl-C) the staging folder is removed,
+    so no half-written bag is left. Errors as CliError; ValueError: e.g. the wear trajectory
+    jams the gearbox within the run.
     """
+    staging = None
     try:
-        return write()
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))
+        result = write(staging / out.name)
+        if out.exists():
+            out.rmdir()                         # empty (run() refuses any other)
+        (staging / out.name).rename(out)
+        return result
     except ValueError as exc:
         raise CliError(str(exc)) from None
     except (OSError, BagError) as exc:
         raise CliError(f'cannot write {out}: {exc}') from None
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -352,8 +395,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--out {out} exists and is not an empty directory')
     if args.transmissions is not None:
         drives = _drive_configs(args)
-        count = _writing(out, lambda: write_drives(
-            out, drives, args.duration, args.rate, args.start_time, args.truth_every,
+        count = _writing(out, lambda target: write_drives(
+            target, drives, args.duration, args.rate, args.start_time, args.truth_every,
             None if args.compression == 'none' else args.compression))
         print(f'wrote {count} samples of {len(drives)} drives ({args.duration:g} s at '
               f'{args.rate:g} Hz) to {out}')
@@ -370,13 +413,13 @@ def run(args: argparse.Namespace) -> int:
         args.duration, single = args.duration * args.recordings, args.duration
         config = _config(args)
         args.duration = single
-        count = _writing(out, lambda: write_fleet(out, config, args))
+        count = _writing(out, lambda target: write_fleet(target, config, args))
         print(f'wrote {args.fleet} units x {args.recordings} recordings, {count} samples, '
               f'to {out}')
         return 0
     config = _config(args)
-    count = _writing(out, lambda: write_simulation(
-        out, config, args.duration, args.rate, args.start_time,
+    count = _writing(out, lambda target: write_simulation(
+        target, config, args.duration, args.rate, args.start_time,
         (args.motor_joint, args.load_joint), args.truth_every,
         None if args.compression == 'none' else args.compression))
     print(f'wrote {count} samples ({args.duration:g} s at {args.rate:g} Hz) to {out}')

@@ -1,0 +1,97 @@
+"""CLI outputs are whole or absent: a failed, interrupted or terminated run leaves nothing.
+
+``gear-phm simulate`` and ``analyze`` write into a hidden staging folder beside ``--out`` and
+rename it into place once complete; an error, Ctrl-C (SIGINT, exit 130) or SIGTERM (exit 143)
+removes it.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+import signal
+import subprocess
+import sys
+import time
+from typing import Any
+
+import pytest
+
+from gear_phm.cli import simulate as simulate_module
+from gear_phm.cli.main import main as gear_phm
+
+GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+
+
+def test_a_run_too_large_for_the_disk_is_refused_early_and_leaves_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # 1e14 samples: petabytes on any disk; refused once the first megabytes project that
+    started = time.monotonic()
+    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), '--duration', '1e12']) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith('gear-phm simulate: error: cannot write') \
+        and '100,000,000,000,000 samples would take about' in lines[0] \
+        and 'GB are free' in lines[0], lines
+    assert list(tmp_path.iterdir()) == []                  # no bag, no staging folder
+    assert time.monotonic() - started < 60.0                # not after filling the disk
+
+
+def test_a_write_failing_midway_leaves_no_half_written_bag(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    write_chunk = simulate_module._write_chunk
+    chunks = []
+
+    def failing(*args: Any) -> None:
+        chunks.append(1)
+        if len(chunks) == 3:
+            raise OSError(28, 'No space left on device')
+        write_chunk(*args)
+    monkeypatch.setattr(simulate_module, '_write_chunk', failing)
+    (tmp_path / 'x').mkdir()                                # an empty --out is allowed
+    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), '--duration', '700']) == 2
+    assert len(chunks) == 3                                 # two chunks were written
+    assert 'cannot write' in capsys.readouterr().err
+    assert [p.name for p in tmp_path.iterdir()] == ['x']    # the empty --out, as it was
+    assert list((tmp_path / 'x').iterdir()) == []
+
+
+@pytest.fixture(scope='module')
+def long_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """300,000 samples at 1 kHz: a few seconds of analysis."""
+    out = tmp_path_factory.mktemp('interrupts') / 'bag'
+    assert gear_phm(['simulate', '--out', str(out), '--duration', '300', '--rate', '1000',
+                     '--seed', '3']) == 0
+    return out
+
+
+def stopped(command: list[str], folder: Path, signum: int) -> subprocess.CompletedProcess:
+    """Run ``gear-phm command``; send ``signum`` once its staging folder is in ``folder``."""
+    child = subprocess.Popen([str(GEAR_PHM), *command], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, env=os.environ.copy())
+    deadline = time.monotonic() + 60.0
+    while not any(p.name.startswith('.') for p in folder.iterdir()):
+        assert child.poll() is None, child.communicate()
+        assert time.monotonic() < deadline, 'no staging folder within 60 s'
+        time.sleep(0.01)
+    child.send_signal(signum)
+    out, err = child.communicate(timeout=60)
+    return subprocess.CompletedProcess(child.args, child.returncode, out, err)
+
+
+@pytest.mark.parametrize('command, signum, code, word', [
+    ('analyze', signal.SIGINT, 130, 'interrupted'),
+    ('analyze', signal.SIGTERM, 143, 'terminated'),
+    ('simulate', signal.SIGTERM, 143, 'terminated'),
+])
+def test_a_stopped_run_exits_with_the_signal_and_leaves_nothing(
+        long_bag: Path, tmp_path: Path, command: str, signum: int, code: int,
+        word: str) -> None:
+    out = tmp_path / 'out'
+    args = (['analyze', str(long_bag), '--ratio', '3.0', '--out', str(out), '--no-progress']
+            if command == 'analyze' else
+            ['simulate', '--out', str(out), '--duration', '5000', '--rate', '1000'])
+    done = stopped(args, tmp_path, signum)
+    assert done.returncode == code, done.stderr
+    assert done.stderr.strip().splitlines() == [f'gear-phm {command}: {word}']
+    assert list(tmp_path.iterdir()) == []
