@@ -90,7 +90,7 @@ def test_a_stopped_run_exits_with_the_signal_and_leaves_nothing(
     out = tmp_path / 'out'
     args = (['analyze', str(long_bag), '--ratio', '3.0', '--out', str(out), '--no-progress']
             if command == 'analyze' else
-            ['simulate', '--out', str(out), '--duration', '5000', '--rate', '1000'])
+            ['simulate', '--out', str(out), '--duration', '20000', '--rate', '1000'])
     done = stopped(args, tmp_path, signum)
     assert done.returncode == code, done.stderr
     assert done.stderr.strip().splitlines() == [f'gear-phm {command}: {word}']

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
+import functools
 import importlib
 import signal
 import sys
@@ -38,12 +39,10 @@ class CliError(GearPhmError):
     """A problem with the user's input: printed on one line, exit status 2."""
 
 
-class Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that cleanup runs (exit status 143)."""
-
-
-def _terminate(signum: int, frame: FrameType | None) -> None:
-    raise Terminated
+def _terminate(signum: int, frame: FrameType | None, command: str) -> None:
+    """On SIGTERM: SystemExit(128 + 15) in the main thread, so that cleanup (finally) runs."""
+    print(f'gear-phm {command}: terminated', file=sys.stderr)
+    raise SystemExit(128 + signum)
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -76,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.ros_args = ros_args
     if args.command in STOPPED_ON_SIGTERM:
-        signal.signal(signal.SIGTERM, _terminate)
+        signal.signal(signal.SIGTERM, functools.partial(_terminate, command=args.command))
     try:
         return int(args._run(args) or 0)
     except CliError as exc:
@@ -85,9 +84,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'gear-phm {args.command}: interrupted', file=sys.stderr)
         return 130
-    except Terminated:
-        print(f'gear-phm {args.command}: terminated', file=sys.stderr)
-        return 128 + signal.SIGTERM
 
 
 if __name__ == '__main__':
