@@ -131,6 +131,11 @@ def test_overwrite_replaces_only_a_previous_analysis(tmp_path: Path) -> None:
     (['--ratio', '3', '--out', 'X', '--param', 'speed=1'], 'unknown estimator parameter'),
     (['--ratio', '3', '--out', 'X', '--topic', 'nope'], "no topic 'nope'"),
     (['--ratio', '3', '--out', 'X', '--motor-joint', 'arm'], 'no message of topic'),
+    # a period of 0 ns made the /diagnostics ticks an endless loop that filled the memory
+    (['--ratio', '3', '--out', 'X', '--diagnostics-rate', '1e12'],
+     'diagnostics_rate must be in [0.01, 1000] Hz'),
+    (['--ratio', '3', '--out', 'X', '--diagnostics-rate', 'nan'],
+     'diagnostics_rate must be in [0.01, 1000] Hz'),
 ])
 def test_bad_input_one_line_error_exit_2(tmp_path: Path, argv: list[str],
                                          message: str) -> None:

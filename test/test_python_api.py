@@ -73,6 +73,11 @@ def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
         analyze_bag(bag, ratio=3.0, eta_opposing_min=0.9, eta_warn=0.85)
     with pytest.raises(AnalysisError, match='ratio must be in'):
         analyze_bag(bag, ratio=-3.0)
+    for history in ('10', 10.5, 0, True):
+        with pytest.raises(AnalysisError, match='history must be an integer >= 1 or None'):
+            analyze_bag(bag, ratio=3.0, history=history)    # type: ignore[arg-type]
+    with pytest.raises(AnalysisError, match=r'diagnostics_rate must be in \[0.01, 1000\]'):
+        analyze_bag(bag, ratio=3.0, diagnostics_rate=1e12)
     with pytest.raises(AnalysisError, match="joints 'a' and 'b'"):
         analyze_bag(bag, ratio=3.0, motor_joint='a', load_joint='b', out=tmp_path / 'x')
     assert not (tmp_path / 'x').exists()                    # a failed run leaves no output

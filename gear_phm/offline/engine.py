@@ -216,10 +216,14 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     the stamps do not advance (:func:`~gear_phm.estimation.pipeline.stalled_stamps`: no
     measurement at all; ``stamp_source='log'`` is then the remedy).
     """
-    if history is not None and history < 1:
-        raise AnalysisError(f'history must be >= 1, got {history}')
-    if not diagnostics_rate > 0:
-        raise AnalysisError(f'diagnostics_rate must be > 0 Hz, got {diagnostics_rate}')
+    if history is not None and (isinstance(history, bool) or not isinstance(history, int)
+                                or history < 1):
+        raise AnalysisError(f'history must be an integer >= 1 or None, got {history!r}')
+    try:            # the diagnostics node's `rate` and its range
+        diagnostics_rate = float(replace(DIAGNOSTICS_RATE, name='diagnostics_rate').check(
+            diagnostics_rate))
+    except ValueError as exc:
+        raise AnalysisError(str(exc)) from None
     try:
         stamp_source = str(STAMP_SOURCE.check(stamp_source))
     except ValueError as exc:
