@@ -5,6 +5,7 @@ import json
 import math
 from pathlib import Path
 import re
+import shutil
 import subprocess
 import sys
 
@@ -147,6 +148,45 @@ def test_bad_input_one_line_error_exit_2(tmp_path: Path, argv: list[str],
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith('gear-phm analyze: error:'), result.stderr
     assert message in lines[0]
+
+
+def test_overwrite_replaces_only_an_earlier_analysis(tmp_path: Path) -> None:
+    """--overwrite removed the whole --out: the bag analysed and a user's notes with it."""
+    work = tmp_path / 'work'
+    shutil.copytree(HEALTHY, work / 'bag')
+    (work / 'summary.json').write_text('{}')
+    (work / 'notes.txt').write_text('mine')
+    result = subprocess.run([str(Path(sys.executable).parent / 'gear-phm'), 'analyze',
+                             str(work / 'bag'), '--ratio', '3', '--out', str(work),
+                             '--overwrite', '--no-plot', '--no-progress'],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        f'gear-phm analyze: error: --out {work} holds the bag {work / "bag"} being analysed: '
+        'write the analysis elsewhere']
+    assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out', str(work), '--overwrite',
+                 '--no-plot', '--no-progress']) == 2     # notes.txt and bag/: not an analysis
+    assert (work / 'notes.txt').read_text() == 'mine'
+    assert (work / 'bag' / 'metadata.yaml').is_file()
+    earlier = tmp_path / 'earlier'
+    assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out', str(earlier), '--no-plot',
+                 '--no-progress']) == 0
+    assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out', str(earlier), '--no-plot',
+                 '--no-progress', '--overwrite']) == 0    # its own files: replaced
+
+
+def test_out_that_cannot_be_written_is_one_line(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / 'file').write_text('x')
+    (tmp_path / 'empty').mkdir()
+    (tmp_path / 'link').symlink_to(tmp_path / 'empty')
+    for out, message in ((tmp_path / 'file' / 'out', 'cannot write --out'),
+                         (tmp_path / 'link', 'is a symbolic link')):
+        assert main(['analyze', str(HEALTHY), '--ratio', '3', '--out', str(out), '--no-plot',
+                     '--no-progress']) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and message in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['empty', 'file', 'link']
 
 
 def test_missing_bag_and_existing_out(tmp_path: Path) -> None:

@@ -78,6 +78,14 @@ def test_api_bad_input_names_the_problem(tmp_path: Path) -> None:
             analyze_bag(bag, ratio=3.0, history=history)    # type: ignore[arg-type]
     with pytest.raises(AnalysisError, match=r'diagnostics_rate must be in \[0.01, 1000\]'):
         analyze_bag(bag, ratio=3.0, diagnostics_rate=1e12)
+    with pytest.raises(AnalysisError, match='is given twice'):
+        analyze_bag([bag, bag], ratio=3.0)        # its time would run twice
+    with pytest.raises(AnalysisError, match='topic must be a topic name, got None'):
+        analyze_bag(bag, ratio=3.0, topic=None)               # type: ignore[arg-type]
+    with pytest.raises(AnalysisError, match='a bag is a path'):
+        analyze_bag([None], ratio=3.0)                        # type: ignore[list-item]
+    with pytest.raises(AnalysisError, match='transmissions must be a file'):
+        analyze_bag(bag, transmissions=5)
     with pytest.raises(AnalysisError, match="joints 'a' and 'b'"):
         analyze_bag(bag, ratio=3.0, motor_joint='a', load_joint='b', out=tmp_path / 'x')
     assert not (tmp_path / 'x').exists()                    # a failed run leaves no output
@@ -107,7 +115,7 @@ def test_history_bounds_the_returned_histories_not_the_result() -> None:
         assert np.nanmin(envelope.low[name]) == np.nanmin(getattr(full.estimates, name))
         assert np.nanmax(envelope.high[name]) == np.nanmax(getattr(full.estimates, name))
     assert lean.summary['windows_measured'] == full.summary['windows_measured']
-    with pytest.raises(AnalysisError, match='history must be >= 1'):
+    with pytest.raises(AnalysisError, match='history must be an integer >= 1'):
         analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=0)
 
 

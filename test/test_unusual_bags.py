@@ -40,6 +40,12 @@ def _variant(out: Path, change: str) -> Path:
                 msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
             elif change == 'no effort':
                 msg.effort = np.zeros(0)
+            elif change == 'effort nan':                    # a torque sensor that fails
+                msg.effort = np.full(msg.effort.size, np.nan)
+            elif change == 'huge speed every 50th' and count % 50 == 0:
+                msg.velocity = np.full(msg.velocity.size, 1e300)
+            elif change == 'negative stamps':               # a clock before 1970
+                msg.header.stamp.sec -= 1000
             elif change == 'motor torque in mN m':
                 msg.effort = msg.effort * np.array([1000.0, 1.0])
             elif change.endswith('torque reversed'):        # a sensor read the other way
@@ -66,7 +72,8 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {change: _variant(root / change.replace(' ', '_'), change)
             for change in ('unchanged', 'zero stamps', 'no effort', 'split joints',
                            'load torque reversed', 'motor torque reversed',
-                           'motor torque in mN m', 'every message twice')}
+                           'motor torque in mN m', 'every message twice', 'effort nan',
+                           'huge speed every 50th', 'negative stamps')}
 
 
 def _analyze(bag: Path, out: Path, *extra: str) -> int:
@@ -213,3 +220,33 @@ def test_estimator_status_names_stamps_that_do_not_advance() -> None:
                    ones)
     assert not stalled_stamps(fresh.summary())
     assert 'header stamps' not in fresh.status('gear_phm estimator').message
+
+
+def test_no_measurement_at_all_is_an_error_not_the_filter_prior(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Every torque NaN: the analysis gave exit 0 and u 0.05 +/- 0.5, the filter's prior."""
+    assert _analyze(bags['effort nan'], tmp_path / 'out') == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert 'no efficiency measurement' in lines[0] and f'nonfinite {MESSAGES}' in lines[0], lines
+    assert not (tmp_path / 'out').exists()
+
+
+def test_overflowing_values_are_dropped_as_nonfinite(bags: dict[str, Path],
+                                                     tmp_path: Path) -> None:
+    """1e300 rad/s: finite, but its power and kinetic energy overflow (a traceback before)."""
+    assert _analyze(bags['huge speed every 50th'], tmp_path / 'huge') == 0
+    assert _analyze(bags['unchanged'], tmp_path / 'base') == 0
+    huge = json.loads((tmp_path / 'huge' / 'summary.json').read_text())
+    base = json.loads((tmp_path / 'base' / 'summary.json').read_text())
+    assert huge['counts']['nonfinite'] == MESSAGES // 50
+    assert abs(huge['u'] - base['u']) < 3.0 * base['sigma_u']
+
+
+def test_negative_header_stamps_are_named_and_log_times_analyse_them(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _analyze(bags['negative stamps'], tmp_path / 'out') == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and 'header stamps before 1970' in lines[0], lines
+    assert '--stamp-source log' in lines[0]
+    assert _analyze(bags['negative stamps'], tmp_path / 'out', '--stamp-source', 'log') == 0

@@ -514,11 +514,14 @@ class EstimatorPipeline:
                     'backwards': int(np.count_nonzero(backwards[k:]))})) for mark, k in marks]
             self._origin_ns = int(stamps[first[0]])
         t = (stamps - self._origin_ns) * 1e-9
-        finite = np.isfinite(w_m) & np.isfinite(tau_m) & np.isfinite(w_l) & np.isfinite(tau_l)
         with np.errstate(invalid='ignore', over='ignore'):
             p_m = tau_m * w_m
             p_l = -tau_l * w_l
             code = classify(p_m, p_l, w_m, c.power_threshold, c.speed_threshold)
+            # finite values whose powers or kinetic energies overflow (1e300 rad/s) are no
+            # measurement either: the windows square the speeds
+            finite = np.isfinite(p_m) & np.isfinite(p_l) & np.isfinite(w_m * w_m) \
+                & np.isfinite(w_l * w_l)
         code[~finite] = 0
         nonfinite = timely & ~finite
         ok = timely & finite

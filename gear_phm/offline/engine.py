@@ -135,9 +135,17 @@ def order_bags(paths: Sequence[str | Path]) -> list[Path]:
     from gear_phm.bagio import BagError, BagReader
     starts = []
     for given in paths:
+        if not isinstance(given, (str, Path)):
+            raise AnalysisError(f'a bag is a path (str or Path), got {given!r}')
         if not Path(given).exists():
             raise AnalysisError(f'bag {given} does not exist')
-    for path in [bag for given in paths for bag in _expand(Path(given))]:
+    expanded = [bag for given in paths for bag in _expand(Path(given))]
+    seen: dict[Path, Path] = {}
+    for path in expanded:
+        first = seen.setdefault(path.resolve(), path)
+        if first is not path:       # its samples would repeat in one run: time runs twice
+            raise AnalysisError(f'bag {path} is given twice (also as {first})')
+    for path in expanded:
         start = _metadata_start_ns(Path(path))
         if start is None:
             try:
@@ -216,6 +224,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     the stamps do not advance (:func:`~gear_phm.estimation.pipeline.stalled_stamps`: no
     measurement at all; ``stamp_source='log'`` is then the remedy).
     """
+    if not isinstance(topic, str) or not topic:
+        raise AnalysisError(f'topic must be a topic name, got {topic!r}')
     if history is not None and (isinstance(history, bool) or not isinstance(history, int)
                                 or history < 1):
         raise AnalysisError(f'history must be an integer >= 1 or None, got {history!r}')
@@ -232,7 +242,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         if ratio is None:
             raise AnalysisError('give the ratio (one transmission) or transmissions (many)')
         estimator_config, health_config = split_options(ratio, options)
-        if not motor_joint or not load_joint or motor_joint == load_joint:
+        if not isinstance(motor_joint, str) or not isinstance(load_joint, str) \
+                or not motor_joint or not load_joint or motor_joint == load_joint:
             raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty '
                                 f'names, got {motor_joint!r} and {load_joint!r}')
         runs = [_Run(estimator_config, health_config, motor_joint, load_joint, topic,
@@ -257,13 +268,16 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     if not paths:
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
-    target = None if out is None else _check_out(Path(out), overwrite)
+    target = None if out is None else _check_out(Path(out), overwrite, bags)
     stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source)
     staging = None
     try:
         if target is not None:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
+            try:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
+            except OSError as exc:
+                raise AnalysisError(f'cannot write --out {target}: {exc}') from None
         analyses, readers, elapsed = stream.execute(
             bags, None if staging is None or target is None else staging / target.name,
             progress)
@@ -277,6 +291,12 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                       '(gear-phm analyze --stamp-source log)' if stamp_source == 'header'
                       else '')
             raise AnalysisError(f'topic {topic}: no efficiency measurement, {stalled}{remedy}')
+        for run, analysis in zip(runs, analyses):
+            unmeasured = _unmeasured(analysis.summary)
+            if unmeasured:          # the filter's prior is no estimate of this gearbox
+                which = '' if run.drive is None else f'drive {run.drive}: '
+                raise AnalysisError(f'{which}topic {topic}: no efficiency measurement, '
+                                    f'{unmeasured}')
         if transmissions is None:
             analysis = analyses[0]
         else:
@@ -293,14 +313,32 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 for run, drive_analysis in zip(runs, analyses) if transmissions else ():
                     plot_analysis(written / f'analysis_{run.drive}.png', drive_analysis,
                                   run.estimator_config.ratio, bags, drive=str(run.drive))
-            if target.exists():
-                shutil.rmtree(target)
-            written.rename(target)
+            try:
+                if target.exists():
+                    shutil.rmtree(target)
+                written.rename(target)
+            except OSError as exc:
+                raise AnalysisError(f'cannot write --out {target}: {exc}') from None
             analysis = replace(analysis, out=target)
         return analysis
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
+
+
+def _unmeasured(summary: dict[str, Any]) -> str:
+    """Return why a run made no filter update, from its summary ('' if it made one).
+
+    The samples' reasons (SAMPLE_REASONS counts) and the windows' (too short, too little
+    energy, gated): with no update, u is the filter's prior, not an estimate.
+    """
+    if summary['filter_updates']:
+        return ''
+    counts = {name: count for name, count in summary['counts'].items() if count}
+    reasons = ', '.join(f'{name} {count}' for name, count in sorted(
+        counts.items(), key=lambda item: -item[1])) or 'none counted'
+    return (f"{summary['samples_seen']} samples, {summary['samples_used']} used, "
+            f"{summary.get('windows_measured', 0)} windows measured (rejections: {reasons})")
 
 
 def _refusal(run: _Run) -> str:
@@ -334,6 +372,8 @@ def _drives(transmissions: Any) -> tuple[Transmission, ...]:
         drives = tuple(transmissions)
     except TransmissionsError as exc:
         raise AnalysisError(str(exc)) from None
+    except TypeError:
+        drives = ()
     if not drives or not all(isinstance(d, Transmission) for d in drives):
         raise AnalysisError('transmissions must be a file, its YAML document or a non-empty '
                             'sequence of Transmission records')
@@ -356,13 +396,42 @@ def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
                                    for run, analysis in zip(stream.runs, analyses)})
 
 
-def _check_out(out: Path, overwrite: bool) -> Path:
+def _check_out(out: Path, overwrite: bool, bags: Sequence[Path] = ()) -> Path:
+    """Return ``out`` if the analysis may be written there; AnalysisError if not.
+
+    It must not exist, be empty, or (``overwrite``) hold an earlier analysis and nothing
+    else (:func:`_analysis_files`): replacing it removes the directory. It must not be a
+    symbolic link, nor hold or be one of the ``bags``.
+    """
+    if out.is_symlink():
+        raise AnalysisError(f'--out {out} is a symbolic link: give the directory it points to')
+    target = out.resolve()
+    for bag in bags:
+        if target == bag.resolve() or target in bag.resolve().parents:
+            raise AnalysisError(f'--out {out} holds the bag {bag} being analysed: write the '
+                                f'analysis elsewhere')
     if overwrite and out.is_dir() and (out / 'summary.json').is_file():
+        others = sorted(entry.name for entry in out.iterdir()
+                        if not _analysis_files(out.name, entry))
+        if others:
+            raise AnalysisError(f'--out {out} holds files an analysis does not write '
+                                f'({", ".join(others[:5])}): not replaced')
         return out                              # replaced once the new analysis is complete
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         hint = '' if overwrite else ' (add --overwrite to replace an earlier analysis)'
         raise AnalysisError(f'--out {out} exists and is not an empty directory{hint}')
     return out
+
+
+def _analysis_files(name: str, entry: Path) -> bool:
+    """Whether ``entry`` of an output directory ``name`` is one an analysis writes."""
+    if not entry.is_file() or entry.is_symlink():
+        return False
+    file = entry.name
+    return file in ('summary.json', 'metadata.yaml', 'analysis.png') or (
+        file.startswith('analysis_') and file.endswith('.png')) or (
+        file.startswith(f'{name}_') and file.endswith('.mcap')
+        and file[len(name) + 1:-len('.mcap')].isdigit())
 
 
 class _Run:
@@ -670,6 +739,10 @@ class _Stream:
         if self.log_stamps:             # each drive's samples at their messages' log times
             logged = np.asarray(times, dtype=np.int64)
             decoded = [replace(batch, stamp_ns=logged[batch.message_index]) for batch in decoded]
+        elif any(batch.stamp_ns.size and int(batch.stamp_ns.min()) < 0 for batch in decoded):
+            msg = (f'topic {self.topic}: header stamps before 1970 (negative), which no output '
+                   "bag can hold; analyse on the bag's record times: --stamp-source log")
+            raise AnalysisError(msg)
         self._write([run._step(batch, len(raw), cuts)
                      for run, batch in zip(self.runs, decoded)], ticks, writer)
         bar.update(len(raw))
