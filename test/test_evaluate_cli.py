@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -241,3 +242,133 @@ def test_evaluate_rejects_a_broken_life_file(bags, capsys) -> None:
     assert main(['evaluate', str(run), '--truth', str(truth)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count('\n') == 0 and 'missing eta_opposing_min, u_eol' in err
+
+
+# --- bad input: outputs, time bases, truth CSVs, option ranges ------------------------------
+
+def _error(capsys) -> str:
+    """Return the one stderr line of a failed command."""
+    captured = capsys.readouterr()
+    [line] = captured.err.splitlines()
+    assert line.startswith('gear-phm evaluate: error: ') and 'Traceback' not in captured.err
+    return line
+
+
+def test_evaluate_refuses_an_output_that_is_an_input(bags, tmp_path: Path, capsys) -> None:
+    """--output naming a truth or run file, or a file in the truth bag: exit 2, input kept."""
+    run, truth = bags
+    csv = tmp_path / 'truth.csv'
+    csv.write_text('time,true_eol\n0,500\n')
+    [truth_mcap] = truth.glob('*.mcap')
+    [run_mcap] = (run / 'bag').glob('*.mcap')
+    link = tmp_path / 'link.mcap'
+    os.link(truth_mcap, link)
+    before = {p: p.read_bytes() for p in (truth_mcap, run_mcap, csv, truth / 'metadata.yaml')}
+    cases = [(truth, truth_mcap), (truth, truth / 'metadata.yaml'), (truth, truth / 'new.json'),
+             (truth, link), (truth, run_mcap), (truth, run / 'bag' / 'metadata.yaml'),
+             (csv, csv)]
+    for source, output in cases:
+        assert main(['evaluate', str(run), '--truth', str(source), '--output',
+                     str(output)]) == 2, output
+        assert 'would overwrite or write into the input' in _error(capsys)
+    assert {p: p.read_bytes() for p in before} == before
+    assert not (truth / 'new.json').exists()
+    # the default output in the run and a file elsewhere are still written
+    assert main(['evaluate', str(run), '--truth', str(truth)]) == 0
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output',
+                 str(run / 'bag' / 'evaluation.json')]) == 0
+
+
+def test_evaluate_output_directory_or_unwritable(bags, tmp_path: Path, capsys,
+                                                 monkeypatch) -> None:
+    """A directory, a missing directory or a failed write: one line, no partial file."""
+    run, truth = bags
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(tmp_path)]) == 2
+    assert 'is a directory; give a file name' in _error(capsys)
+    missing = tmp_path / 'no' / 'm.json'
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(missing)]) == 2
+    assert f'directory {missing.parent} does not exist' in _error(capsys)
+    out = tmp_path / 'out' / 'm.json'
+    out.parent.mkdir()
+    out.write_text('old')
+
+    def refuse(*args) -> None:
+        raise PermissionError(13, 'Permission denied')
+
+    monkeypatch.setattr(os, 'replace', refuse)
+    assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out)]) == 2
+    assert _error(capsys).endswith(f'cannot write {out}: Permission denied')
+    assert [p.name for p in out.parent.iterdir()] == ['m.json'] and out.read_text() == 'old'
+
+
+def test_evaluate_refuses_a_truth_from_another_time(tmp_path: Path, bags, capsys) -> None:
+    """Truth and run that never overlap: exit 2 naming both; partly: a warning, also in JSON."""
+    run, _ = bags
+    t = np.arange(0.0, 1000.0, 10.0)
+    true_u = 0.05 + 0.55 * t / 600.0
+    late = tmp_path / 'late'
+    _write(late, TRUTH_FRICTION, [(1e5 + ti, ui, ui, 0.0) for ti, ui in zip(t, true_u)])
+    assert main(['evaluate', str(run), '--truth', str(late)]) == 2
+    line = _error(capsys)
+    assert "the run's predictions are stamped 0-590 s, the truth" in line
+    assert '100000-100990 s: they do not overlap' in line
+    partly = tmp_path / 'partly'
+    _write(partly, TRUTH_FRICTION, [(ti, ui, ui, 0.0) for ti, ui in zip(t, true_u) if ti >= 300])
+    out = tmp_path / 'm.json'
+    assert main(['evaluate', str(run), '--truth', str(partly), '--output', str(out)]) == 0
+    [warning] = capsys.readouterr().err.splitlines()
+    assert warning.startswith('gear-phm evaluate: warning: ') and 'only partly' in warning
+    assert json.loads(out.read_text())['warnings'] == [warning.split('warning: ', 1)[1]]
+
+
+@pytest.mark.parametrize('text, message', [
+    ('a,b\n0,500\n', "line 1: the header must name the columns time,true_eol, got 'a,b'"),
+    ('0,500\n', "line 1: the header must name the columns time,true_eol, got '0,500'"),
+    ('time,true_eol\n', 'holds a header but no time,true_eol row'),
+    ('time,true_eol\n0,500\n100,nan\n', 'line 3 column true_eol: expected a finite number > 0'),
+    ('time,true_eol\n0,1e309\n', 'line 2 column true_eol: expected a finite number > 0'),
+    ('time,true_eol\n0,-5\n', 'line 2 column true_eol: expected a finite number > 0'),
+    ('time,true_eol\n0,0\n', 'line 2 column true_eol: expected a finite number > 0'),
+    ('time,true_eol\n-1,500\n', 'line 2 column time: expected a finite number >= 0'),
+    ('time,true_eol\n0\n', "line 2 column true_eol: expected a finite number > 0 [s], got ''"),
+])
+def test_evaluate_truth_csv_needs_its_columns_and_finite_values(bags, tmp_path: Path, capsys,
+                                                                text: str,
+                                                                message: str) -> None:
+    run, _ = bags
+    csv = tmp_path / 'truth.csv'
+    csv.write_text(text)
+    out = tmp_path / 'm.json'
+    assert main(['evaluate', str(run), '--truth', str(csv), '--output', str(out)]) == 2
+    line = _error(capsys)
+    assert f'{csv} ' in line and message in line, line
+    assert not out.exists()
+
+
+def test_evaluate_warns_when_the_run_ends_long_before_the_end_of_life(bags, tmp_path: Path,
+                                                                      capsys) -> None:
+    """A true end of life far beyond the run: alpha-lambda scores the last prediction, said."""
+    run, _ = bags
+    csv = tmp_path / 'truth.csv'
+    csv.write_text('time , true_eol\n0,1e308\n')
+    out = tmp_path / 'm.json'
+    assert main(['evaluate', str(run), '--truth', str(csv), '--output', str(out)]) == 0
+    [warning] = capsys.readouterr().err.splitlines()
+    assert "the run's last prediction at 590 s comes before lambda 0.75" in warning
+    assert json.loads(out.read_text())['warnings'] == [warning.split('warning: ', 1)[1]]
+
+
+@pytest.mark.parametrize('option, message', [
+    (['--lambdas', '0.5', '1.5'], '--lambdas must be in [0, 1) (a fraction of the life), got 1.5'),
+    (['--band-from', '-0.1'], '--band-from must be in [0, 1) (a fraction of the life), got -0.1'),
+    (['--alpha', 'inf'], '--alpha must be a fraction of the true RUL in (0, 1), got inf'),
+    (['--alpha', '0'], '--alpha must be a fraction of the true RUL in (0, 1), got 0.0'),
+    (['--alpha', 'nan'], '--alpha must be a fraction of the true RUL in (0, 1), got nan'),
+    (['--t-start', 'nan'], '--t-start must be finite, got nan'),
+])
+def test_evaluate_option_ranges_name_the_option(bags, capsys, option: list[str],
+                                                message: str) -> None:
+    run, truth = bags
+    assert main(['evaluate', str(run), '--truth', str(truth), *option]) == 2
+    assert _error(capsys).endswith(message)
+    assert not (run / 'bag' / 'evaluation.json').exists()

@@ -328,3 +328,82 @@ def test_advice_only_for_files_without_footer(tmp_path: Path) -> None:
     assert result.messages == 1
     with BagReader(tmp_path / 'new_bag') as reader:
         assert [m.vector.x for _, _, m in reader.messages()] == [0.1]
+
+
+# --- metadata.yaml the reader refuses, nothing to recover, --out of another format ----------
+
+def small_bag(directory: Path, messages: int = 5) -> Path:
+    """Write a complete rosbag2 directory of ``messages`` messages; return its MCAP file."""
+    with Rosbag2McapWriter(directory, flush_period_s=None) as writer:
+        for i in range(messages):
+            writer.write_output(Vector3Out('gear_phm/friction', (i + 1) * 10**9, 0.1, 0.0, 0.0))
+    [mcap_file] = directory.glob('*.mcap')
+    return mcap_file
+
+
+@pytest.mark.parametrize('kind', ['corrupt', 'empty', 'string', 'version', 'missing file'])
+def test_metadata_the_reader_refuses_is_rebuilt(tmp_path: Path, kind: str) -> None:
+    """Intact MCAP, bad metadata.yaml: rebuilt from the files, the old one kept as .orig."""
+    bag = tmp_path / 'bag'
+    mcap_file = small_bag(bag)
+    meta = bag / 'metadata.yaml'
+    good = meta.read_text()
+    text = {'corrupt': 'rosbag2_bagfile_information: [', 'empty': '', 'string': 'hello',
+            'version': good.replace('version: 9', 'version: 999'),
+            'missing file': good.replace(mcap_file.name, 'gone_0.mcap')}[kind]
+    assert text != good
+    meta.write_text(text)
+    data = mcap_file.read_bytes()
+    with pytest.raises(BagError):
+        with BagReader(bag):
+            pass
+    done = cli('recover', str(bag))
+    assert done.returncode == 0, done.stderr
+    assert 'nothing to recover' not in done.stdout
+    assert 'originals kept as metadata.yaml.orig' in done.stdout
+    [line] = done.stderr.splitlines()
+    assert line.startswith(f'{meta}: refused by the rosbag2 reader (') and \
+        line.endswith('); rebuilt from the MCAP files')
+    assert (bag / 'metadata.yaml.orig').read_text() == text
+    assert mcap_file.read_bytes() == data
+    with BagReader(bag) as reader:
+        assert reader.message_count() == 5
+    done = cli('recover', str(bag))                 # now complete and intact
+    assert done.returncode == 0 and 'nothing to recover, nothing written' in done.stdout
+
+
+def test_magic_only_file_is_nothing_recoverable(tmp_path: Path) -> None:
+    mcap_file = small_bag(tmp_path / 'bag')
+    magic = tmp_path / 'magic.mcap'
+    magic.write_bytes(mcap_file.read_bytes()[:8])
+    (tmp_path / 'bag' / 'metadata.yaml').unlink()
+    mcap_file.write_bytes(magic.read_bytes())
+    for path in (magic, tmp_path / 'bag'):
+        before = sorted(os.listdir(tmp_path)), listing(tmp_path / 'bag')
+        done = cli('recover', str(path))
+        assert done.returncode == 2 and done.stdout == ''
+        [line] = done.stderr.splitlines()
+        assert line.startswith('gear-phm recover: error: ') and \
+            'nothing recoverable (not even its MCAP header record' in line, line
+        assert line.endswith('; nothing written') and str(mcap_file if path.is_dir()
+                                                          else magic) in line
+        assert (sorted(os.listdir(tmp_path)), listing(tmp_path / 'bag')) == before
+
+
+def test_out_of_another_format_or_unwritable_is_named(tmp_path: Path) -> None:
+    """--out rec.db3 is refused (it made a directory named rec.db3); OSErrors name the path."""
+    bag = tmp_path / 'bag'
+    mcap_file = small_bag(bag)
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(mcap_file.read_bytes()[:-40])
+    for path, out, message in [
+            (cut, tmp_path / 'rec.db3', 'recover writes MCAP (a .mcap file, or a rosbag2 '
+                                        'directory for any other name), not .db3'),
+            (bag, tmp_path / 'rec.mcap', 'a rosbag2 directory is recovered into a new '
+                                         'directory; give a name without the .mcap suffix'),
+            (cut, tmp_path / 'no' / 'x.mcap', f'{tmp_path}/no/x.mcap.recovering: No such file')]:
+        done = cli('recover', str(path), '--out', str(out))
+        assert done.returncode == 2
+        [line] = done.stderr.splitlines()
+        assert line.startswith('gear-phm recover: error: ') and message in line, line
+        assert not out.exists()

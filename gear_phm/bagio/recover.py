@@ -19,10 +19,13 @@ import shutil
 
 from gear_phm.bagio.metadata import (listed_files, METADATA_FILE, qos_list, TopicInfo,
                                      write_metadata)
+from gear_phm.bagio.reader import BagError, BagReader
 from gear_phm.bagio.recover_rewrite import RECOVER_METADATA, rewrite, rewrite_in_place
 from gear_phm.bagio.recover_scan import Dropped, RecoverError, Scan, scan
 
 _ROS_SCHEMA_ENCODINGS = ('ros2msg', 'ros2idl')
+#: Suffixes of other storage formats, refused as ``out`` (recover writes MCAP only).
+OTHER_FORMATS = ('.db3', '.sqlite3', '.bag', '.yaml')
 
 
 def _natural(path: Path) -> list[object]:
@@ -76,6 +79,25 @@ def _topics(scans: Sequence[Scan]) -> list[TopicInfo]:
     return list(topics.values())
 
 
+def _metadata_problem(directory: Path) -> str | None:
+    """Return why rosbag2's reader refuses ``directory``'s metadata.yaml, or None if it reads.
+
+    Called when every MCAP file of the directory is intact: what is refused then is the
+    metadata (unparsable, not a rosbag2 version this reader knows, naming missing files).
+    """
+    try:
+        with BagReader(directory):
+            return None
+    except BagError as exc:
+        return ' '.join(str(exc).split())
+
+
+def _recoverable(source: Scan) -> bool:
+    """Return whether ``source`` holds any record to keep (its header at least)."""
+    return bool(source.header or source.schemas or source.channels or source.messages
+                or source.attachments or source.metadata)
+
+
 def _write_bag_metadata(directory: Path, scans: Sequence[Scan],
                         custom_data: dict[str, str] | None) -> None:
     files = [(s.path.name, s.start_ns or 0, s.end_ns or 0, s.messages) for s in scans]
@@ -97,6 +119,8 @@ class Recovery:
     topics: int = 0
     #: messages of channels whose definition or schema was lost
     lost: list[Dropped] = field(default_factory=list)
+    #: why the directory's metadata.yaml was rebuilt although it existed (None: it was not)
+    metadata_problem: str | None = None
 
     @property
     def dropped(self) -> list[tuple[Path, Dropped]]:
@@ -118,14 +142,26 @@ def recover(path: str | Path, out: str | Path | None = None) -> Recovery:
     files are intact and that has metadata.yaml is left alone.
 
     File: written to ``out`` (default ``<stem>.recovered.mcap`` beside it) unless intact; an
-    ``out`` without the ``.mcap`` suffix becomes a rosbag2 directory with metadata.yaml.
+    ``out`` without the ``.mcap`` suffix becomes a rosbag2 directory with metadata.yaml. An
+    ``out`` named like another storage format (:data:`OTHER_FORMATS`) is refused.
 
-    Raises RecoverError (nothing written) for non-MCAP input, non-ROS 2 content where a
-    rosbag2 directory is made, or an output that exists.
+    A directory whose files are intact but whose metadata.yaml rosbag2's reader refuses
+    (unparsable, unknown version, naming a missing file) gets a new one, the old kept as
+    ``metadata.yaml.orig`` (:attr:`Recovery.metadata_problem` says why).
+
+    Raises RecoverError (nothing written) for non-MCAP input, input with nothing to keep (not
+    even its header record), non-ROS 2 content where a rosbag2 directory is
+    made, or an output that exists.
     """
     path = Path(path)
     if not path.exists():
         raise RecoverError(f'not found: {path}')
+    if out is not None and Path(out).suffix.lower() in OTHER_FORMATS:
+        raise RecoverError(f'--out {out}: recover writes MCAP (a .mcap file, or a rosbag2 '
+                           f'directory for any other name), not {Path(out).suffix}')
+    if out is not None and path.is_dir() and Path(out).suffix == '.mcap':
+        raise RecoverError(f'--out {out}: a rosbag2 directory is recovered into a new '
+                           'directory; give a name without the .mcap suffix')
     if path.is_dir():
         files = _bag_files(path)
         if not files:
@@ -138,6 +174,8 @@ def recover(path: str | Path, out: str | Path | None = None) -> Recovery:
     result = Recovery(path, target, [source], messages=source.messages)
     if source.intact:
         return result
+    if not _recoverable(source):
+        raise RecoverError(_nothing(source))
     if target.exists():
         raise RecoverError(f'{target} exists; give another --out')
     result.messages, result.lost = rewrite(source, target)
@@ -153,16 +191,20 @@ def _recover_directory(directory: Path, files: list[Path], out: Path | None) -> 
     meta = directory / METADATA_FILE
     result = Recovery(directory, out or directory, scans)
     broken = [s for s in scans if not s.intact]
+    if broken and not any(_recoverable(s) for s in scans):
+        raise RecoverError(_nothing(*scans))
     result.topics = len(_topics(scans))
     result.messages = sum(s.messages for s in scans)
-    if out is None and not broken and meta.is_file():
-        return result
+    if not broken and meta.is_file() and out is None:
+        result.metadata_problem = _metadata_problem(directory)
+        if result.metadata_problem is None:
+            return result
     if out is not None:
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             raise RecoverError(f'--out {out} exists and is not an empty directory')
     else:
         backups = [s.path.with_name(s.path.name + '.orig') for s in broken]
-        if broken and meta.is_file():
+        if meta.is_file():
             backups.append(meta.with_name(METADATA_FILE + '.orig'))
         for backup in backups:
             if backup.exists():
@@ -192,6 +234,14 @@ def _recover_directory(directory: Path, files: list[Path], out: Path | None) -> 
             shutil.rmtree(out, ignore_errors=True)
         raise
     return result
+
+
+def _nothing(*scans: Scan) -> str:
+    """Return the message of input holding no record that recover could keep."""
+    names = ', '.join(str(s.path) for s in scans)
+    reasons = '; '.join(d.describe() for s in scans for d in s.dropped)
+    return (f'{names}: nothing recoverable (not even its MCAP header record'
+            + (f'; {reasons})' if reasons else ')') + '; nothing written')
 
 
 def _write_files(scans: list[Scan], broken: list[Scan], out: Path | None,

@@ -69,6 +69,8 @@ class Scan:
     """What one MCAP file holds that recover can use, and what it cannot."""
 
     path: Path
+    #: the Header record was read
+    header: bool = False
     profile: str = ''
     library: str = ''
     #: footer and end magic read, summary CRC valid
@@ -213,6 +215,7 @@ class _Walk:
             return True
         if isinstance(record, Header):
             result.profile, result.library = record.profile, record.library
+            result.header = True
         elif isinstance(record, (Schema, Channel)):
             result._define(record, self.summary)
         elif opcode == Opcode.DATA_END:

@@ -4,7 +4,11 @@ Predictions: ``gear_phm/health/rul`` (x = median RUL [s], stamped with the time 
 estimate) in a rosbag2 directory -- a diagnostics recording or an ``analyze`` output (the
 directory itself or a bag directly inside it). Truth: a simulated bag with
 ``gear_phm/truth/friction`` (EOL = first stamp where true u >= u_eol, u_eol from the health
-options) or a CSV ``time,true_eol`` (seconds; the last row's true_eol is used).
+options) or a CSV with the header ``time,true_eol`` (seconds, finite, true_eol > 0; the last
+row's true_eol is used). A truth bag whose stamps do not overlap the run's is refused; a
+partial overlap, or a run that ends before the last lambda of the life, is warned about on
+stderr and in the JSON (``warnings``). The JSON is written whole or not at all, never over an
+input.
 Also scored: from which fraction of the life the RUL stays finite, how often its p5-p95 band
 (y, z of the RUL topic) holds the true RUL from ``--band-from``, and, when the run has
 ``gear_phm/health/efficiency`` (z = level), its health-level transitions and whether ERROR came
@@ -23,7 +27,11 @@ import argparse
 import csv
 import json
 import math
+import os
 from pathlib import Path
+import re
+import sys
+import tempfile
 from typing import Any
 
 import numpy as np
@@ -58,7 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--output', type=Path, default=None,
                         help='JSON file for the metrics (default: <run>/evaluation.json)')
     parser.add_argument('--alpha', type=float, default=ALPHA,
-                        help=f'accuracy cone half-width (default {ALPHA})')
+                        help='accuracy cone half-width, a fraction of the true RUL in (0, 1) '
+                             f'(default {ALPHA})')
     parser.add_argument('--lambdas', type=float, nargs='+', default=list(LAMBDAS),
                         help='fractions of life where alpha-lambda is checked (default '
                              f'{" ".join(f"{lam:g}" for lam in LAMBDAS)})')
@@ -149,32 +158,77 @@ def _levels(bag: Path, drive: str | None = None) -> tuple[np.ndarray, np.ndarray
     return times, vectors[:, field_index(HEALTH_LAYOUT, HEALTH_EFFICIENCY, 'level')]
 
 
-def truth_eol(truth: Path, u_eol: float, drive: str | None = None) -> float:
-    """Return the true end-of-life time [s] from a truth bag or a CSV (see module docstring)."""
-    if truth.suffix.lower() == '.csv':
-        try:
-            with open(truth, newline='', encoding='utf-8') as stream:
-                rows = [r for r in csv.reader(stream) if r and not r[0].startswith('#')]
-        except OSError as exc:
-            raise CliError(f'cannot read {truth}: {exc.strerror}') from None
+#: Columns of a truth CSV, in its header line.
+CSV_COLUMNS = ('time', 'true_eol')
+
+
+def read_truth_csv(path: Path) -> float:
+    """Return the true end of life [s] of a CSV ``time,true_eol`` [s]: its last row's.
+
+    The first line that is not empty nor a ``#`` comment is the header naming both columns;
+    every value must be a finite number, time >= 0 and true_eol > 0. Raises CliError naming
+    the file, line and column otherwise.
+    """
+    try:
+        with open(path, newline='', encoding='utf-8') as stream:
+            lines = [(number, row) for number, row in enumerate(csv.reader(stream), 1)
+                     if row and ''.join(row).strip() and not row[0].lstrip().startswith('#')]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else exc
+        raise CliError(f'cannot read {path}: {reason}') from None
+    if not lines:
+        raise CliError(f'{path} holds no header {",".join(CSV_COLUMNS)} and no row')
+    number, header = lines[0]
+    names = [name.strip() for name in header]
+    missing = [name for name in CSV_COLUMNS if name not in names]
+    if missing:
+        raise CliError(f'{path} line {number}: the header must name the columns '
+                       f'{",".join(CSV_COLUMNS)}, got {",".join(header)!r} (missing '
+                       f'{", ".join(missing)})')
+    columns = [names.index(name) for name in CSV_COLUMNS]
+    eol = math.nan
+    for number, row in lines[1:]:
         values = []
-        for number, row in enumerate(rows, 1):
+        for name, column in zip(CSV_COLUMNS, columns):
+            text = row[column].strip() if column < len(row) else ''
             try:
-                values.append((float(row[0]), float(row[1])))
-            except (ValueError, IndexError):
-                if number == 1:
-                    continue                      # header line
-                raise CliError(f'{truth} line {number}: expected time,true_eol numbers, got '
-                               f'{",".join(row)!r}') from None
-        if not values or not math.isfinite(values[-1][1]):
-            raise CliError(f'{truth} holds no finite time,true_eol row')
-        return values[-1][1]
+                value = float(text)
+            except ValueError:
+                value = math.nan
+            low, bound = (0.0, '>= 0') if name == 'time' else (math.ulp(0.0), '> 0')
+            if not (math.isfinite(value) and value >= low):
+                raise CliError(f'{path} line {number} column {name}: expected a finite number '
+                               f'{bound} [s], got {text!r}')
+            values.append(value)
+        eol = values[1]
+    if math.isnan(eol):
+        raise CliError(f'{path} holds a header but no {",".join(CSV_COLUMNS)} row')
+    return eol
+
+
+def truth_eol(truth: Path, u_eol: float, drive: str | None = None
+              ) -> tuple[float, tuple[float, float] | None]:
+    """Return the true end of life [s] and the truth's stamp range [s] (None for a CSV).
+
+    From a truth bag or a CSV (see the module docstring).
+    """
+    if truth.suffix.lower() == '.csv':
+        return read_truth_csv(truth), None
     times, vectors = read_vector_topic(truth, _topic(TRUTH_FRICTION, drive))
     index = true_end_of_life_index(vectors[:, 0], u_eol)
     if index is None:
         raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
                        f'{vectors[:, 0].max():.4g}): no end of life to score against')
-    return float(times[index])
+    return float(times[index]), (float(times[0]), float(times[-1]))
+
+
+def _bag_span(path: Path) -> tuple[float, float] | None:
+    """Return the first and last log time [s] of the bag ``path``, or None if unreadable."""
+    try:
+        with BagReader(path) as bag:
+            return bag.start_ns * 1e-9, bag.end_ns * 1e-9
+    except BagError:
+        return None
 
 
 def _config(args: argparse.Namespace, life: dict[str, Any] | None) -> HealthConfig:
@@ -227,23 +281,66 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_options(args: argparse.Namespace) -> None:
+    """Raise CliError for an --alpha, --lambdas or --band-from outside its range."""
+    if not 0.0 < args.alpha < 1.0:
+        raise CliError(f'--alpha must be a fraction of the true RUL in (0, 1), got '
+                       f'{args.alpha!r}')
+    for option, values in (('--lambdas', args.lambdas), ('--band-from', [args.band_from])):
+        for value in values:
+            if not 0.0 <= value < 1.0:
+                raise CliError(f'{option} must be in [0, 1) (a fraction of the life), got '
+                               f'{value!r}')
+    if args.t_start is not None and not math.isfinite(args.t_start):
+        raise CliError(f'--t-start must be finite, got {args.t_start!r}')
+
+
+def _overlap(run: tuple[float, float], truth: tuple[float, float] | None,
+             path: Path) -> list[str]:
+    """Check that the run's stamps [s] overlap the truth's; return warnings if only partly.
+
+    Raises CliError when they do not overlap at all.
+    """
+    if truth is None:
+        return []
+    spans = (f"the run's predictions are stamped {run[0]:.6g}-{run[1]:.6g} s, the truth "
+             f'{path} {truth[0]:.6g}-{truth[1]:.6g} s')
+    if run[1] < truth[0] or run[0] > truth[1]:
+        raise CliError(f'{spans}: they do not overlap (not the same time base?)')
+    slack = 0.01 * (truth[1] - truth[0])      # a thinned truth topic ends a little early
+    if run[0] < truth[0] - slack or run[1] > truth[1] + slack:
+        return [f'{spans}: they overlap only partly']
+    return []
+
+
+def _warn(warnings: list[str]) -> None:
+    for text in warnings:
+        print(f'gear-phm evaluate: warning: {text}', file=sys.stderr)
+
+
 def _run_one(args: argparse.Namespace) -> int:
     """Score one run (one transmission, or ``args.drive`` of many)."""
+    _check_options(args)
     life = read_life(args.truth) if args.life else None
     config = _config(args, life)
     u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
                              config.u_max)
     bag = _find_bag(args.run, args.drive)
+    output = _output(args, bag)
     times, values = read_vector_topic(bag, _topic(HEALTH_RUL, args.drive))
     median, p5, p95 = (values[:, field_index(HEALTH_LAYOUT, HEALTH_RUL, f'rul.{name}')]
                        for name in ('median', 'p5', 'p95'))
+    run_span = (float(times[0]), float(times[-1]))
     same_eol = life is not None and math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9)
-    if same_eol and life is not None and life['healthy']:
-        return _healthy(args, bag, median, u_eol)
-    if same_eol and life is not None and life['end_of_life_s'] is not None:
+    if same_eol and life is not None and (life['healthy'] or life['end_of_life_s'] is not None):
+        truth_span = _bag_span(args.truth)
+        warnings = _overlap(run_span, truth_span, args.truth)
+        if life['healthy']:
+            return _healthy(args, bag, output, median, u_eol, warnings)
         t_eol = float(life['end_of_life_s'])
     else:
-        t_eol = truth_eol(args.truth, u_eol, args.drive)
+        t_eol, truth_span = truth_eol(args.truth, u_eol, args.drive)
+        warnings = _overlap(run_span, truth_span, args.truth)
     if args.t_start is None and life is not None and life['onset_s'] is not None:
         args.t_start = float(life['onset_s'])
     before = times < t_eol
@@ -272,7 +369,15 @@ def _run_one(args: argparse.Namespace) -> int:
         metrics['error_before_eol'] = bool(np.any((levels[1] == ERROR) & (levels[0] < t_eol)))
     if scores is not None:
         metrics['acceptance'] = scores
-    output = _write(args, bag, metrics, u_eol)
+    last = max(c['lam'] for c in metrics['alpha_lambda'])
+    if times[-1] < start + last * (t_eol - start):
+        warnings.append(f"the run's last prediction at {times[-1]:.6g} s comes before lambda "
+                        f'{last:g} of the life ({start:.6g}-{t_eol:.6g} s): later checks '
+                        'score that prediction')
+    _warn(warnings)
+    if warnings:
+        metrics['warnings'] = warnings
+    _write(args, bag, output, metrics, u_eol)
     print(f'true end of life {t_eol:.6g} s (u_eol {u_eol:.4g}), {metrics["predictions"]} '
           f'predictions from {metrics["t_start_s"]:.6g} s')
     for check in metrics['alpha_lambda']:
@@ -296,27 +401,91 @@ def _run_one(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write(args: argparse.Namespace, bag: Path, metrics: dict[str, Any], u_eol: float) -> Path:
-    """Add u_eol and the paths to ``metrics``, write it as JSON; return the file."""
+def _output(args: argparse.Namespace, bag: Path) -> Path:
+    """Return the JSON file to write; CliError if it is an input or cannot be a file.
+
+    Refused: a directory, an input file (the run, the truth, life.json, a file of their
+    bags), a file in the truth's directory, an existing file other than ``evaluation*.json``
+    in the run's.
+    """
+    name = 'evaluation' if args.drive is None else f'evaluation_{args.drive}'
+    output: Path = args.output or (bag / f'{name}.json' if bag.is_dir()
+                                   else bag.with_suffix(f'.{name}.json'))
+    if output.is_dir():
+        raise CliError(f'--output {output} is a directory; give a file name')
+    if not output.parent.is_dir():
+        raise CliError(f'cannot write {output}: directory {output.parent} does not exist')
+    if not os.access(output.parent, os.W_OK | os.X_OK):
+        raise CliError(f'cannot write {output}: directory {output.parent} is not writable')
+
+    def directory(path: Path) -> Path | None:
+        if path.is_dir():
+            return path
+        return path.parent if (path.parent / 'metadata.yaml').is_file() else None
+
+    runs = {d for d in (directory(args.run), directory(bag)) if d is not None}
+    truths = {d for d in (directory(args.truth),) if d is not None} - runs
+    inputs = [p for p in (args.run, bag, args.truth,
+                          (args.truth if args.truth.is_dir() else args.truth.parent) / LIFE_FILE)
+              if p.is_file()]
+    inputs += [p for d in runs | truths for p in d.iterdir() if p.is_file()
+               and (d in truths or not re.fullmatch(r'evaluation.*\.json', p.name))]
+    real = os.path.realpath(output)
+    inside = [d for d in truths if os.path.commonpath([real, os.path.realpath(d)])
+              == os.path.realpath(d)]
+    if output.exists():
+        inside += [p for p in inputs if _same(output, p)]
+    if inside:
+        raise CliError(f'--output {output} would overwrite or write into the input '
+                       f'{inside[0]}; give a file outside the inputs')
+    return output
+
+
+def _same(path: Path, other: Path) -> bool:
+    try:
+        return os.path.samefile(path, other)
+    except OSError:
+        return False
+
+
+def _write(args: argparse.Namespace, bag: Path, output: Path, metrics: dict[str, Any],
+           u_eol: float) -> None:
+    """Add u_eol and the paths to ``metrics``, write it as JSON to ``output``.
+
+    Atomically: a temporary file beside it, renamed when complete.
+    """
     metrics['u_eol'] = u_eol
     metrics['run'] = str(bag)
     if args.drive is not None:
         metrics['drive'] = args.drive
     metrics['truth'] = str(args.truth)
-    name = 'evaluation' if args.drive is None else f'evaluation_{args.drive}'
-    output: Path = args.output or (bag / f'{name}.json' if bag.is_dir()
-                                   else bag.with_suffix(f'.{name}.json'))
-    output.write_text(json.dumps(metrics, indent=2) + '\n', encoding='utf-8')
-    return output
+    text = json.dumps(metrics, indent=2) + '\n'
+    tmp: str | None = None
+    try:
+        with tempfile.NamedTemporaryFile('w', encoding='utf-8', dir=output.parent,
+                                         prefix=f'.{output.name}.', suffix='.tmp',
+                                         delete=False) as stream:
+            tmp = stream.name
+            stream.write(text)
+        os.replace(tmp, output)
+    except OSError as exc:
+        raise CliError(f'cannot write {output}: {exc.strerror or exc}') from None
+    finally:
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
 
 
-def _healthy(args: argparse.Namespace, bag: Path, median: np.ndarray, u_eol: float) -> int:
+def _healthy(args: argparse.Namespace, bag: Path, output: Path, median: np.ndarray,
+             u_eol: float, warnings: list[str]) -> int:
     """Score a healthy random life: RUL inf and level OK throughout."""
     levels = _levels(bag, args.drive)
     score = healthy_acceptance(median, None if levels is None else levels[1])
-    metrics = {'healthy': True, 'predictions': score['predictions'],
-               'acceptance': {'healthy': score}}
-    output = _write(args, bag, metrics, u_eol)
+    metrics: dict[str, Any] = {'healthy': True, 'predictions': score['predictions'],
+                               'acceptance': {'healthy': score}}
+    _warn(warnings)
+    if warnings:
+        metrics['warnings'] = warnings
+    _write(args, bag, output, metrics, u_eol)
     print(f'healthy life (u_eol {u_eol:.4g}): {score["finite"]} of {score["predictions"]} '
           f'RUL predictions finite, levels {", ".join(score["levels_seen"]) or "none"}: '
           f'{"PASS" if score["passed"] else "FAIL"}')

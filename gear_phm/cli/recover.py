@@ -6,9 +6,12 @@ bad bytes.
 PATH is a rosbag2 directory (recovered in place, each replaced file kept as ``<name>.orig``,
 or into the new directory ``--out``) or one ``.mcap`` file (recovered into ``--out``, by
 default ``<stem>.recovered.mcap`` beside it; an ``--out`` without ``.mcap`` suffix becomes a
-rosbag2 directory). Every dropped range is printed on stderr with its byte offsets, log times
-and message count; the exit status is 0 when the output was written or nothing was needed,
-2 (one-line error, nothing written) when the input is not MCAP or the output is in the way.
+rosbag2 directory; ``.db3``, ``.bag``... are refused). A directory whose MCAP files are intact
+but whose metadata.yaml the rosbag2 reader refuses gets a new one (the old kept as
+``metadata.yaml.orig``). Every dropped range is printed on stderr with its byte offsets, log
+times and message count; the exit status is 0 when the output was written or nothing was
+needed, 2 (one-line error, nothing written) when the input is not MCAP, holds nothing to
+recover, or the output is in the way.
 """
 from __future__ import annotations
 
@@ -17,6 +20,7 @@ from pathlib import Path
 import sys
 
 from gear_phm.bagio import recover, RecoverError
+from gear_phm.bagio.metadata import METADATA_FILE
 from gear_phm.cli.main import CliError
 
 HELP = 'rebuild a recording after a crash or damage (originals kept, bad chunks dropped)'
@@ -39,7 +43,11 @@ def run(args: argparse.Namespace) -> int:
     except RecoverError as exc:
         raise CliError(' '.join(str(exc).split())) from None
     except OSError as exc:
-        raise CliError(f'cannot recover {path}: {exc.strerror or exc}') from None
+        where = f'{exc.filename}: ' if exc.filename is not None else ''
+        raise CliError(f'cannot recover {path}: {where}{exc.strerror or exc}') from None
+    if result.metadata_problem is not None:
+        print(f'{path / METADATA_FILE}: refused by the rosbag2 reader '
+              f'({result.metadata_problem}); rebuilt from the MCAP files', file=sys.stderr)
     for source, dropped in result.dropped:
         print(f'{source.name}: dropped {dropped.describe()}', file=sys.stderr)
     unchecked = sum(s.unchecked_chunks for s in result.scans)
