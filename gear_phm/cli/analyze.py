@@ -54,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=STAMP_SOURCE.default,
                         help=f'{STAMP_SOURCE.description} (default {STAMP_SOURCE.default})')
     parser.add_argument('--overwrite', action='store_true',
-                        help='replace --out if it holds a previous analysis (summary.json)')
+                        help='replace --out if it holds a previous analysis and nothing else '
+                             '(summary.json, its bag, plots); never a bag being analysed')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
     add_health_arguments(parser)
     parser.add_argument('--no-progress', action='store_true',

@@ -196,8 +196,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     parameters by name, as in config/estimator.yaml and config/diagnostics.yaml (e.g.
     ``eta_opposing_min=0.7333``).
     With ``out``, writes the output bag, ``summary.json`` and (``plot``) ``analysis.png`` into
-    that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis);
-    nothing is left there if the analysis fails.
+    that directory, which must not exist (or, with ``overwrite``, hold an earlier analysis and
+    nothing else), nor hold a bag being analysed; nothing is left there if the analysis fails.
 
     ``transmissions`` (instead of ``ratio`` and the joints): many drives in one JointState
     stream (:mod:`gear_phm.transmissions`), as a file path, its parsed YAML document, or
