@@ -11,6 +11,7 @@ that raises them (as in rosbags) and keep their older bases (``ValueError`` wher
 - ``gear_phm.sources.SourceError``: a publisher source that cannot be built;
 - ``gear_phm.offline.AnalysisError`` / ``gear_phm.offline.fleet.FleetError``: offline input;
 - ``gear_phm.transmissions.TransmissionsError``: a list of many drives (transmissions file);
+- ``gear_phm.models.ModelError``: an argument outside a model function's domain;
 - ``gear_phm.nodes.common.ConfigError``: a node's start-up configuration;
 - ``gear_phm.cli.main.CliError``: a command line.
 """

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+import functools
 from pathlib import Path
 import re
 from typing import Any
@@ -266,6 +267,45 @@ def _simulation(values: Any) -> dict[str, Value]:
     return {k: table[k].check(v) for k, v in values.items()}
 
 
+#: A YAML 1.2 float that PyYAML's YAML 1.1 resolver reads as a string: an exponent with no dot
+#: or no sign, e.g. 1e-3, 1.5e3 (the others keep PyYAML's resolution).
+_EXPONENT_FLOAT = r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'
+
+
+@functools.cache
+def _loader() -> type:
+    """Return a SafeLoader that refuses a key given twice and reads ``1e-3`` as a float.
+
+    PyYAML keeps the last of duplicate keys (a drive silently replaced) and resolves
+    ``1e-3``, which has no dot, as a string.
+    """
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        """SafeLoader with unique mapping keys and YAML 1.2 floats without a dot."""
+
+        def construct_mapping(self, node: Any, deep: bool = False) -> dict[Any, Any]:
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == 'tag:yaml.org,2002:merge':
+                    continue                    # merged keys (<<) may be overridden
+                key = self.construct_object(key_node, deep=True)
+                if isinstance(key, Mapping | list):
+                    continue                    # unhashable: construct_mapping refuses it
+                if key in seen:
+                    line = key_node.start_mark.line + 1
+                    msg = (f'line {line}: {key!r} is given twice in one mapping (a drive or a '
+                           f'key named twice)')
+                    raise TransmissionsError(msg) from None
+                seen.add(key)
+            mapping: dict[Any, Any] = super().construct_mapping(node, deep=deep)
+            return mapping
+
+    Loader.add_implicit_resolver('tag:yaml.org,2002:float', re.compile(_EXPONENT_FLOAT),
+                                 list('-+.0123456789'))
+    return Loader
+
+
 def load_transmissions(path: str | Path, defaults: Mapping[str, Any] | None = None
                        ) -> tuple[Transmission, ...]:
     """Read a transmissions file (either form); see :func:`parse_transmissions`.
@@ -275,12 +315,15 @@ def load_transmissions(path: str | Path, defaults: Mapping[str, Any] | None = No
     """
     import yaml
     try:
-        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+        document = yaml.load(Path(path).read_text(encoding='utf-8'), _loader())  # noqa: S506
     except (OSError, UnicodeDecodeError) as exc:
         msg = f'{path}: cannot read ({exc})'
         raise TransmissionsError(msg) from None
     except yaml.YAMLError as exc:
         msg = f'{path}: not valid YAML ({" ".join(str(exc).split())})'
+        raise TransmissionsError(msg) from None
+    except TransmissionsError as exc:
+        msg = f'{path}: {exc}'
         raise TransmissionsError(msg) from None
     try:
         return parse_transmissions(document, defaults)

@@ -268,3 +268,42 @@ def test_reading_with_slope_is_bit_identical_to_the_numpy_functions(ratio: float
     assert math.isnan(u) and math.isnan(slope)
     with pytest.raises(ValueError, match='eta must be finite'):
         reading_with_slope(math.inf, ratio, aiding=False)
+
+
+@pytest.mark.parametrize('u, ratio, message', [
+    (0.1, 0, r'^ratio must be > 0 and finite, got 0$'),
+    (0.1, -1.0, r'^ratio must be > 0 and finite, got -1\.0$'),
+    (0.1, math.nan, r'^ratio must be > 0 and finite, got nan$'),
+    (0.1, math.inf, r'^ratio must be > 0 and finite, got inf$'),
+    (0.1, '3', r"^ratio must be a real number \(one value; .*got '3'$"),
+    (0.1, True, r'^ratio must be a real number'),
+    (np.array([0.1, 0.2]), 3.0, r'^u must be a real number \(one value; the numpy functions '
+                                r'take arrays\), got array'),
+    ('0.1', 3.0, r"^u must be a real number .*got '0\.1'$"),
+])
+def test_float_paths_refuse_a_bad_argument_by_name(u, ratio, message) -> None:
+    """``efficiencies``, ``readings``, ``reading_with_slope``: ModelError, a ValueError."""
+    from gear_phm.errors import GearPhmError
+    from gear_phm.models import efficiencies, ModelError
+    from gear_phm.models.lever import reading_with_slope, readings
+    with pytest.raises(ModelError, match=message) as info:
+        efficiencies(u, ratio)
+    assert isinstance(info.value, ValueError) and isinstance(info.value, GearPhmError)
+    with pytest.raises(ModelError, match=message.replace('^u ', '^eta_d ')):
+        readings(u, 0.5, ratio)
+    with pytest.raises(ModelError, match=message.replace('^u ', '^eta ')):
+        reading_with_slope(u, ratio, aiding=False)
+
+
+def test_float_paths_keep_their_values_for_numbers_of_any_real_type() -> None:
+    from gear_phm.models import efficiencies
+    assert efficiencies(0.1, 3) == efficiencies(0.1, 3.0) == (
+        float(eta_opposing(0.1, 3.0)), float(eta_aiding(0.1, 3.0)))
+    assert efficiencies(np.float64(0.1), np.int64(3)) == efficiencies(0.1, 3.0)
+    assert all(math.isnan(eta) for eta in efficiencies(math.nan, 3.0))
+
+
+def test_numpy_functions_raise_model_error() -> None:
+    from gear_phm.models import ModelError
+    with pytest.raises(ModelError, match=r'^ratio must be > 0, got 0\.0$'):
+        eta_opposing(0.1, 0.0)

@@ -149,7 +149,7 @@ def test_truth_every_and_joint_names(tmp_path: Path) -> None:
     (['--friction-final', '0.3'], '--friction-final needs --wear linear, exponential or power'),
     (['--wear', 'linear', '--wear-rate', '1.0', '--duration', '10'], 'gearbox jams'),
     (['--plant', 'worm'], 'plant must be one of lever, spur'),
-    (['--noise-effort-load', '-0.1'], 'noise_effort_load must be >= 0'),
+    (['--noise-effort-load', '-0.1'], 'noise_effort_load must be in [0, 1e+09] N m'),
 ])
 def test_cli_errors_one_line_exit_2(tmp_path: Path, args: list[str], expected: str,
                                     capsys: pytest.CaptureFixture[str]) -> None:
@@ -167,6 +167,74 @@ def test_cli_error_as_a_process_has_no_traceback(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
         'gear-phm simulate: error: --rate must be > 0 Hz, got -1.0']
+
+
+LIMIT = 'must end before 2147483648 s since the epoch (the int32 seconds of a ROS stamp'
+
+
+@pytest.mark.filterwarnings('error')            # no RuntimeWarning line before the error
+@pytest.mark.parametrize('args, expected', [
+    (['--duration', '1e308'], f'--start-time + --duration {LIMIT}'),
+    (['--start-time', '2147483600', '--duration', '100'], f'--start-time + --duration {LIMIT}'),
+    (['--rate', '1e308'], '--rate must be <= 1e+09 Hz (stamps are integer nanoseconds)'),
+    (['--start-time', '1e308'], '--start-time must be >= 0 and < 2147483648 s'),
+    (['--start-time', '1e10'], '--start-time must be >= 0 and < 2147483648 s'),
+    (['--fleet', '1', '--recordings', '2', '--gap', '1e308'],
+     f'--start-time + --recordings x --duration + the gaps {LIMIT}'),
+    (['--fleet', '2', '--recordings', '2', '--duration', '1', '--gap-spread', '1e6'],
+     f'unit 0: --start-time + --recordings x --duration + the gaps {LIMIT}'),
+    (['--travel', '1e308'], 'travel must be in [1e-09, 10000] rad, got 1e+308'),
+    (['--load-inertia', '1e308'], 'load_inertia must be in [0, 1e+06] kg m^2'),
+    (['--air-load-stiffness=-1e308'], 'air_load_stiffness must be in [-1e+09, 1e+09] N m/rad'),
+    (['--extend-time', '1e308'], 'extend_time must be in [1e-06, 1e+06] s'),
+    (['--bias-effort-load', '1e308'], 'bias_effort_load must be in [-1e+09, 1e+09] N m'),
+    (['--wear', 'exponential', '--wear-rate', '10'],
+     'the wear law gives a friction value of inf at --duration 120 s'),
+    (['--duration', '1e-9'], 'gives no sample (duration x rate < 1): a bag needs at least one'),
+    (['--rate', '1e-300'], 'gives no sample (duration x rate < 1)'),
+    (['--fleet', '0', '--recordings', '3'], '--recordings: for a fleet only (add --fleet N'),
+    (['--gap', '5', '--unit-spread', '0.1'], '--gap, --unit-spread: for a fleet only'),
+    (['--fleet', '-1'], '--fleet and --recordings must be >= 1, got -1 and 1'),
+    (['--fleet', '2', '--duration', '1', '--unit-spread', '1e6'],
+     'unit 0: --unit-spread 1e+06 drew an unusable wear'),
+])
+def test_out_of_range_runs_are_refused_on_one_line(
+        tmp_path: Path, args: list[str], expected: str,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """No OverflowError, no bag of NaN or of no sample, no ignored option, no warning line."""
+    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), *args]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith('gear-phm simulate: error:') and expected in lines[0], lines
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_run_ending_just_before_the_stamp_limit_is_written(tmp_path: Path) -> None:
+    assert simulate_cli(tmp_path / 'x', '--start-time', '2147483546', '--duration', '100',
+                        '--rate', '1') == 0
+    with BagReader(tmp_path / 'x') as reader:
+        stamps = [stamp_to_ns(m.header.stamp) for _, _, m in reader.messages(['/joint_states'])]
+    assert len(stamps) == 100 and stamps[-1] == 2147483645 * 10**9
+
+
+def test_a_non_finite_sample_is_never_written(tmp_path: Path) -> None:
+    """The final guard: a configuration beyond float64 (built without the CLI's ranges)."""
+    config = SimulationConfig(duty_cycle=DutyCycle(travel=1e308))
+    with pytest.raises(ValueError, match=r'^the simulation gave position_motor = inf at t = '):
+        simulate_module.write_simulation(tmp_path / 'x', config, 10.0, 10.0)
+
+
+def test_integer_options_take_an_integral_float(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """``--seed 1e1`` as 10, as the help prints ranges (e.g. [100, 1e+06]); 1.5 is refused."""
+    assert simulate_cli(tmp_path / 'a' / 'x', *ARGS[:4], '--seed', '1e1') == 0
+    assert simulate_cli(tmp_path / 'b' / 'x', *ARGS[:4], '--seed', '10') == 0
+    assert bag_content(tmp_path / 'a' / 'x') == bag_content(tmp_path / 'b' / 'x')
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_info:
+        simulate_cli(tmp_path / 'c', '--seed', '1.5')
+    assert exit_info.value.code == 2
+    assert "argument --seed: invalid integer: '1.5'" in capsys.readouterr().err
 
 
 def test_refuses_a_non_empty_out_directory(tmp_path: Path,

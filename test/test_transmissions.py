@@ -24,7 +24,7 @@ from gear_phm.bagio import BagReader
 from gear_phm.bagio.writer import vector3_stamped_from_cdr
 from gear_phm.cli.main import main
 from gear_phm.offline import analyze_bag
-from gear_phm.transmissions import load_transmissions
+from gear_phm.transmissions import load_transmissions, TransmissionsError
 from helpers.shared import build_once
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
@@ -306,3 +306,55 @@ def test_evaluate_scores_each_drive_against_its_own_truth(tmp_path: Path,
     # true u = 0.05 + rate t reaches u_eol at t = (u_eol - 0.05) / rate (stamps from 0)
     assert eol['aileron'] == pytest.approx((0.9 / 3.1 - 0.05) / 5e-3, abs=0.02)
     assert eol['elevator'] == pytest.approx((0.6 / 2.4 - 0.05) / 4e-3, abs=0.02)
+
+
+def test_a_drive_named_twice_in_the_mapping_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A name given twice is refused (PyYAML would keep the last): the drive is named."""
+    path = tmp_path / 'twice.yaml'
+    path.write_text('transmissions:\n'
+                    '  flap_l: {motor_joint: m1, load_joint: l1, ratio: 3.0}\n'
+                    '  flap_l: {motor_joint: m2, load_joint: l2, ratio: 4.0}\n')
+    with pytest.raises(TransmissionsError,
+                       match=rf"^{path}: line 3: 'flap_l' is given twice in one mapping"):
+        load_transmissions(path)
+    assert main(['simulate', '--transmissions', str(path), '--duration', '1', '--out',
+                 str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'flap_l' is given twice" in err[0], err
+    assert not (tmp_path / 'out').exists()
+    # a key twice inside a drive too; YAML merge keys (<<) may still be overridden
+    path.write_text('transmissions:\n'
+                    '  flap_l: {motor_joint: m1, load_joint: l1, ratio: 3.0, ratio: 4.0}\n')
+    with pytest.raises(TransmissionsError, match="'ratio' is given twice"):
+        load_transmissions(path)
+    path.write_text('base: &base {motor_joint: m1, load_joint: l1, ratio: 3.0}\n'
+                    'transmissions:\n'
+                    '  flap_l: {<<: *base, ratio: 4.0}\n')
+    with pytest.raises(TransmissionsError, match='unknown top-level key'):
+        load_transmissions(path)
+
+
+def test_exponent_numbers_without_a_dot_are_floats(tmp_path: Path) -> None:
+    """``1e-3`` (YAML 1.2; a string to PyYAML's YAML 1.1 resolver) is the number 0.001."""
+    path = tmp_path / 'dotless.yaml'
+    path.write_text('transmissions:\n'
+                    '  flap_l: {motor_joint: m1, load_joint: l1, ratio: 3E+1,\n'
+                    '           simulation: {wear: linear, wear_rate: 1e-3,'
+                    ' friction_initial: 5e-2}}\n'
+                    '  flap_r: {motor_joint: m2, load_joint: l2, ratio: 1.5e1}\n')
+    flap_l, flap_r = load_transmissions(path)
+    assert flap_l.ratio == 30.0 and flap_r.ratio == 15.0
+    assert flap_l.simulation == {'wear': 'linear', 'wear_rate': 0.001, 'friction_initial': 0.05}
+    path.write_text('transmissions:\n  1e3: {motor_joint: m1, load_joint: l1, ratio: 3}\n')
+    with pytest.raises(TransmissionsError, match=r'drive name 1000\.0 must be a letter'):
+        load_transmissions(path)
+
+
+def test_simulate_refuses_ratio_with_transmissions(
+        bench: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Each drive has its own ratio: --ratio would be ignored."""
+    assert main(['simulate', '--transmissions', str(bench / 'bench.yaml'), '--ratio', '5',
+                 '--duration', '1', '--out', str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ['gear-phm simulate: error: --transmissions sets each drive: drop --ratio']

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+import math
 from typing import Any
 
 from gear_phm.cli.main import CliError
@@ -11,6 +13,27 @@ from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.config import PARAMETERS as HEALTH_PARAMETERS
 
 _PREFIX = 'health_'
+
+
+def _integer(text: str) -> int:
+    """Parse an integer option: also an integral float such as ``1e5`` (ranges print so)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value.is_integer():
+        msg = f'invalid integer: {text!r}'
+        raise argparse.ArgumentTypeError(msg) from None
+    return int(value)
+
+
+def option_type(spec: ParamSpec) -> Callable[[str], Any]:
+    """Return the argparse ``type`` of a number parameter's option."""
+    return _integer if spec.kind is int else spec.kind
 
 
 def _help(spec: ParamSpec) -> str:
@@ -43,7 +66,7 @@ def add_health_arguments(parser: argparse.ArgumentParser) -> None:
             group.add_argument(option, dest=_PREFIX + spec.name, choices=spec.choices,
                                default=spec.default, help=_help(spec))
         else:
-            group.add_argument(option, dest=_PREFIX + spec.name, type=spec.kind,
+            group.add_argument(option, dest=_PREFIX + spec.name, type=option_type(spec),
                                default=spec.default,
                                metavar=spec.unit.upper() if spec.unit != '-' else 'VALUE',
                                help=_help(spec))

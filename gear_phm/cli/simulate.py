@@ -32,10 +32,11 @@ import numpy as np
 from gear_phm.bagio import BagError, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
+from gear_phm.cli.options import option_type
 from gear_phm.codec import joint_state_rows
 from gear_phm.interfaces import (drive_topic, JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
                                  TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
-from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
+from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, RATIO
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
 from gear_phm.simulation.lives import random_life
@@ -53,6 +54,13 @@ PROJECT_AFTER = 4 << 20
 LIFE_FILE = 'life.json'
 #: Default of --duration (the random life draws its own).
 DURATION = 120.0
+#: Every stamp is before this time [s since the epoch]: builtin_interfaces/Time's seconds are
+#: an int32 (2038-01-19T03:14:08Z).
+STAMP_LIMIT = float(2**31)
+#: Highest --rate [Hz]: stamps are integer nanoseconds, a faster rate would repeat them.
+RATE_LIMIT = 1e9
+#: The fleet options' defaults: given without --fleet they would be ignored.
+FLEET_DEFAULTS = {'recordings': 1, 'gap': 7 * 86400.0, 'gap_spread': 0.0, 'unit_spread': 0.2}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,7 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help='simulate N units instead of one bag (0)')
     fleet.add_argument('--recordings', type=int, default=1, metavar='M',
                        help='recordings per unit (1)')
-    fleet.add_argument('--gap', type=float, default=7 * 86400.0,
+    fleet.add_argument('--gap', type=float, default=FLEET_DEFAULTS['gap'],
                        help='idle time between recordings [s] (one week)')
     fleet.add_argument('--gap-spread', type=float, default=0.0,
                        help='each gap is --gap times a log-normal factor of this spread, '
@@ -102,7 +110,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             '--wear-rate (0.2)')
     group = parser.add_argument_group("simulation parameters (as the publisher node's)")
     for spec in PARAMETERS:
-        group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name, type=spec.kind,
+        group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name,
+                           type=option_type(spec) if spec.kind is not str else str,
                            default=spec.default, help=f'{spec.text} ({spec.default})')
 
 
@@ -135,7 +144,8 @@ def _drive_configs(args: argparse.Namespace) -> list[_Drive]:
         ('--random-life', args.random_life, None), ('--fleet', args.fleet, 0),
         ('--friction-final', args.friction_final, None),
         ('--motor-joint', args.motor_joint, MOTOR_JOINT.default),
-        ('--load-joint', args.load_joint, LOAD_JOINT.default)) if value != default]
+        ('--load-joint', args.load_joint, LOAD_JOINT.default),
+        ('--ratio', args.ratio, RATIO.default)) if value != default]
     if given:
         raise CliError(f'--transmissions sets each drive: drop {", ".join(given)}')
     try:
@@ -160,7 +170,11 @@ def _drive_configs(args: argparse.Namespace) -> list[_Drive]:
 def _check_jam(config: SimulationConfig, duration: float, what: str = '') -> None:
     """Refuse a wear that jams the gearbox (eta_D <= 0) within ``duration`` [s]."""
     # wear never decreases: the friction at the end is the largest of the run
-    friction_end = float(config.wear.value(duration))
+    with np.errstate(over='ignore', invalid='ignore'):
+        friction_end = float(config.wear.value(duration))
+    if not math.isfinite(friction_end):
+        raise CliError(f'{what}the wear law gives a friction value of {friction_end} at '
+                       f'--duration {duration:g} s (beyond float64); lower the wear')
     _, eta_d, _ = config.plant.efficiencies(friction_end)
     if not float(eta_d) > 0.0:
         raise CliError(f'{what}friction value {friction_end:.4g} reached at --duration '
@@ -171,15 +185,57 @@ def _check_jam(config: SimulationConfig, duration: float, what: str = '') -> Non
 def _check(args: argparse.Namespace) -> None:
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise CliError(f'--rate must be > 0 Hz, got {args.rate!r}')
+    if args.rate > RATE_LIMIT:
+        raise CliError(f'--rate must be <= {RATE_LIMIT:g} Hz (stamps are integer nanoseconds), '
+                       f'got {args.rate!r}')
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise CliError(f'--duration must be > 0 s, got {args.duration!r}')
-    if not (math.isfinite(args.start_time) and args.start_time >= 0):
-        raise CliError(f'--start-time must be >= 0 s, got {args.start_time!r}')
+    if not (math.isfinite(args.start_time) and 0 <= args.start_time < STAMP_LIMIT):
+        raise CliError(f'--start-time must be >= 0 and < {STAMP_LIMIT:.0f} s since the epoch '
+                       f'(the int32 seconds of a ROS stamp end in 2038), got {args.start_time!r}')
     if args.truth_every < 1:
         raise CliError(f'--truth-every must be >= 1, got {args.truth_every!r}')
     if args.motor_joint == args.load_joint or not args.motor_joint or not args.load_joint:
         raise CliError(f'--motor-joint and --load-joint must be two different non-empty names, '
                        f'got {args.motor_joint!r} and {args.load_joint!r}')
+    if not args.fleet:
+        given = [f'--{name.replace("_", "-")}' for name, default in FLEET_DEFAULTS.items()
+                 if getattr(args, name) != default]
+        if given:
+            raise CliError(f'{", ".join(given)}: for a fleet only (add --fleet N or drop '
+                           f'them)')
+    elif args.fleet < 1 or args.recordings < 1:
+        raise CliError(f'--fleet and --recordings must be >= 1, got {args.fleet} and '
+                       f'{args.recordings}')
+    elif not (math.isfinite(args.gap) and args.gap >= 0):
+        raise CliError(f'--gap must be >= 0 s, got {args.gap!r}')
+    elif not (math.isfinite(args.gap_spread) and args.gap_spread >= 0):
+        raise CliError(f'--gap-spread must be >= 0, got {args.gap_spread!r}')
+    elif not (math.isfinite(args.unit_spread) and args.unit_spread >= 0):
+        raise CliError(f'--unit-spread must be >= 0, got {args.unit_spread!r}')
+    if args.random_life is None:
+        if not args.fleet:
+            _check_end(args.start_time + args.duration, '--start-time + --duration')
+        else:
+            recordings = float(args.recordings) if args.recordings < 10**300 else math.inf
+            gaps = 0.0 if args.gap_spread else (recordings - 1) * args.gap
+            _check_end(args.start_time + recordings * args.duration + gaps,
+                       '--start-time + --recordings x --duration + the gaps')
+        _check_count(args.duration, args.rate, f'--duration {args.duration:g} s')
+
+
+def _check_count(duration: float, rate: float, what: str) -> None:
+    """Refuse a run of ``duration`` [s] at ``rate`` [Hz] that has no sample."""
+    if math.floor(duration * rate + 1e-9) < 1:
+        raise CliError(f'{what} at --rate {rate:g} Hz gives no sample (duration x rate < 1): '
+                       f'a bag needs at least one')
+
+
+def _check_end(end: float, what: str) -> None:
+    """Refuse a run whose end, ``what`` [s since the epoch], is not before STAMP_LIMIT."""
+    if not end < STAMP_LIMIT:
+        raise CliError(f'{what} must end before {STAMP_LIMIT:.0f} s since the epoch (the int32 '
+                       f'seconds of a ROS stamp end in 2038), got {end:.10g} s')
 
 
 def _write_chunk(writer: Rosbag2McapWriter, results: Sequence[SimulationResult],
@@ -266,10 +322,32 @@ def write_drives(out: Path, drives: Sequence[_Drive],
             # integer-nanosecond stamps, no accumulated rounding: stamp_k = start + k/rate
             stamps_ns = start_ns + np.round(index * (1e9 / rate)).astype(np.int64)
             times = operating_offset + (stamps_ns - start_ns) * 1e-9
-            results = [simulator.sample(times) for simulator in simulators]
+            with np.errstate(over='ignore', invalid='ignore'):  # refused by _check_finite
+                results = [simulator.sample(times) for simulator in simulators]
+            for (_, joints, _), result in zip(drives, results):
+                _check_finite(result, joints if len(drives) > 1 else None)
             _write_chunk(writer, results, stamps_ns, first, names, truth_every, truth_topics)
             _check_space(out, first + index.size, count)
     return count
+
+
+#: The fields of a SimulationResult that are written.
+WRITTEN = ('position_motor', 'position_load', 'velocity_motor', 'velocity_load', 'effort_motor',
+           'effort_load', 'u', 'friction', 'eta_opposing', 'eta_aiding')
+
+
+def _check_finite(result: SimulationResult, joints: tuple[str, str] | None) -> None:
+    """Raise ValueError if a value to be written is NaN or infinite (``joints``: the drive's)."""
+    for name in WRITTEN:
+        values = getattr(result, name)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            first = int(np.argmax(bad))
+            where = f'drive {joints[0]}/{joints[1]}: ' if joints else ''
+            msg = (f'{where}the simulation gave {name} = {float(values[first])!r} at t = '
+                   f'{float(result.t[first]):g} s: the parameters are beyond what float64 '
+                   f'holds; use physical values')
+            raise ValueError(msg)
 
 
 def _check_space(out: Path, done: int, count: int) -> None:
@@ -300,17 +378,24 @@ def write_fleet(out: Path, config: SimulationConfig, args: argparse.Namespace) -
     total = 0
     for unit in range(args.fleet):
         spread = args.unit_spread
-        initial = float(config.wear.initial * np.exp(spread * rng.standard_normal()))
-        rate = float(config.wear.rate * np.exp(spread * rng.standard_normal()))
-        wear = replace(config.wear, initial=initial, rate=rate)
+        # an overflow to inf is refused below (Wear, _check_end), with the option to blame
+        with np.errstate(over='ignore'):
+            initial = float(config.wear.initial * np.exp(spread * rng.standard_normal()))
+            rate = float(config.wear.rate * np.exp(spread * rng.standard_normal()))
+            gaps = args.gap * np.exp(args.gap_spread * gap_rng.standard_normal(args.recordings))
+            starts = [args.start_time + k * args.duration + float(np.sum(gaps[:k]))
+                      if args.gap_spread else args.start_time + k * (args.duration + args.gap)
+                      for k in range(args.recordings)]
+        try:
+            wear = replace(config.wear, initial=initial, rate=rate)
+        except ValueError as exc:
+            raise CliError(f'unit {unit}: --unit-spread {spread:g} drew an unusable wear '
+                           f'({exc}); lower --unit-spread') from None
+        _check_end(starts[-1] + args.duration,
+                   f'unit {unit}: --start-time + --recordings x --duration + the gaps')
         unit_config = replace(config, wear=wear)
         folder = out / f'unit_{unit:02d}'
-        starts = []
-        gaps = args.gap * np.exp(args.gap_spread * gap_rng.standard_normal(args.recordings))
-        for k in range(args.recordings):
-            start = args.start_time + k * args.duration + float(np.sum(gaps[:k])) \
-                if args.gap_spread else args.start_time + k * (args.duration + args.gap)
-            starts.append(start)
+        for k, start in enumerate(starts):
             # the unit's stochastic wear path runs on across its recordings
             recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k,
                                 wear_seed=config.seed * 10_000 + unit * 100)
@@ -348,6 +433,8 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
         life = random_life(args.random_life, args.rate)
     except ValueError as exc:
         raise CliError(str(exc)) from None
+    _check_end(args.start_time + life.duration,
+               f'--start-time + the drawn duration {life.duration:g} s')
     text = json.dumps(life.to_json(), indent=2)
 
     def write(target: Path) -> int:
@@ -404,11 +491,6 @@ def run(args: argparse.Namespace) -> int:
     if args.random_life is not None:
         return _write_random_life(out, args)
     if args.fleet:
-        if args.fleet < 0 or args.recordings < 1 or not args.gap >= 0 \
-                or not args.unit_spread >= 0 or not args.gap_spread >= 0:
-            raise CliError('--fleet, --recordings must be >= 1 and --gap, --unit-spread, '
-                           f'--gap-spread >= 0, got {args.fleet}, {args.recordings}, '
-                           f'{args.gap}, {args.unit_spread}, {args.gap_spread}')
         # the life spans all recordings: --friction-final is reached at the last one's end
         args.duration, single = args.duration * args.recordings, args.duration
         config = _config(args)

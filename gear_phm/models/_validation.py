@@ -1,8 +1,17 @@
-"""Argument checks shared by the models: ValueError that names the argument and the value."""
+"""Argument checks shared by the models: ModelError that names the argument and the value."""
 from __future__ import annotations
+
+import math
+import numbers
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+from gear_phm.errors import GearPhmError
+
+
+class ModelError(GearPhmError, ValueError):
+    """An argument outside a model function's domain, named with its value: one line."""
 
 
 def _first_bad(values: np.ndarray, bad: np.ndarray) -> str:
@@ -15,14 +24,14 @@ def _first_bad(values: np.ndarray, bad: np.ndarray) -> str:
 
 
 def finite(name: str, value: ArrayLike) -> np.ndarray:
-    """Return ``value`` as a float array; raise ValueError if any element is NaN or infinite."""
+    """Return ``value`` as a float array; raise ModelError if any element is NaN or infinite."""
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be a real number or array, got {value!r}') from exc
+        raise ModelError(f'{name} must be a real number or array, got {value!r}') from exc
     bad = ~np.isfinite(array)
     if bad.any():
-        raise ValueError(f'{name} must be finite, got {_first_bad(array, bad)}')
+        raise ModelError(f'{name} must be finite, got {_first_bad(array, bad)}')
     return array
 
 
@@ -31,7 +40,7 @@ def positive(name: str, value: ArrayLike) -> np.ndarray:
     array = finite(name, value)
     bad = array <= 0.0
     if bad.any():
-        raise ValueError(f'{name} must be > 0, got {_first_bad(array, bad)}')
+        raise ModelError(f'{name} must be > 0, got {_first_bad(array, bad)}')
     return array
 
 
@@ -40,7 +49,7 @@ def non_negative(name: str, value: ArrayLike) -> np.ndarray:
     array = finite(name, value)
     bad = array < 0.0
     if bad.any():
-        raise ValueError(f'{name} must be >= 0, got {_first_bad(array, bad)}')
+        raise ModelError(f'{name} must be >= 0, got {_first_bad(array, bad)}')
     return array
 
 
@@ -50,7 +59,7 @@ def in_open_interval(name: str, value: ArrayLike, low: float, high: float,
     array = finite(name, value)
     bad = (array <= low) | (array >= high)
     if bad.any():
-        raise ValueError(
+        raise ModelError(
             f'{name} must be in ({low:g}, {high:g}){unit}, got {_first_bad(array, bad)}')
     return array
 
@@ -63,7 +72,23 @@ def at_least(name: str, value: ArrayLike, minimum: ArrayLike, why: str) -> np.nd
     bad = full < bound
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0]) if bad.ndim else ()
-        raise ValueError(
+        raise ModelError(
             f'{name} must be >= {float(bound[index]):.4g} ({why}), '
             f'got {_first_bad(full, bad)}')
     return array
+
+
+def real_scalar(name: str, value: object) -> None:
+    """Raise ModelError unless ``value`` is one real number (a Python or numpy scalar)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        msg = (f'{name} must be a real number (one value; the numpy functions take arrays), '
+               f'got {value!r:.60}')
+        raise ModelError(msg) from None
+
+
+def scalar_ratio(ratio: float) -> None:
+    """Raise ModelError unless ``ratio`` is one finite real number > 0."""
+    real_scalar('ratio', ratio)
+    if not 0.0 < ratio < math.inf:
+        msg = f'ratio must be > 0 and finite, got {ratio!r}'
+        raise ModelError(msg) from None

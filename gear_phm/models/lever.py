@@ -26,14 +26,16 @@ Inverses and the link between the two efficiencies (eq 14 corrected, E4)::
     eta_I = (2 R eta_D + 1 - R) / ((R - 1) eta_D + 2)                               (14)
     eta_D = (2 eta_I + R - 1) / (2 R - (R - 1) eta_I)                        (14 inverse)
 
-Domain. ``ratio`` must be finite and > 0, every argument finite: otherwise ``ValueError``
-naming the argument and the value. The physical domain is ``u >= 0``, which maps one-to-one to
-``eta_D in (-1/R, 1]`` and ``eta_I in (-R, 1]``. Outside it the functions return the algebraic
+Domain. ``ratio`` must be finite and > 0, every argument finite: otherwise ``ModelError`` (a
+``ValueError`` and a :class:`~gear_phm.errors.GearPhmError`) naming the argument and the
+value. The physical domain is ``u >= 0``, which maps one-to-one to ``eta_D in (-1/R, 1]`` and
+``eta_I in (-R, 1]``. Outside it the functions return the algebraic
 continuation of the same formula while its denominator stays positive (e.g. ``eta > 1`` gives
 ``u < 0``): a noisy measurement just above 1 must map to a slightly negative ``u`` without being
 clipped, or an estimator fed with it would be biased. Where the formula has a pole or no real
 pre-image (``u <= -1`` for eta_D, ``u <= -R`` for eta_I, ``eta_D <= -1/R``, ``eta_I <= -R``) the
-result is NaN. All functions broadcast their arguments like numpy ufuncs.
+result is NaN. All functions broadcast their arguments like numpy ufuncs, but the float paths
+(:func:`efficiencies`, :func:`readings`, :func:`reading_with_slope`), which take one value each.
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models._validation import finite, positive
+from gear_phm.models._validation import finite, ModelError, positive, real_scalar, scalar_ratio
 
 
 def _eta_d_terms(u: Any, ratio: Any) -> tuple[Any, Any]:
@@ -89,9 +91,14 @@ def efficiencies(u: float, ratio: float) -> tuple[float, float]:
     """(eta_D, eta_I) [-] of one friction parameter u [-] (eqs 10 and 12), for Python floats.
 
     The per-update path of the estimator: the same formulas as :func:`eta_opposing` and
-    :func:`eta_aiding` without numpy's per-call cost. It never raises: NaN where a formula is
-    undefined (u <= -1, u <= -R) or an argument is not finite; ``ratio`` must be > 0.
+    :func:`eta_aiding` without numpy's per-call cost: NaN where a formula is undefined
+    (u <= -1, u <= -R) or u is not finite. ModelError if u is not one real number (arrays:
+    :func:`efficiencies_array`) or ``ratio`` is not finite and > 0.
     """
+    if type(u) is not float:
+        real_scalar('u', u)
+    if type(ratio) is not float or not 0.0 < ratio < math.inf:
+        scalar_ratio(ratio)
     eta_d = math.nan
     eta_i = math.nan
     if u > -1.0 and math.isfinite(u):
@@ -170,8 +177,15 @@ def readings(eta_d: float, eta_i: float, ratio: float) -> tuple[float, float]:
 
     The per-update path of the diagnostics: the formulas of :func:`u_from_eta_opposing` and
     :func:`u_from_eta_aiding` without numpy's per-call cost. NaN where one is undefined or
-    an argument is not finite; ``ratio`` must be > 0.
+    an efficiency is not finite. ModelError if an efficiency is not one real number or
+    ``ratio`` is not finite and > 0.
     """
+    if type(eta_d) is not float:
+        real_scalar('eta_d', eta_d)
+    if type(eta_i) is not float:
+        real_scalar('eta_i', eta_i)
+    if type(ratio) is not float or not 0.0 < ratio < math.inf:
+        scalar_ratio(ratio)
     u_d = u_i = math.nan
     if math.isfinite(eta_d):
         numerator, denominator = _u_d_terms(eta_d, ratio)
@@ -240,11 +254,15 @@ def reading_with_slope(eta: float, ratio: float, aiding: bool) -> tuple[float, f
     ``aiding`` False: eta is eta_D (:func:`u_from_eta_opposing`,
     :func:`d_u_d_eta_opposing`); True: eta_I (the aiding ones). The per-window path of the
     estimator, the same float operations without numpy's per-call cost. NaN where undefined;
-    ValueError if ``eta`` is not finite (as those functions).
+    ModelError if ``eta`` is not finite (as those functions) or ``ratio`` not finite and > 0.
     """
+    if type(eta) is not float:
+        real_scalar('eta', eta)
+    if type(ratio) is not float or not 0.0 < ratio < math.inf:
+        scalar_ratio(ratio)
     if not math.isfinite(eta):
         msg = f'eta must be finite, got {eta!r}'
-        raise ValueError(msg) from None
+        raise ModelError(msg) from None
     numerator, base = (_u_i_terms if aiding else _u_d_terms)(eta, ratio)
     if not base > 0.0:
         return math.nan, math.nan

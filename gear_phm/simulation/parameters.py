@@ -18,6 +18,13 @@ from gear_phm.simulation.wear import PROCESSES, Wear, WEAR_KINDS
 
 _PLANT, _DUTY, _WEAR = Plant(), DutyCycle(), Wear()
 _SENSORS = Sensors()
+# Physical bounds of the plant, duty cycle and sensors: within them every simulated sample is
+# finite (the fastest stroke, travel 1e4 rad in 2e-6 s, gives load accelerations ~1e16 rad/s^2
+# and torques ~1e22 N m, far from float64's 1.8e308).
+_INERTIA_MAX = 1e6        # kg m^2
+_TORQUE_MAX = 1e9         # N m, and N m/rad for the stiffness
+_TIME_MAX = 1e6           # s, a stroke or a dwell
+_SENSOR_MAX = 1e9         # rad/s or N m
 
 
 def _sensor_specs() -> list[ParamSpec]:
@@ -25,9 +32,10 @@ def _sensor_specs() -> list[ParamSpec]:
     for channel in ('velocity_motor', 'velocity_load', 'effort_motor', 'effort_load'):
         unit = 'rad/s' if channel.startswith('velocity') else 'N m'
         specs.append(ParamSpec(f'noise_{channel}', getattr(_SENSORS, channel).sigma,
-                               f'sensor noise standard deviation of {channel}', unit, 0.0))
+                               f'sensor noise standard deviation of {channel}', unit, 0.0,
+                               _SENSOR_MAX))
         specs.append(ParamSpec(f'bias_{channel}', getattr(_SENSORS, channel).bias,
-                               f'sensor bias of {channel}', unit))
+                               f'sensor bias of {channel}', unit, -_SENSOR_MAX, _SENSOR_MAX))
     return specs
 
 
@@ -37,31 +45,35 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('plant', _PLANT.efficiency_model, 'efficiency model of the plant',
               choices=EFFICIENCY_MODELS),
     RATIO,
-    ParamSpec('motor_inertia', _PLANT.motor_inertia, 'rotor inertia J_m', 'kg m^2', 0.0),
-    ParamSpec('load_inertia', _PLANT.load_inertia, 'load (surface) inertia J_l', 'kg m^2', 0.0),
+    ParamSpec('motor_inertia', _PLANT.motor_inertia, 'rotor inertia J_m', 'kg m^2', 0.0,
+              _INERTIA_MAX),
+    ParamSpec('load_inertia', _PLANT.load_inertia, 'load (surface) inertia J_l', 'kg m^2', 0.0,
+              _INERTIA_MAX),
     ParamSpec('air_load_preload', _PLANT.air_load_preload,
-              'air-load hinge moment at retracted position T0', 'N m', 0.0),
+              'air-load hinge moment at retracted position T0', 'N m', 0.0, _TORQUE_MAX),
     ParamSpec('air_load_stiffness', _PLANT.air_load_stiffness,
-              'air-load hinge moment gradient k', 'N m/rad'),
+              'air-load hinge moment gradient k', 'N m/rad', -_TORQUE_MAX, _TORQUE_MAX),
     ParamSpec('pinion_teeth', _PLANT.pinion_teeth,
-              'spur plant: pinion teeth z1 (wheel z2 = ratio z1)', '-', 2.0),
-    ParamSpec('module', _PLANT.module, 'spur plant: module', 'm', 1e-9),
+              'spur plant: pinion teeth z1 (wheel z2 = ratio z1)', '-', 2.0, 1e4),
+    ParamSpec('module', _PLANT.module, 'spur plant: module', 'm', 1e-9, 1.0),
     ParamSpec('bearing_radius_1', _PLANT.bearing_radius_1,
-              'spur plant: pinion bearing friction radius', 'm', 0.0),
+              'spur plant: pinion bearing friction radius', 'm', 0.0, 10.0),
     ParamSpec('bearing_radius_2', _PLANT.bearing_radius_2,
-              'spur plant: wheel bearing friction radius', 'm', 0.0),
+              'spur plant: wheel bearing friction radius', 'm', 0.0, 10.0),
     ParamSpec('direction_offset', _PLANT.direction_offset,
               "lever plant: model mismatch, eta_I is the lever model's at u + direction_offset "
               '(eta_D at u)', '-', -1.0, 1.0),
-    ParamSpec('travel', _DUTY.travel, 'duty cycle: load stroke', 'rad', 1e-9),
-    ParamSpec('extend_time', _DUTY.extend_time, 'duty cycle: extension stroke time', 's', 1e-6),
+    ParamSpec('travel', _DUTY.travel, 'duty cycle: load stroke', 'rad', 1e-9, 1e4),
+    ParamSpec('extend_time', _DUTY.extend_time, 'duty cycle: extension stroke time', 's', 1e-6,
+              _TIME_MAX),
     ParamSpec('retract_time', _DUTY.retract_time, 'duty cycle: retraction stroke time', 's',
-              1e-6),
-    ParamSpec('accel_time', _DUTY.accel_time, 'duty cycle: raised-cosine ramp time', 's', 1e-6),
+              1e-6, _TIME_MAX),
+    ParamSpec('accel_time', _DUTY.accel_time, 'duty cycle: raised-cosine ramp time', 's', 1e-6,
+              _TIME_MAX),
     ParamSpec('dwell_extended', _DUTY.dwell_extended, 'duty cycle: dwell when extended', 's',
-              0.0),
+              0.0, _TIME_MAX),
     ParamSpec('dwell_retracted', _DUTY.dwell_retracted, 'duty cycle: dwell when retracted', 's',
-              0.0),
+              0.0, _TIME_MAX),
     ParamSpec('wear', _WEAR.kind, 'wear trajectory', choices=WEAR_KINDS),
     ParamSpec('friction_initial', _WEAR.initial,
               'friction value at t = 0: lever u, or tooth coefficient f (spur)', '-', 0.0),
