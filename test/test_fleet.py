@@ -12,8 +12,10 @@ import math
 import os
 from pathlib import Path
 import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -276,3 +278,28 @@ def test_fleet_unwritable_out_is_one_line(tmp_path: Path,
         assert list(locked.iterdir()) == []
     finally:
         locked.chmod(0o755)
+
+
+def test_fleet_terminated_leaves_no_out(tmp_path: Path) -> None:
+    """SIGTERM while the fleet runs: exit 143, one line, no --out and no staging folder."""
+    folder = tmp_path / 'folder'
+    folder.mkdir()
+    child = subprocess.Popen([str(GEAR_PHM), 'fleet', str(REPO / 'bags' / 'fleet'), '--ratio',
+                              '3', '--out', str(folder / 'out'), '--no-progress'],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not any(folder.iterdir()):     # the staging folder, once the options are checked
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, 'nothing written within 60 s'
+            time.sleep(0.01)
+        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.communicate()
+    assert child.returncode == 143, err
+    assert err.strip().splitlines() == ['gear-phm fleet: terminated']
+    assert list(folder.iterdir()) == []
