@@ -9,16 +9,20 @@ import csv
 import functools
 import json
 import math
+import os
 from pathlib import Path
 import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
 from helpers.shared import build_once
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
+REPO = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.timeout(600)
 
 
@@ -179,3 +183,123 @@ def test_fleet_runs_on_an_existing_scheduler(fleet: Path, one_worker: Path,
     assert (remote / 'fleet.parquet').read_bytes() == (local / 'fleet.parquet').read_bytes()
     assert (remote / 'fleet.csv').read_bytes() == (local / 'fleet.csv').read_bytes()
     assert 'fleet: 100%' in result.stderr and '5/5' in result.stderr     # five unit folders
+
+
+def test_fleet_bad_unit_yaml_fails_that_unit_only(tmp_path: Path) -> None:
+    """A unit.yaml value of the wrong type, a reserved or conflicting key, or a binary file.
+
+    Also values that contradict each other (eta_warn <= eta_opposing_min).
+
+    Each makes its unit FAILED with the reason naming the file (and the key), before its
+    recording (one of bags/fleet, linked) is read; the fleet completes.
+    """
+    root = tmp_path / 'root'
+    files = {'topic': b'topic: 5\n', 'history': b'history: 0\n',
+             'both': b'ratio: 3.0\ntransmissions:\n  a: {motor_joint: m, load_joint: l, '
+                     b'ratio: 3.0}\n',
+             'binary': b'\xff\xfe\x00\x89binary',
+             'warn': b'eta_opposing_min: 0.7\neta_warn: 0.6\n'}
+    for unit, text in files.items():
+        (root / unit).mkdir(parents=True)
+        (root / unit / 'rec_000').symlink_to(REPO / 'bags' / 'fleet' / 'unit_00' / 'rec_000')
+        (root / unit / 'unit.yaml').write_bytes(text)
+    out = tmp_path / 'out'
+    result = run('fleet', str(root), '--out', str(out), '--ratio', '3', '--workers', '1',
+                 '--no-progress', '--no-unit-outputs')
+    assert result.returncode == 0, result.stderr
+    assert 'Traceback' not in result.stderr
+    rows = read_rows(out)
+    assert {unit: row['level'] for unit, row in rows.items()} == dict.fromkeys(
+        sorted(files), 'FAILED')
+    reasons = {unit: row['reason'] for unit, row in rows.items()}
+    for unit in files:
+        assert reasons[unit].startswith(f'{root / unit / "unit.yaml"}: '), reasons
+    assert reasons['topic'].endswith('topic must be a string, got 5')
+    assert "unknown option 'history'" in reasons['history']
+    assert reasons['both'].endswith('with transmissions, each drive sets its own ratio, '
+                                    'joints and names: drop ratio')
+    assert reasons['binary'].endswith('not UTF-8 text')
+    assert 'eta_warn must be > eta_opposing_min (0.7)' in reasons['warn']
+
+
+@pytest.mark.parametrize('args, message', [
+    (('--ratio', '-5'), 'ratio must be in [1e-06, 1e+06], got -5.0'),
+    (('--ratio', '0'), 'ratio must be in [1e-06, 1e+06], got 0.0'),
+    (('--ratio', '3', '--eta-opposing-min', '5'), 'eta_opposing_min must be in [-1, 1], '
+                                                  'got 5.0'),
+    (('--eta-opposing-min', '5'), 'eta_opposing_min must be in [-1, 1], got 5.0'),
+    (('--ratio', '3', '--scheduler', 'garbage'),
+     'cannot connect to the Dask scheduler at garbage: missing port number in address '
+     "'garbage'"),
+    (('--ratio', '3', '--scheduler', 'tcp://127.0.0.1:1', '--scheduler-timeout', '1'),
+     'cannot connect to the Dask scheduler at tcp://127.0.0.1:1: Timed out trying to connect '
+     'to tcp://127.0.0.1:1 after 1 s'),
+    (('--ratio', '3', '--scheduler-timeout', '0'), '--scheduler-timeout must be > 0 s, got 0.0'),
+])
+def test_fleet_bad_options_are_one_line_and_leave_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], args: tuple[str, ...],
+        message: str) -> None:
+    """Checked before any unit runs: exit 2, one line, no --out and no staging folder."""
+    from gear_phm.cli.main import main
+    root = tmp_path / 'root'
+    (root / 'unit_00').mkdir(parents=True)
+    (root / 'unit_00' / 'rec.mcap').write_bytes(b'')
+    assert main(['fleet', str(root), '--out', str(tmp_path / 'out'), *args]) == 2
+    assert capsys.readouterr().err.splitlines() == [f'gear-phm fleet: error: {message}']
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['root']
+
+
+def test_fleet_unwritable_out_is_one_line(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """An --out under a file, too long a name, a read-only folder: exit 2, one line, nothing."""
+    from gear_phm.cli.main import main
+    root = tmp_path / 'root'
+    (root / 'unit_00').mkdir(parents=True)
+    (tmp_path / 'file').write_text('')
+    assert main(['fleet', str(root), '--ratio', '3', '--out',
+                 str(tmp_path / 'file' / 'out')]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f'gear-phm fleet: error: cannot write --out {tmp_path / "file" / "out"}: '
+        f'{tmp_path / "file"} is not a directory']
+    for name in ('x' * 250, 'x' * 300):      # the staging folder's name, --out's: too long
+        long = tmp_path / name
+        assert main(['fleet', str(root), '--ratio', '3', '--out', str(long)]) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            f'gear-phm fleet: error: cannot write --out {long}: File name too long']
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['file', 'root']
+    if os.geteuid() == 0:
+        return                               # root writes into a read-only folder
+    locked = tmp_path / 'locked'
+    locked.mkdir(mode=0o555)
+    try:
+        assert main(['fleet', str(root), '--ratio', '3', '--out', str(locked / 'out')]) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            f'gear-phm fleet: error: cannot write --out {locked / "out"}: Permission denied']
+        assert list(locked.iterdir()) == []
+    finally:
+        locked.chmod(0o755)
+
+
+def test_fleet_terminated_leaves_no_out(tmp_path: Path) -> None:
+    """SIGTERM while the fleet runs: exit 143, one line, no --out and no staging folder."""
+    folder = tmp_path / 'folder'
+    folder.mkdir()
+    child = subprocess.Popen([str(GEAR_PHM), 'fleet', str(REPO / 'bags' / 'fleet'), '--ratio',
+                              '3', '--out', str(folder / 'out'), '--no-progress'],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not any(folder.iterdir()):     # the staging folder, once the options are checked
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, 'nothing written within 60 s'
+            time.sleep(0.01)
+        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.communicate()
+    assert child.returncode == 143, err
+    assert err.strip().splitlines() == ['gear-phm fleet: terminated']
+    assert list(folder.iterdir()) == []

@@ -7,11 +7,13 @@ unit's analysis under DIR/units/<unit>/.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 import sys
 
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, estimator_params, health_values
+from gear_phm.offline.fleet import CONNECT_TIMEOUT
 
 HELP = 'analyse a fleet: one folder of recordings per unit, units in parallel on Dask'
 
@@ -22,10 +24,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='ideal torque gain R = z2/z1 [-] of every unit (a unit.yaml '
                              'may set its own)')
     parser.add_argument('--out', type=Path, required=True,
-                        help='output directory (must not exist or be empty)')
+                        help='output directory (must not exist or be empty); written whole '
+                             'or not at all')
     parser.add_argument('--scheduler', default=None, metavar='ADDRESS',
                         help='address of an existing Dask scheduler (tcp://host:8786); '
                              'default: a local cluster')
+    parser.add_argument('--scheduler-timeout', type=float, default=CONNECT_TIMEOUT,
+                        metavar='S',
+                        help='seconds to wait for --scheduler to answer (default '
+                             f'{CONNECT_TIMEOUT:g})')
     parser.add_argument('--workers', type=int, default=None,
                         help='local cluster: worker processes (default: one per core)')
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
@@ -45,13 +52,16 @@ def run(args: argparse.Namespace) -> int:
     from gear_phm.offline.fleet import FleetError, analyze_fleet
     if args.workers is not None and args.workers < 1:
         raise CliError(f'--workers must be >= 1, got {args.workers}')
+    if not 0.0 < args.scheduler_timeout < math.inf:
+        raise CliError(f'--scheduler-timeout must be > 0 s, got {args.scheduler_timeout}')
     options = {**estimator_params(args.param), **health_values(args)}
     try:
         results = analyze_fleet(args.root, args.out, ratio=args.ratio,
                                 scheduler=args.scheduler, workers=args.workers,
                                 progress=not args.no_progress,
                                 unit_outputs=not args.no_unit_outputs,
-                                population=args.population_prior, **options)
+                                population=args.population_prior,
+                                timeout=args.scheduler_timeout, **options)
     except FleetError as exc:
         raise CliError(str(exc)) from None
     failed = [r.row for r in results if r.row['level'] == 'FAILED']

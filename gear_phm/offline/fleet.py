@@ -9,29 +9,36 @@ they finish: the table of a run on 2 workers is byte for byte the table of a ser
 
 A unit folder holds rosbag2 directories and/or ``.mcap``, ``.db3``, ``.bag`` files, and an
 optional ``unit.yaml`` of per-unit options (``ratio``, ``motor_joint``, ``load_joint``,
-``topic``, and any estimator or health parameter by name), which override the fleet-wide ones.
-A unit with many drives in one stream lists them under ``transmissions`` in its ``unit.yaml``
-(:mod:`gear_phm.transmissions`): it gets one row per drive, named ``<unit>/<drive>``.
-A unit that cannot be analysed (no recording, a corrupt bag, bad options) gets a row with level
-``FAILED`` and the reason; the others complete.
+``topic``, and any estimator or health parameter by name: :func:`option_specs`), which override
+the fleet-wide ones. A unit with many drives in one stream lists them under ``transmissions``
+in its ``unit.yaml`` (:mod:`gear_phm.transmissions`): it gets one row per drive, named
+``<unit>/<drive>``. A unit that cannot be analysed (no recording, a corrupt bag, bad options)
+gets a row with level ``FAILED`` and the reason; the others complete. The fleet-wide options
+are checked before any unit runs, and the output directory is written whole or not at all.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 import csv
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 import json
 import math
 from pathlib import Path
 import resource
+import shutil
 import sys
 from typing import Any
+import uuid
 
 import numpy as np
 
 from gear_phm.errors import GearPhmError
+from gear_phm.interfaces import JOINT_STATES
+from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
+                                 ParamSpec, RATIO, STAMP_SOURCE, TRANSMISSION_NAME)
 from gear_phm.prognostics import ShapePrior
 from gear_phm.prognostics.laws import SHAPED
+from gear_phm.transmissions import parse_transmissions, TRANSMISSIONS, TransmissionsError
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
@@ -46,6 +53,14 @@ TREND_POINTS = 200
 PRIOR_MIN_UNITS = 3
 #: Floor of the prior's spread of log(shape) [-]: a few units do not pin the shape exactly.
 PRIOR_MIN_LOG_SIGMA = 0.1
+#: Seconds to wait for an existing Dask scheduler (``--scheduler``) to answer.
+CONNECT_TIMEOUT = 10.0
+#: A unit's options besides the estimator and health parameters: analyze_bag's keywords.
+UNIT_SPECS = (RATIO, MOTOR_JOINT, LOAD_JOINT, TRANSMISSION_NAME, HARDWARE_ID,
+              replace(DIAGNOSTICS_RATE, name='diagnostics_rate'), STAMP_SOURCE,
+              ParamSpec('topic', JOINT_STATES, 'the JointState topic'))
+#: What each drive of a ``transmissions`` list sets for itself.
+DRIVE_OWN = ('ratio', 'motor_joint', 'load_joint', 'transmission_name', 'hardware_id')
 
 
 def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
@@ -95,6 +110,59 @@ class UnitResult:
     prior: ShapePrior | None = None
 
 
+def option_specs() -> dict[str, ParamSpec]:
+    """Return the spec of each option of a unit by name (``transmissions`` aside).
+
+    The estimator and health parameters that ``gear-phm analyze`` takes, and
+    :data:`UNIT_SPECS`.
+    """
+    from gear_phm.estimation.config import PARAMETERS as ESTIMATOR_PARAMETERS
+    from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
+    from gear_phm.prognostics.config import PARAMETERS as HEALTH_PARAMETERS
+    return {**{spec.name: spec for spec in (*ESTIMATOR_PARAMETERS, *HEALTH_PARAMETERS)
+               if spec.name not in NOT_OFFLINE_OPTIONS},
+            **{spec.name: spec for spec in UNIT_SPECS}}
+
+
+def check_options(options: Mapping[Any, Any]) -> dict[str, Any]:
+    """Return ``options`` with each value checked by the spec of its name.
+
+    ValueError names the first unknown option or bad value; ``transmissions`` must be a list
+    of drives (:func:`gear_phm.transmissions.parse_transmissions`). The rules between
+    parameters are :func:`check_configs`'.
+    """
+    specs = option_specs()
+    checked: dict[str, Any] = {}
+    for name, value in options.items():
+        if name == TRANSMISSIONS:
+            try:
+                parse_transmissions({TRANSMISSIONS: value})
+            except TransmissionsError as exc:
+                raise ValueError(str(exc)) from None
+            checked[name] = value
+        elif name in specs:
+            checked[name] = specs[name].check(value)
+        else:
+            msg = (f'unknown option {name!r}; known: {TRANSMISSIONS}, '
+                   f'{", ".join(sorted(specs))}')
+            raise ValueError(msg)
+    return checked
+
+
+def check_configs(options: Mapping[str, Any]) -> None:
+    """Check the estimator and health parameters of checked ``options`` together.
+
+    As ``gear-phm analyze`` does (:func:`gear_phm.offline.engine.split_options`); without a
+    ratio, with the smallest one, so that only a rule that no ratio satisfies fails.
+    AnalysisError (a ValueError) if they are inconsistent.
+    """
+    from gear_phm.offline.engine import split_options
+    unit_names = {spec.name for spec in UNIT_SPECS}
+    split_options(options.get(RATIO.name, RATIO.low), {
+        name: value for name, value in options.items()
+        if name not in unit_names and name != TRANSMISSIONS})
+
+
 def discover_units(root: Path) -> list[Path]:
     """Return the unit folders: the sub-directories of ``root`` that are not themselves a bag."""
     if not root.is_dir():
@@ -107,20 +175,52 @@ def discover_units(root: Path) -> list[Path]:
 
 
 def unit_options(unit: Path, fleet_options: dict[str, Any]) -> dict[str, Any]:
-    """Fleet-wide options overridden by the unit's ``unit.yaml`` (ValueError if malformed)."""
+    """Fleet-wide options overridden by the unit's ``unit.yaml`` (ValueError if malformed).
+
+    Each value of the file is checked (:func:`check_options`), and with the fleet-wide ones
+    (:func:`check_configs`); the ValueError names the file.
+    With ``transmissions`` there, the file must not set a ratio, joints or names (each drive
+    has its own).
+    """
     options = dict(fleet_options)
     path = unit / 'unit.yaml'
-    if path.is_file():
-        import yaml
+    if not path.is_file():
+        return options
+    import yaml
+    try:
+        loaded = yaml.safe_load(path.read_bytes().decode())
+    except UnicodeDecodeError:
+        msg = f'{path}: not UTF-8 text'
+        raise ValueError(msg) from None
+    except OSError as exc:
+        msg = f'{path}: cannot be read ({exc.strerror})'
+        raise ValueError(msg) from None
+    except yaml.YAMLError as exc:
+        msg = f'{path}: not valid YAML ({" ".join(str(exc).split())})'
+        raise ValueError(msg) from None
+    if loaded is None:
+        loaded = {}
+    if not isinstance(loaded, dict):
+        msg = f'{path}: expected a mapping of option: value'
+        raise ValueError(msg)
+    try:
+        own = check_options(loaded)
+    except ValueError as exc:
+        msg = f'{path}: {exc}'
+        raise ValueError(msg) from None
+    if TRANSMISSIONS in own:
+        given = [name for name in DRIVE_OWN if name in own]
+        if given:
+            msg = (f'{path}: with transmissions, each drive sets its own ratio, joints and '
+                   f'names: drop {", ".join(given)}')
+            raise ValueError(msg)
+    options.update(own)
+    if TRANSMISSIONS not in options:        # (each drive's own are checked as it is read)
         try:
-            loaded = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise ValueError(f'{path}: not valid YAML ({" ".join(str(exc).split())})') from None
-        if loaded is None:
-            loaded = {}
-        if not isinstance(loaded, dict):
-            raise ValueError(f'{path}: expected a mapping of option: value')
-        options.update(loaded)
+            check_configs(options)
+        except ValueError as exc:
+            msg = f'{path}: {exc}'
+            raise ValueError(msg) from None
     return options
 
 
@@ -139,7 +239,6 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
     fleet's population prior on the wear law's shape, if any.
     """
     from gear_phm.offline.engine import AnalysisError, analyze_bag, recordings_in
-    from gear_phm.transmissions import TRANSMISSIONS
     recordings = recordings_in(unit)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     empty: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())
@@ -147,10 +246,9 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
         return [UnitResult(_failed(unit.name, 0, f'no recording in {unit}'), empty, peak)]
     try:
         options = unit_options(unit, fleet_options)
-        if TRANSMISSIONS in options:
-            options = {**{k: v for k, v in fleet_options.items()
-                          if k not in ('ratio', 'motor_joint', 'load_joint')},
-                       **unit_options(unit, {})}
+        if TRANSMISSIONS in options:          # the fleet-wide ratio and joints do not apply
+            options = {k: v for k, v in options.items()
+                       if k not in ('ratio', 'motor_joint', 'load_joint')}
             options[TRANSMISSIONS] = {TRANSMISSIONS: options[TRANSMISSIONS]}
             ratio = None
         else:
@@ -166,6 +264,9 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
     except (AnalysisError, ValueError, TypeError, OSError) as exc:
         return [UnitResult(_failed(unit.name, len(recordings), ' '.join(str(exc).split())),
                            empty, peak)]
+    except Exception as exc:    # a bug met on this unit's data: this unit fails, not the fleet
+        reason = f'unexpected {type(exc).__name__}: {" ".join(str(exc).split())}'
+        return [UnitResult(_failed(unit.name, len(recordings), reason), empty, peak)]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     if not analysis.transmissions:
         return [_result(unit.name, len(recordings), analysis, peak, prior)]
@@ -196,30 +297,43 @@ def _result(name: str, recordings: int, analysis: Any, peak: float,
 def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
               scheduler: str | None, workers: int | None,
               on_done: Callable[[], None] = lambda: None,
-              population: bool = False) -> list[UnitResult]:
+              population: bool = False,
+              timeout: float = CONNECT_TIMEOUT,
+              on_start: Callable[[], None] = lambda: None) -> list[UnitResult]:
     """Analyse each unit as one Dask task; results in unit order.
 
-    ``scheduler``: address of an existing cluster, else a local one with ``workers``
-    processes (default: one per core). With ``population``, the units at end of life then
-    give the fleet's prior (:func:`population_prior`) and the others are analysed again with
-    it, as a second round of tasks.
+    ``on_start`` is called once the cluster is there, ``on_done`` as each unit completes.
+
+    ``scheduler``: address of an existing cluster (FleetError if it does not answer within
+    ``timeout`` [s]), else a local one with ``workers`` processes (default: one per core).
+    With ``population``, the units at end of life then give the fleet's prior
+    (:func:`population_prior`) and the others are analysed again with it, as a second round
+    of tasks.
     """
+    import os
+    import tempfile
     from dask.distributed import Client, LocalCluster, as_completed
     outs = [None if out is None else out / 'units' / unit.name for unit in units]
-    scratch = None
-    if scheduler:
-        client = Client(scheduler)
-        cluster = None
-    else:
-        import os
-        import tempfile
-        scratch = tempfile.TemporaryDirectory(prefix='gear-phm-dask-')   # not in the cwd
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                               processes=True, dashboard_address=None, silence_logs=40,
-                               local_directory=scratch.name,    # no fixed port (8787):
-                               scheduler_kwargs={'dashboard_address': ':0'})
-        client = Client(cluster)
-    try:
+    scratch: tempfile.TemporaryDirectory[str] | None = None
+    cluster: LocalCluster | None = None
+    client: Client | None = None
+    try:            # the cluster closed, its scratch folder removed, also if interrupted here
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout=timeout)
+            except (OSError, ValueError, TypeError) as exc:
+                msg = (f'cannot connect to the Dask scheduler at {scheduler}: '
+                       f'{" ".join(str(exc).split()) or type(exc).__name__}')
+                raise FleetError(msg) from None
+        else:
+            scratch = tempfile.TemporaryDirectory(prefix='gear-phm-dask-')   # not in the cwd
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+                                   threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=40,
+                                   local_directory=scratch.name,    # no fixed port (8787):
+                                   scheduler_kwargs={'dashboard_address': ':0'})
+            client = Client(cluster)
+        on_start()
         futures = [client.submit(analyze_unit, unit, options, unit_out, pure=False,
                                  key=f'gear-phm-unit-{unit.name}-{i}')
                    for i, (unit, unit_out) in enumerate(zip(units, outs))]
@@ -246,7 +360,8 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
             results[i] = rows
         return [r for rows in results for r in rows]
     finally:
-        client.close()
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
         if scratch is not None:
@@ -307,39 +422,94 @@ def plot_fleet(results: list[UnitResult], path: Path, title: str) -> None:
 def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = None,
                   scheduler: str | None = None, workers: int | None = None,
                   progress: bool = False, unit_outputs: bool = True,
-                  population: bool = False, **options: Any) -> list[UnitResult]:
+                  population: bool = False, timeout: float = CONNECT_TIMEOUT,
+                  **options: Any) -> list[UnitResult]:
     """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty).
 
     Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker
     memory, the population prior) and, with ``unit_outputs``, each unit's analysis under
-    ``units/<unit>/``. ``population``: a population prior, see :func:`run_units`.
+    ``units/<unit>/``. ``population``: a population prior, see :func:`run_units`; ``timeout``
+    [s]: the wait for ``scheduler``. ``ratio`` and ``options`` (those of a ``unit.yaml``) are
+    checked before any unit runs (FleetError). ``out`` is written whole or not at all: in a
+    folder beside it, renamed when complete (nothing is left if the fleet fails or is
+    interrupted).
     """
     root, out = Path(root), Path(out)
     units = discover_units(root)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    try:
+        taken = out.exists() and (not out.is_dir() or any(out.iterdir()))
+        above = next(parent for parent in out.absolute().parents if parent.exists())
+    except OSError as exc:
+        msg = f'cannot write --out {out}: {exc.strerror or exc}'
+        raise FleetError(msg) from None
+    if taken:
         raise FleetError(f'--out {out} exists and is not an empty directory')
-    fleet_options = dict(options)
-    if ratio is not None:
-        fleet_options['ratio'] = float(ratio)
-    out.mkdir(parents=True, exist_ok=True)
-    bar: Any = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(units), unit='unit', file=sys.stderr, desc='fleet')
-    results = run_units(units, fleet_options, out if unit_outputs else None, scheduler,
-                        workers, on_done=(bar.update if bar is not None else lambda: None),
-                        population=population)
-    if bar is not None:
-        bar.close()
+    if not above.is_dir():
+        msg = f'cannot write --out {out}: {above} is not a directory'
+        raise FleetError(msg)
+    try:
+        fleet_options = check_options({**options, **({} if ratio is None else {'ratio': ratio})})
+        check_configs(fleet_options)
+    except ValueError as exc:
+        raise FleetError(str(exc)) from None
+    staging = out.parent / f'.{out.name}.{uuid.uuid4().hex[:8]}.partial'
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging.mkdir()
+    except OSError as exc:
+        msg = f'cannot write --out {out}: {exc.strerror or exc}'
+        raise FleetError(msg) from None
+    try:
+        results = _analyze_into(staging, root, units, fleet_options, scheduler, workers,
+                                progress, unit_outputs, population, timeout)
+        try:
+            if out.exists():
+                out.rmdir()                 # empty (checked above)
+            staging.rename(out)
+        except OSError as exc:
+            msg = f'cannot write --out {out}: {exc.strerror or exc}'
+            raise FleetError(msg) from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return results
+
+
+def _analyze_into(directory: Path, root: Path, units: list[Path], options: dict[str, Any],
+                  scheduler: str | None, workers: int | None, progress: bool,
+                  unit_outputs: bool, population: bool, timeout: float) -> list[UnitResult]:
+    """Run the units and write the fleet's files into ``directory`` (:func:`analyze_fleet`)."""
+    bars: list[Any] = []
+
+    def start() -> None:                # once connected: no bar before an error
+        if progress:
+            from tqdm import tqdm
+            bars.append(tqdm(total=len(units), unit='unit', file=sys.stderr, desc='fleet'))
+
+    def done() -> None:
+        for bar in bars:
+            bar.update()
+    try:
+        results = run_units(units, options, directory if unit_outputs else None, scheduler,
+                            workers, on_done=done, population=population, timeout=timeout,
+                            on_start=start)
+    finally:
+        for bar in bars:
+            bar.close()
     rows = [r.row for r in results]
-    write_table(rows, out)
-    plot_fleet(results, out / 'fleet.png', f'gear-phm fleet {root.name}: {len(rows)} '
-               f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
-    (out / 'fleet_run.json').write_text(json.dumps({
-        'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
-        'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1) for r in results},
-        'max_peak_rss_mib': round(max(r.peak_rss_mib for r in results), 1),
-        'population_prior': next((asdict(r.prior) for r in results if r.prior), None),
-        'units_with_prior': [r.row['unit'] for r in results if r.prior is not None],
-    }, indent=2) + '\n')
+    try:
+        write_table(rows, directory)
+        plot_fleet(results, directory / 'fleet.png', f'gear-phm fleet {root.name}: '
+                   f'{len(rows)} '
+                   f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
+        (directory / 'fleet_run.json').write_text(json.dumps({
+            'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
+            'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1)
+                                      for r in results},
+            'max_peak_rss_mib': round(max(r.peak_rss_mib for r in results), 1),
+            'population_prior': next((asdict(r.prior) for r in results if r.prior), None),
+            'units_with_prior': [r.row['unit'] for r in results if r.prior is not None],
+        }, indent=2) + '\n')
+    except OSError as exc:
+        msg = f'cannot write the fleet table: {exc.strerror or exc}'
+        raise FleetError(msg) from None
     return results
