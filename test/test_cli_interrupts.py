@@ -24,13 +24,15 @@ GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 
 def test_a_run_too_large_for_the_disk_is_refused_early_and_leaves_nothing(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # 1e14 samples: petabytes on any disk; refused once the first megabytes project that
+    # 2e14 samples (until 2033 at 100 kHz): petabytes on any disk; refused once the first
+    # megabytes project that
     started = time.monotonic()
-    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), '--duration', '1e12']) == 2
+    assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), '--duration', '2e9',
+                     '--rate', '1e5']) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1, lines
     assert lines[0].startswith('gear-phm simulate: error: cannot write') \
-        and '100,000,000,000,000 samples would take about' in lines[0] \
+        and '200,000,000,000,000 samples would take about' in lines[0] \
         and 'GB are free' in lines[0], lines
     assert list(tmp_path.iterdir()) == []                  # no bag, no staging folder
     assert time.monotonic() - started < 60.0                # not after filling the disk
