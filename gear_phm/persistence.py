@@ -53,6 +53,10 @@ class StateCorrupt(StateError):
         self.moved_to = moved_to
 
 
+class StateForeign(StateError):
+    """The state file's path holds something else (a folder, another file): left as it is."""
+
+
 class StateMismatch(StateError):
     """Written for another gearbox (identity differs); the file is left as it is."""
 
@@ -154,16 +158,26 @@ def load_state(path: str | os.PathLike[str], kind: str, identity: Mapping[str, A
                reset: bool = False) -> dict[str, Any] | None:
     """Return the saved ``state`` dict, or None to start fresh (module docstring).
 
-    Raises :class:`StateCorrupt` (file set aside) or :class:`StateMismatch` (file kept).
+    Raises :class:`StateCorrupt` (a damaged state file, set aside), :class:`StateForeign`
+    (the path holds a folder or a file that is no state file: left as it is; moving a user's
+    file or folder aside would be worse than not starting) or :class:`StateMismatch` (file
+    kept).
     """
     target = Path(path)
+    keep = 'it is left as it is; choose another state_file, or move it away to start fresh'
+    if target.exists() and not target.is_file():
+        raise StateForeign(f'state file {target} is a folder or not a regular file: {keep}')
     try:
         text = target.read_text(encoding='utf-8')
     except FileNotFoundError:
         return None
     except (OSError, UnicodeDecodeError) as exc:
-        reason = f'unreadable: {" ".join(str(exc).split())}'
-        raise set_aside_corrupt(target, reason)
+        reason = ' '.join(str(exc).split())
+        raise StateForeign(f'state file {target} cannot be read as text ({reason}): '
+                           f'{keep}') from None
+    if text.strip() and not (text.lstrip().startswith('{') and '"schema"' in text[:256]):
+        raise StateForeign(f'state file {target} is not a gear_phm state file (no JSON '
+                           f'object with a schema): {keep}')
     try:
         doc = json.loads(text)
     except ValueError as exc:

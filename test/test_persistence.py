@@ -14,7 +14,7 @@ import pytest
 
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.persistence import (decode_float, encode_float, load_state, save_state, SCHEMA,
-                                  StateCorrupt, StateMismatch)
+                                  StateCorrupt, StateForeign, StateMismatch)
 from gear_phm.prognostics import HealthAssessor, HealthConfig
 from helpers.plant import lever_plant
 
@@ -59,7 +59,6 @@ def test_save_is_atomic_and_load_round_trips(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize('content, reason', [
     ('{"schema": 1, "kind": "estimator", "ident', 'not JSON'),
-    ('[1, 2]', 'not a JSON object'),
     (json.dumps({'schema': 99, 'kind': 'estimator', 'identity': IDENTITY, 'state': {}}),
      'schema 99'),
     (json.dumps({'schema': SCHEMA, 'kind': 'diagnostics', 'identity': IDENTITY, 'state': {}}),
@@ -77,6 +76,32 @@ def test_corrupt_file_is_set_aside_with_its_reason(tmp_path: Path, content: str,
     assert moved.read_text() == content
     assert str(moved) in str(caught.value)
     assert load_state(path, 'estimator', IDENTITY) is None          # then: fresh
+
+
+@pytest.mark.parametrize('content', ['[1, 2]', 'ratio: 30.0\n', 'my notes', b'\xff\xfe\x00'])
+def test_a_file_that_is_no_state_file_is_refused_and_left_as_it_is(
+        tmp_path: Path, content: str | bytes) -> None:
+    """A state_file pointing at a user's file moved it aside and wrote over its name."""
+    path = tmp_path / 'wear.json'
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    with pytest.raises(StateForeign, match='it is left as it is'):
+        load_state(path, 'estimator', IDENTITY)
+    assert list(tmp_path.iterdir()) == [path]
+    assert path.read_bytes() == (content if isinstance(content, bytes) else content.encode())
+
+
+def test_a_folder_is_refused_and_left_as_it_is(tmp_path: Path) -> None:
+    """state_file:=/tmp moved the whole of /tmp aside (an adversarial probe did that)."""
+    folder = tmp_path / 'state'
+    folder.mkdir()
+    (folder / 'precious.txt').write_text('keep')
+    with pytest.raises(StateForeign, match='is a folder or not a regular file'):
+        load_state(folder, 'estimator', IDENTITY)
+    assert list(tmp_path.iterdir()) == [folder]
+    assert (folder / 'precious.txt').read_text() == 'keep'
 
 
 def test_identity_mismatch_refused_unless_reset(tmp_path: Path) -> None:

@@ -280,3 +280,49 @@ def test_state_file_of_another_ratio_refused_unless_reset(tmp_path: Path) -> Non
         old = sorted(tmp_path.glob(f'{path.name}.old-*'))
         assert len(old) == 1
         assert json.loads(old[0].read_text())['identity']['ratio'] == 3.0
+
+
+def test_a_state_file_path_that_holds_other_things_is_refused_and_left(tmp_path: Path) -> None:
+    """A folder or a user's file as state_file: exit 2 with the reason, nothing moved.
+
+    A state file in a folder that does not exist yet: the folder is made and the state saved.
+    """
+    folder = tmp_path / 'folder'
+    folder.mkdir()
+    (folder / 'precious.txt').write_text('keep')
+    config = tmp_path / 'bench.yaml'
+    config.write_text('ratio: 30.0\n')
+    refused = [spawn('estimator', f'state_file:={folder}'),
+               spawn('diagnostics', f'state_file:={config}')]
+    outputs = [p.communicate(timeout=60) for p in refused]
+    assert [p.returncode for p in refused] == [2, 2], outputs
+    assert f'error: state file {folder} is a folder or not a regular file' in outputs[0][1]
+    assert f'error: state file {config} is not a gear_phm state file' in outputs[1][1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['bench.yaml', 'folder']
+    assert (folder / 'precious.txt').read_text() == 'keep'
+    assert config.read_text() == 'ratio: 30.0\n'
+    new = tmp_path / 'new' / 'deeper' / 'estimator.json'
+    proc = spawn('estimator', f'state_file:={new}', 'state_save_period:=0.5')
+    try:
+        deadline = time.monotonic() + 60.0
+        while not new.exists():
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, 'no state saved within 60 s'
+            time.sleep(0.1)
+    finally:
+        assert stop(proc, signal.SIGTERM) == 0
+    assert json.loads(new.read_text())['schema'] == SCHEMA
+
+
+def test_a_params_file_that_does_not_parse_is_one_line_exit_2(tmp_path: Path) -> None:
+    """rclpy.init's RCLError was an 18-line traceback and exit 1."""
+    params = tmp_path / 'bad.yaml'
+    params.write_text('estimator:\n  ros__parameters:\n    ratio: [1.0\n')
+    proc = subprocess.Popen([str(processes.BIN / 'estimator'), '--ros-args', '--params-file',
+                             str(params)], env=NODE_ENV, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 2, stderr
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert any(line.startswith('error: cannot start ROS:') for line in lines), stderr
+    assert 'Traceback' not in stderr

@@ -218,12 +218,17 @@ def stop_signals() -> Iterator[None]:
 def init_node_process(args: Sequence[str] | None) -> None:
     """``rclpy.init`` for a process that stops through :func:`stop_signals`.
 
-    Also turns on :mod:`faulthandler`: a crash in native code (rmw, DDS) prints every
-    thread's Python stack to stderr, for the bug report.
+    Raises :class:`ConfigError` if rclpy refuses the arguments (a params file that does not
+    parse, a bad ``--ros-args`` rule). Also turns on :mod:`faulthandler`: a crash in native
+    code (rmw, DDS) prints every thread's Python stack to stderr, for the bug report.
     """
     faulthandler.enable()
-    rclpy.init(args=None if args is None else list(args),
-               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=None if args is None else list(args),
+                   signal_handler_options=SignalHandlerOptions.NO)
+    except RuntimeError as exc:     # rclpy's RCLError: e.g. a params file that does not parse
+        msg = f'cannot start ROS: {" ".join(str(exc).split())}'
+        raise ConfigError(msg) from None
 
 
 def keep_spinning(context: Any = None) -> bool:
@@ -254,7 +259,11 @@ def run_node(factory: Callable[[], NodeT], args: Sequence[str] | None = None,
     the loop (:func:`stop_signals`); the node is then destroyed and the context shut down, in
     this thread.
     """
-    init_node_process(args)
+    try:
+        init_node_process(args)
+    except ConfigError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
     node = None
     with stop_signals():
         try:

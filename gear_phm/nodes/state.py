@@ -27,7 +27,8 @@ from rclpy.node import Node
 from gear_phm.nodes.common import ConfigError
 from gear_phm.parameters import ParamSpec
 from gear_phm.persistence import (identity_difference, load_state, save_state, set_aside,
-                                  set_aside_corrupt, StateCorrupt, StateMismatch)
+                                  set_aside_corrupt, StateCorrupt, StateForeign,
+                                  StateMismatch)
 from gear_phm.status import StatusOut, WARN
 
 
@@ -93,9 +94,14 @@ class StateKeeper:
         if self.path is None:
             return False
         logger = self.node.get_logger()
+        try:        # a state file in a new folder: the folder is made now, not at each save
+            Path(self.path).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            msg = f'state file {self.path}: cannot make its folder ({exc})'
+            raise ConfigError(msg) from None
         try:
             state = load_state(self.path, self.kind, self.identity, self.reset)
-        except StateMismatch as exc:
+        except (StateMismatch, StateForeign) as exc:
             raise ConfigError(str(exc)) from None
         except StateCorrupt as exc:
             self.load_problem = str(exc)
