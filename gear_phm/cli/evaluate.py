@@ -206,12 +206,14 @@ def read_truth_csv(path: Path) -> float:
     return eol
 
 
-def truth_eol(truth: Path, u_eol: float, drive: str | None = None
-              ) -> tuple[float, tuple[float, float] | None]:
-    """Return the true end of life [s] and the truth's stamp range [s] (None for a CSV).
+def truth_eol(truth: Path, u_eol: float, drive: str | None = None) -> float:
+    """Return the true end of life [s], from a truth bag or a CSV (module docstring)."""
+    return truth_eol_and_span(truth, u_eol, drive)[0]
 
-    From a truth bag or a CSV (see the module docstring).
-    """
+
+def truth_eol_and_span(truth: Path, u_eol: float, drive: str | None = None
+                       ) -> tuple[float, tuple[float, float] | None]:
+    """Return :func:`truth_eol` and the truth's stamp range [s] (None for a CSV)."""
     if truth.suffix.lower() == '.csv':
         return read_truth_csv(truth), None
     times, vectors = read_vector_topic(truth, _topic(TRUTH_FRICTION, drive))
@@ -339,7 +341,7 @@ def _run_one(args: argparse.Namespace) -> int:
             return _healthy(args, bag, output, median, u_eol, warnings)
         t_eol = float(life['end_of_life_s'])
     else:
-        t_eol, truth_span = truth_eol(args.truth, u_eol, args.drive)
+        t_eol, truth_span = truth_eol_and_span(args.truth, u_eol, args.drive)
         warnings = _overlap(run_span, truth_span, args.truth)
     if args.t_start is None and life is not None and life['onset_s'] is not None:
         args.t_start = float(life['onset_s'])
