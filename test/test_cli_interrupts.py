@@ -6,6 +6,7 @@ removes it.
 """
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 import signal
@@ -16,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from gear_phm import stopping
 from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
 
@@ -96,4 +98,23 @@ def test_a_stopped_run_exits_with_the_signal_and_leaves_nothing(
     done = stopped(args, tmp_path, signum)
     assert done.returncode == code, done.stderr
     assert done.stderr.strip().splitlines() == [f'gear-phm {command}: {word}']
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_recorded_stop_is_raised_at_the_next_chunk_or_batch(
+        long_bag: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The stop a signal recorded is raised again by the loops.
+
+    A handler's exception swallowed where it landed (an import) let simulate run to its end
+    and exit 0 under load.
+    """
+    monkeypatch.setattr(stopping, '_requested', [functools.partial(SystemExit, 143)])
+    with pytest.raises(SystemExit) as caught:
+        gear_phm(['simulate', '--out', str(tmp_path / 'sim'), '--duration', '60'])
+    assert caught.value.code == 143
+    monkeypatch.setattr(stopping, '_requested', [KeyboardInterrupt])
+    assert gear_phm(['analyze', str(long_bag), '--ratio', '3.0', '--out', str(tmp_path / 'an'),
+                     '--no-progress']) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ['gear-phm analyze: interrupted']
     assert list(tmp_path.iterdir()) == []

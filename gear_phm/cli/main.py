@@ -14,6 +14,7 @@ import signal
 import sys
 from types import FrameType
 
+from gear_phm import stopping
 from gear_phm.errors import GearPhmError
 
 #: name -> (module, one-line help). Only the module of the command being run is imported.
@@ -40,9 +41,20 @@ class CliError(GearPhmError):
 
 
 def _terminate(signum: int, frame: FrameType | None, command: str) -> None:
-    """On SIGTERM: SystemExit(128 + 15) in the main thread, so that cleanup (finally) runs."""
+    """On SIGTERM: SystemExit(128 + 15) in the main thread, so that cleanup (finally) runs.
+
+    Also recorded (:mod:`gear_phm.stopping`): raised again at the next chunk or batch if
+    this one is swallowed.
+    """
     print(f'gear-phm {command}: terminated', file=sys.stderr)
+    stopping.request(functools.partial(SystemExit, 128 + signum))
     raise SystemExit(128 + signum)
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    """On SIGINT: KeyboardInterrupt, recorded as :func:`_terminate` records SIGTERM."""
+    stopping.request(KeyboardInterrupt)
+    raise KeyboardInterrupt
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -76,6 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.ros_args = ros_args
     if args.command in STOPPED_ON_SIGTERM:
         signal.signal(signal.SIGTERM, functools.partial(_terminate, command=args.command))
+        signal.signal(signal.SIGINT, _interrupt)
     try:
         return int(args._run(args) or 0)
     except CliError as exc:

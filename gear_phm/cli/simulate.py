@@ -29,6 +29,7 @@ import tempfile
 
 import numpy as np
 
+from gear_phm import stopping
 from gear_phm.bagio import BagError, Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import vector3_stamped_rows
 from gear_phm.cli.main import CliError
@@ -318,6 +319,7 @@ def write_drives(out: Path, drives: Sequence[_Drive],
         for topic in (topic for pair in truth_topics for topic in pair):
             writer.add_topic(topic, VECTOR3_STAMPED_TYPE)
         for first in range(0, count, CHUNK):
+            stopping.check()            # a signal's stop that was swallowed
             index = np.arange(first, min(first + CHUNK, count))
             # integer-nanosecond stamps, no accumulated rounding: stamp_k = start + k/rate
             stamps_ns = start_ns + np.round(index * (1e9 / rate)).astype(np.int64)

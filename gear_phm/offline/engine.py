@@ -35,7 +35,7 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from gear_phm import codec, interfaces
+from gear_phm import codec, interfaces, stopping
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement, StatusSnapshot)
@@ -699,6 +699,7 @@ class _Stream:
             last_log_ns: int | None = None       # of the bag's last JointState
             pending: list[RawBatch] = []         # JointState chunks, processed by BATCH
             for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+                stopping.check()                 # a signal's stop that was swallowed
                 if raw.topic != topic:           # ground truth, for the plot only
                     stamps, values = interfaces.vector3_stamped_columns(
                         raw.buffer, raw.offsets, raw.lengths)
