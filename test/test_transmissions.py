@@ -358,3 +358,56 @@ def test_simulate_refuses_ratio_with_transmissions(
                  '--duration', '1', '--out', str(tmp_path / 'out')]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ['gear-phm simulate: error: --transmissions sets each drive: drop --ratio']
+
+
+def _idle_bench(bench: Path, out: Path, idle: set[str]) -> Path:
+    """Write bench's bag again with the ``idle`` drives' speeds and torques all zero."""
+    from gear_phm.bagio import Rosbag2McapWriter
+    from gear_phm.codec import decode_joint_states, joint_state_rows
+    with BagReader(bench / 'bag') as bag:
+        messages = list(bag.raw_messages(['/joint_states']))
+    log_times = np.array([t for _, t, _ in messages], dtype=np.int64)
+    names = [joint for d in DRIVES.values() for joint in (d['motor_joint'], d['load_joint'])]
+    batches = [decode_joint_states([raw for _, _, raw in messages], d['motor_joint'],
+                                   d['load_joint']) for d in DRIVES.values()]
+    moving = [name not in idle for name in DRIVES for _ in (0, 1)]
+
+    def columns(kind: str) -> np.ndarray:
+        values = np.column_stack([getattr(b, f'{end}_{kind}') for b in batches
+                                  for end in ('motor', 'load')])
+        return values if kind == 'position' else values * np.array(moving, dtype=float)
+    with Rosbag2McapWriter(out, batch=True) as writer:
+        writer.add_topic(interfaces.JOINT_STATES, interfaces.JOINT_STATE_TYPE)
+        payloads = joint_state_rows(batches[0].stamp_ns, names, columns('position'),
+                                    columns('velocity'), columns('effort'))
+        writer.write_groups([(interfaces.JOINT_STATES, log_times, payloads)])
+    return out
+
+
+def test_a_drive_that_never_moves_is_stale_alone_and_all_idle_is_an_error(
+        bench: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A bench drive without a single measurement: its summary says so, level STALE.
+
+    The others' results stand (the one-pass analysis was refused as a whole, once the
+    filter's prior stopped passing for an estimate); no drive measured: exit 2.
+    """
+    bag = _idle_bench(bench, tmp_path / 'idle', {'rudder'})
+    assert main(['analyze', str(bag), '--transmissions', str(bench / 'bench.yaml'), '--out',
+                 str(tmp_path / 'out'), '--no-plot', '--no-progress']) == 0
+    err = capsys.readouterr().err
+    assert 'rudder: no efficiency measurement (' in err and 'zero_speed' in err, err
+    drives = json.loads((tmp_path / 'out' / 'summary.json').read_text())['transmissions']
+    assert drives['rudder']['health']['level'] == 'STALE'
+    assert drives['rudder']['no_measurement'].startswith(f'{drives["rudder"]["samples_seen"]}')
+    whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
+    for name in ('flap_l', 'spoiler_3'):
+        assert 'no_measurement' not in drives[name]
+        assert drives[name]['u'] == pytest.approx(whole.transmissions[name].summary['u'],
+                                                  rel=1e-9, abs=0)
+    none = _idle_bench(bench, tmp_path / 'none', set(DRIVES))
+    assert main(['analyze', str(none), '--transmissions', str(bench / 'bench.yaml'), '--out',
+                 str(tmp_path / 'none_out'), '--no-plot', '--no-progress']) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and 'no efficiency measurement, no drive has one; drive flap_l:' \
+        in lines[0], lines
+    assert not (tmp_path / 'none_out').exists()

@@ -94,6 +94,10 @@ def run(args: argparse.Namespace) -> int:
             f'({summary["samples_per_second"]:.0f}/s) -> {analysis.out}')
     drives = summary.get('transmissions', {'': summary})
     for name, drive in drives.items():
+        if 'no_measurement' in drive:           # a drive of many that did not move
+            print(f'{name}: no efficiency measurement ({drive["no_measurement"]})',
+                  file=sys.stderr)
+            continue
         print(f'{name + ": " if name else ""}u = {drive["u"]:.5f} +/- {drive["sigma_u"]:.5f}, '
               f'eta_D = {drive["eta_opposing"]:.4f}, eta_I = {drive["eta_aiding"]:.4f}'
               + ('' if name else f'; {rate}'), file=sys.stderr)

@@ -291,12 +291,20 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                       '(gear-phm analyze --stamp-source log)' if stamp_source == 'header'
                       else '')
             raise AnalysisError(f'topic {topic}: no efficiency measurement, {stalled}{remedy}')
-        for run, analysis in zip(runs, analyses):
-            unmeasured = _unmeasured(analysis.summary)
-            if unmeasured:          # the filter's prior is no estimate of this gearbox
-                which = '' if run.drive is None else f'drive {run.drive}: '
-                raise AnalysisError(f'{which}topic {topic}: no efficiency measurement, '
-                                    f'{unmeasured}')
+        # no filter update: the filter's prior is no estimate of the gearbox. One drive (or
+        # every drive): an error. A bench's drive that did not move while others did: its
+        # summary says so and its level is STALE, as the live node's for a drive without data
+        idle = [(run, analysis, why) for run, analysis in zip(runs, analyses)
+                if (why := _unmeasured(analysis.summary))]
+        if idle and len(idle) == len(runs):
+            run, _, why = idle[0]
+            which = '' if run.drive is None else \
+                f'{"no drive has one; " if len(runs) > 1 else ""}drive {run.drive}: '
+            raise AnalysisError(f'topic {topic}: no efficiency measurement, {which}{why}')
+        for _, analysis, why in idle:
+            analysis.summary['no_measurement'] = why
+            analysis.summary['health'] = {**analysis.summary['health'], 'level': 'STALE',
+                                          'message': f'no efficiency measurement: {why}'}
         if transmissions is None:
             analysis = analyses[0]
         else:
