@@ -25,7 +25,7 @@ default), it is the single transmission above, unchanged.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import fields
+from dataclasses import fields, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -42,8 +42,8 @@ from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
-from gear_phm.nodes.transport import (EstimatePublisher, JointNames, SampleLossPublisher,
-                                      subscribe_joint_states_raw)
+from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
+                                      SampleLossPublisher, subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 
 #: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
@@ -276,6 +276,8 @@ class EstimatorNode(Node):
         status = self.state.flagged(self.joint_names.status(
             self.pipeline.status(self.status_name, self.messages_received),
             self.pipeline.samples_seen, self.values['motor_joint'], self.values['load_joint']))
+        status = replace(status, values=status.values + (
+            (OUTPUTS_MATCHED, str(self.outputs.matched())),))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 

@@ -31,8 +31,8 @@ from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
-from gear_phm.nodes.transport import (EstimatePublisher, JointNames, SampleLossPublisher,
-                                      subscribe_joint_states_raw)
+from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
+                                      SampleLossPublisher, subscribe_joint_states_raw)
 from gear_phm.transmissions import Transmission
 
 #: A buffer this long is processed at once.
@@ -171,7 +171,9 @@ class DrivesEstimator:
             status = self.joint_names.status(
                 d.pipeline.status(d.status_name, self.messages_received),
                 d.pipeline.samples_seen, d.drive.motor_joint, d.drive.load_joint)
-            statuses.append(self.state.flagged(replace(status, hardware_id=d.drive.name)))
+            statuses.append(self.state.flagged(replace(
+                status, hardware_id=d.drive.name,
+                values=status.values + ((OUTPUTS_MATCHED, str(d.outputs.matched())),))))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
         for d in self.drives:
             d.loss_outputs.publish(d.pipeline)

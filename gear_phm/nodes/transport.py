@@ -85,6 +85,11 @@ def topic_of(drive: str | None, topic: str) -> str:
     return topic if drive is None else interfaces.drive_topic(drive, topic)
 
 
+#: The estimator status's key: the fewest subscriptions matched by its seven output topics'
+#: publishers (:meth:`EstimatePublisher.matched`); 0 while no diagnostics node listens.
+OUTPUTS_MATCHED = 'outputs_matched'
+
+
 class EstimatePublisher:
     """Publishes estimates on the seven estimator topics (reliable, depth 10).
 
@@ -96,6 +101,15 @@ class EstimatePublisher:
         self._publishers = {topic: node.create_publisher(Vector3Stamped,
                                                          topic_of(drive, topic), OUTPUT_QOS)
                             for topic in interfaces.ESTIMATOR_TOPICS}
+
+    def matched(self) -> int:
+        """Return the subscriptions matched by every one of the seven topics' publishers.
+
+        The fewest of the seven: a diagnostics node assembles an update from all of them,
+        and an estimate published before its reader matched is lost to it.
+        """
+        return min(publisher.get_subscription_count()
+                   for publisher in self._publishers.values())
 
     def publish(self, estimates: list[FrictionEstimate]) -> None:
         """Publish each estimate on the seven topics, serialized by the package's packer.
