@@ -306,25 +306,35 @@ def _loader() -> type:
     return Loader
 
 
+def read_yaml(path: str | Path) -> Any:
+    """Return the YAML document of the file ``path``, read with :func:`_loader`'s rules.
+
+    A key given twice in a mapping is refused, and ``1e-3`` is a float. Raises
+    :class:`TransmissionsError` (a ValueError) naming the file: unreadable, not UTF-8 text,
+    not valid YAML, or a key given twice.
+    """
+    import yaml
+    try:
+        return yaml.load(Path(path).read_bytes().decode('utf-8'), _loader())  # noqa: S506
+    except UnicodeDecodeError:
+        msg = f'{path}: not UTF-8 text'
+    except OSError as exc:
+        msg = f'{path}: cannot be read ({exc.strerror or exc})'
+    except yaml.YAMLError as exc:
+        msg = f'{path}: not valid YAML ({" ".join(str(exc).split())})'
+    except TransmissionsError as exc:
+        msg = f'{path}: {exc}'
+    raise TransmissionsError(msg)
+
+
 def load_transmissions(path: str | Path, defaults: Mapping[str, Any] | None = None
                        ) -> tuple[Transmission, ...]:
     """Read a transmissions file (either form); see :func:`parse_transmissions`.
 
     Raises :class:`TransmissionsError` naming the file on a missing or unreadable file, bad
-    YAML or a bad list.
+    YAML (:func:`read_yaml`) or a bad list.
     """
-    import yaml
-    try:
-        document = yaml.load(Path(path).read_text(encoding='utf-8'), _loader())  # noqa: S506
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f'{path}: cannot read ({exc})'
-        raise TransmissionsError(msg) from None
-    except yaml.YAMLError as exc:
-        msg = f'{path}: not valid YAML ({" ".join(str(exc).split())})'
-        raise TransmissionsError(msg) from None
-    except TransmissionsError as exc:
-        msg = f'{path}: {exc}'
-        raise TransmissionsError(msg) from None
+    document = read_yaml(path)
     try:
         return parse_transmissions(document, defaults)
     except TransmissionsError as exc:

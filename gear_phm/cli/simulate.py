@@ -25,7 +25,6 @@ import json
 import math
 from pathlib import Path
 import shutil
-import tempfile
 
 import numpy as np
 
@@ -41,6 +40,7 @@ from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, RATIO
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, SimulationResult, Simulator, Wear)
 from gear_phm.simulation.lives import random_life
+from gear_phm.staging import Staged
 from gear_phm.transmissions import load_transmissions, TransmissionsError
 
 HELP = 'simulate a wearing transmission into a rosbag2 MCAP directory (joint_states + truth)'
@@ -454,27 +454,20 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
 def _writing(out: Path, write: Callable[[Path], int]) -> int:
     """Return what ``write`` returns, written whole into ``out`` or not at all.
 
-    ``write`` gets a directory in a hidden staging folder beside ``out``, which becomes
-    ``out`` once it is complete; on any error (and on Ctrl-C) the staging folder is removed,
-    so no half-written bag is left. Errors as CliError; ValueError: e.g. the wear trajectory
-    jams the gearbox within the run.
+    ``write`` gets a directory in a hidden staging folder beside ``out``
+    (:class:`~gear_phm.staging.Staged`), which becomes ``out`` once it is complete; on any
+    error (and on Ctrl-C) the staging folder is removed, so no half-written bag is left.
+    Errors as CliError; ValueError: e.g. the wear trajectory jams the gearbox within the run.
     """
-    staging = None
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))
-        result = write(staging / out.name)
-        if out.exists():
-            out.rmdir()                         # empty (run() refuses any other)
-        (staging / out.name).rename(out)
-        return result
+        with Staged(out, CliError) as staged:
+            result = write(staged.path)
+            staged.commit()
+            return result
     except ValueError as exc:
         raise CliError(str(exc)) from None
     except (OSError, BagError) as exc:
         raise CliError(f'cannot write {out}: {exc}') from None
-    finally:
-        if staging is not None:
-            shutil.rmtree(staging, ignore_errors=True)
 
 
 def run(args: argparse.Namespace) -> int:

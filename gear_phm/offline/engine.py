@@ -27,9 +27,7 @@ import json
 import math
 import operator
 from pathlib import Path
-import shutil
 import sys
-import tempfile
 import time
 from typing import Any, TYPE_CHECKING
 
@@ -49,6 +47,7 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTO
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
 from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.metrics import true_end_of_life_index
+from gear_phm.staging import Staged
 from gear_phm.status import LEVEL_NAMES, StatusOut
 from gear_phm.transmissions import (load_transmissions, parse_transmissions, Transmission,
                                     TransmissionsError)
@@ -270,17 +269,10 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite, bags)
     stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source)
-    staging = None
+    staged = None if target is None else Staged(target, AnalysisError, replace=True)
     try:
-        if target is not None:
-            try:
-                target.parent.mkdir(parents=True, exist_ok=True)
-                staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.', dir=target.parent))
-            except OSError as exc:
-                raise AnalysisError(f'cannot write --out {target}: {exc}') from None
         analyses, readers, elapsed = stream.execute(
-            bags, None if staging is None or target is None else staging / target.name,
-            progress)
+            bags, None if staged is None else staged.path, progress)
         for run in runs:
             refusal = _refusal(run)
             if refusal:
@@ -309,8 +301,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
             analysis = analyses[0]
         else:
             analysis = _combined(stream, analyses, bags, readers, elapsed)
-        if target is not None and staging is not None:
-            written = staging / target.name
+        if staged is not None:
+            written = staged.path
             (written / 'summary.json').write_text(
                 json.dumps(analysis.summary, indent=2, default=_json) + '\n')
             if plot:
@@ -321,17 +313,12 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 for run, drive_analysis in zip(runs, analyses) if transmissions else ():
                     plot_analysis(written / f'analysis_{run.drive}.png', drive_analysis,
                                   run.estimator_config.ratio, bags, drive=str(run.drive))
-            try:
-                if target.exists():
-                    shutil.rmtree(target)
-                written.rename(target)
-            except OSError as exc:
-                raise AnalysisError(f'cannot write --out {target}: {exc}') from None
+            staged.commit()
             analysis = replace(analysis, out=target)
         return analysis
     finally:
-        if staging is not None:
-            shutil.rmtree(staging, ignore_errors=True)
+        if staged is not None:
+            staged.discard()
 
 
 def _unmeasured(summary: dict[str, Any]) -> str:

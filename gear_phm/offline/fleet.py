@@ -25,10 +25,8 @@ import json
 import math
 from pathlib import Path
 import resource
-import shutil
 import sys
 from typing import Any
-import uuid
 
 import numpy as np
 
@@ -38,7 +36,9 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTO
                                  ParamSpec, RATIO, STAMP_SOURCE, TRANSMISSION_NAME)
 from gear_phm.prognostics import ShapePrior
 from gear_phm.prognostics.laws import SHAPED
-from gear_phm.transmissions import parse_transmissions, TRANSMISSIONS, TransmissionsError
+from gear_phm.staging import Staged
+from gear_phm.transmissions import (parse_transmissions, read_yaml, TRANSMISSIONS,
+                                    TransmissionsError)
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
@@ -177,8 +177,9 @@ def discover_units(root: Path) -> list[Path]:
 def unit_options(unit: Path, fleet_options: dict[str, Any]) -> dict[str, Any]:
     """Fleet-wide options overridden by the unit's ``unit.yaml`` (ValueError if malformed).
 
-    Each value of the file is checked (:func:`check_options`), and with the fleet-wide ones
-    (:func:`check_configs`); the ValueError names the file.
+    The file is read as a transmissions file is (:func:`gear_phm.transmissions.read_yaml`: a
+    key given twice is refused). Each value is checked (:func:`check_options`), and with the
+    fleet-wide ones (:func:`check_configs`); the ValueError names the file.
     With ``transmissions`` there, the file must not set a ratio, joints or names (each drive
     has its own).
     """
@@ -186,18 +187,7 @@ def unit_options(unit: Path, fleet_options: dict[str, Any]) -> dict[str, Any]:
     path = unit / 'unit.yaml'
     if not path.is_file():
         return options
-    import yaml
-    try:
-        loaded = yaml.safe_load(path.read_bytes().decode())
-    except UnicodeDecodeError:
-        msg = f'{path}: not UTF-8 text'
-        raise ValueError(msg) from None
-    except OSError as exc:
-        msg = f'{path}: cannot be read ({exc.strerror})'
-        raise ValueError(msg) from None
-    except yaml.YAMLError as exc:
-        msg = f'{path}: not valid YAML ({" ".join(str(exc).split())})'
-        raise ValueError(msg) from None
+    loaded = read_yaml(path)    # TransmissionsError, a ValueError naming the file
     if loaded is None:
         loaded = {}
     if not isinstance(loaded, dict):
@@ -452,25 +442,10 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
         check_configs(fleet_options)
     except ValueError as exc:
         raise FleetError(str(exc)) from None
-    staging = out.parent / f'.{out.name}.{uuid.uuid4().hex[:8]}.partial'
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging.mkdir()
-    except OSError as exc:
-        msg = f'cannot write --out {out}: {exc.strerror or exc}'
-        raise FleetError(msg) from None
-    try:
-        results = _analyze_into(staging, root, units, fleet_options, scheduler, workers,
+    with Staged(out, FleetError, folder=True) as staged:     # empty, if there (above)
+        results = _analyze_into(staged.path, root, units, fleet_options, scheduler, workers,
                                 progress, unit_outputs, population, timeout)
-        try:
-            if out.exists():
-                out.rmdir()                 # empty (checked above)
-            staging.rename(out)
-        except OSError as exc:
-            msg = f'cannot write --out {out}: {exc.strerror or exc}'
-            raise FleetError(msg) from None
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        staged.commit()
     return results
 
 

@@ -1,0 +1,69 @@
+"""Outputs written whole or not at all: staged in a hidden folder beside their target.
+
+``gear-phm analyze``, ``simulate`` and ``fleet`` write into :attr:`Staged.path`;
+:meth:`Staged.commit` renames it into place once it is complete, and :meth:`Staged.discard`
+(also on leaving a ``with`` block) removes the staging folder: a failed, interrupted or
+terminated run leaves nothing.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+import shutil
+import tempfile
+from typing import Any
+
+
+class Staged:
+    """A hidden folder ``.<name>.<random>`` beside ``target`` holding :attr:`path`.
+
+    ``error`` makes the exception raised when the folder cannot be made or renamed (the
+    caller's own error class; the message names ``--out`` and the reason). ``replace``:
+    :meth:`commit` removes an existing ``target`` whatever it holds (the caller checked it
+    holds an earlier output), else only an empty one. ``folder``: make :attr:`path` a folder
+    at once (for writers that do not make their own).
+    """
+
+    def __init__(self, target: Path, error: Callable[[str], Exception],
+                 replace: bool = False, folder: bool = False) -> None:
+        self.target = target
+        self._error = error
+        self._replace = replace
+        self._staging: Path | None = None
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            self._staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.',
+                                                  dir=target.parent))
+            #: where the output is written
+            self.path = self._staging / target.name
+            if folder:
+                self.path.mkdir()
+        except OSError as exc:
+            self.discard()
+            raise self._failed(exc) from None
+
+    def __enter__(self) -> Staged:
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        self.discard()
+
+    def commit(self) -> None:
+        """Rename :attr:`path` to the target (the error of ``error`` if that fails)."""
+        try:
+            if self.target.exists():
+                if self._replace:
+                    shutil.rmtree(self.target)
+                else:
+                    self.target.rmdir()         # empty: the callers refuse any other
+            self.path.rename(self.target)
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def discard(self) -> None:
+        """Remove the staging folder and what is left in it."""
+        if self._staging is not None:
+            shutil.rmtree(self._staging, ignore_errors=True)
+
+    def _failed(self, exc: OSError) -> Exception:
+        return self._error(f'cannot write --out {self.target}: {exc.strerror or exc}')
