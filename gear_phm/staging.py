@@ -4,14 +4,29 @@
 :meth:`Staged.commit` renames it into place once it is complete, and :meth:`Staged.discard`
 (also on leaving a ``with`` block) removes the staging folder: a failed, interrupted or
 terminated run leaves nothing.
+
+A signal can stop a run between two bytecodes anywhere, also while a staging folder is being
+made, before its caller holds it. Every staging folder is therefore registered *before* it
+is made, and :func:`discard_all` (called by ``gear-phm`` on every exit) removes those not
+yet committed or discarded.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+import secrets
 import shutil
-import tempfile
 from typing import Any
+
+#: staging folders made (or about to be made) and neither committed nor discarded yet
+_pending: set[Path] = set()
+
+
+def discard_all() -> None:
+    """Remove every staging folder not committed or discarded (on a stopped run's exit)."""
+    for staging in list(_pending):
+        shutil.rmtree(staging, ignore_errors=True)
+        _pending.discard(staging)
 
 
 class Staged:
@@ -32,8 +47,7 @@ class Staged:
         self._staging: Path | None = None
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
-            self._staging = Path(tempfile.mkdtemp(prefix=f'.{target.name}.',
-                                                  dir=target.parent))
+            self._staging = self._make(target)
             #: where the output is written
             self.path = self._staging / target.name
             if folder:
@@ -41,6 +55,20 @@ class Staged:
         except OSError as exc:
             self.discard()
             raise self._failed(exc) from None
+
+    @staticmethod
+    def _make(target: Path) -> Path:
+        """Make ``.<name>.<random>`` beside ``target`` (mode 0700), registered first."""
+        for _ in range(100):
+            staging = target.parent / f'.{target.name}.{secrets.token_hex(4)}'
+            _pending.add(staging)
+            try:
+                staging.mkdir(mode=0o700)
+            except FileExistsError:
+                _pending.discard(staging)
+                continue
+            return staging
+        raise FileExistsError(17, 'no free staging name', str(target.parent))
 
     def __enter__(self) -> Staged:
         return self
@@ -64,6 +92,7 @@ class Staged:
         """Remove the staging folder and what is left in it."""
         if self._staging is not None:
             shutil.rmtree(self._staging, ignore_errors=True)
+            _pending.discard(self._staging)
 
     def _failed(self, exc: OSError) -> Exception:
         return self._error(f'cannot write --out {self.target}: {exc.strerror or exc}')

@@ -118,3 +118,23 @@ def test_a_recorded_stop_is_raised_at_the_next_chunk_or_batch(
                      '--no-progress']) == 130
     assert capsys.readouterr().err.strip().splitlines() == ['gear-phm analyze: interrupted']
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_stop_while_the_staging_folder_is_made_leaves_nothing(
+        long_bag: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A signal landing just after the staging folder exists, before its caller holds it.
+
+    The folder was left behind (a CI run: SIGINT sent as soon as the folder appeared).
+    """
+    make = Path.mkdir
+
+    def signalled(self: Path, *args: Any, **kwargs: Any) -> None:
+        make(self, *args, **kwargs)
+        if self.name.startswith('.an.'):
+            raise KeyboardInterrupt                     # as gear-phm's SIGINT handler does
+    monkeypatch.setattr(Path, 'mkdir', signalled)
+    assert gear_phm(['analyze', str(long_bag), '--ratio', '3.0', '--out', str(tmp_path / 'an'),
+                     '--no-progress']) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ['gear-phm analyze: interrupted']
+    assert list(tmp_path.iterdir()) == []

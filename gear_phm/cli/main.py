@@ -14,7 +14,7 @@ import signal
 import sys
 from types import FrameType
 
-from gear_phm import stopping
+from gear_phm import staging, stopping
 from gear_phm.errors import GearPhmError
 
 #: name -> (module, one-line help). Only the module of the command being run is imported.
@@ -97,6 +97,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'gear-phm {args.command}: interrupted', file=sys.stderr)
         return 130
+    finally:        # a stop that came while a staging folder was being made
+        staging.discard_all()
 
 
 if __name__ == '__main__':
