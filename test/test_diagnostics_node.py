@@ -24,6 +24,7 @@ from gear_phm.bagio import BagReader, recover  # noqa: E402
 from gear_phm.interfaces import (DIAGNOSTICS, ESTIMATOR_TOPICS, HEALTH_RUL,  # noqa: E402
                                  LEGACY_ESTIMATOR_TOPICS, OPERATING_TIME, stamp_to_ns)
 from gear_phm.nodes.common import OUTPUT_QOS  # noqa: E402
+from gear_phm.nodes.diagnostics import silent_among_others  # noqa: E402
 from helpers.diagnostics import Feeder, start, wait_for  # noqa: E402
 from helpers.processes import stop  # noqa: E402
 
@@ -308,3 +309,21 @@ def test_assembler_takes_older_streams_and_waits_for_operating_time() -> None:
         late = assembler.add(OPERATING_TIME, 1, SimpleNamespace(x=5.0, y=0.0, z=0.0))
         assert [(e.stamp_ns, e.operating_time) for e in late] == [(1, 5.0)]
         assert assembler.dropped == {}
+
+
+def test_a_silent_drive_is_warn_among_others_then_stale() -> None:
+    """A drive of many: WARN while silent and the others' input goes on, STALE at the timeout.
+
+    From the silence, the others' silence and how far the drive's stamps are behind theirs
+    (the 8-drive live test shows it on a bench, where load can skip the WARN).
+    """
+    never = lambda: 0.0         # noqa: E731  (stamps level with the others')
+    late = lambda: 1.5          # noqa: E731  (1.5 s of stamps behind)
+    timeout = 4.0
+    assert not silent_among_others(1.9, timeout, 0.1, late)      # too short a silence
+    assert silent_among_others(2.0, timeout, 0.1, late)           # behind the others' stamps
+    assert silent_among_others(2.0, timeout, 3.0, late)           # also when theirs are sparse
+    assert not silent_among_others(2.9, timeout, 0.1, never)      # level: a slow executor
+    assert silent_among_others(3.0, timeout, 0.9, never)          # 3/4 of it, others fresh
+    assert not silent_among_others(3.5, timeout, 1.0, never)      # everybody is silent
+    assert not silent_among_others(4.0, timeout, 0.1, late)       # STALE now

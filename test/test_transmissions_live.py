@@ -186,9 +186,14 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
     # the cut drive alone: WARN, then STALE, while the others' input flows and they stay OK
     cut_wall = next(t for t, _, _, values in statuses.by_name[f'gear_phm estimator: d{cut}']
                     if int(values.get('dropped_missing_joint', 0)) > 0)
+    # (WARN first while the others' input flows: test_diagnostics_node's
+    # test_a_silent_drive_is_warn_among_others_then_stale; a load that slows the estimates below
+    # one per second can take it from OK to STALE at once)
     cut_levels = statuses.levels(f'gear_phm: d{cut}', cut_wall, end)
-    assert 'WARN' in cut_levels and 'STALE' in cut_levels, cut_levels
-    assert cut_levels.index('WARN') < cut_levels.index('STALE'), cut_levels
+    assert 'STALE' in cut_levels, cut_levels
+    assert set(cut_levels[:cut_levels.index('STALE')]) <= {'OK', 'WARN'}, cut_levels
+    assert 'OK' not in cut_levels[cut_levels.index('WARN' if 'WARN' in cut_levels
+                                                   else 'STALE'):], cut_levels
     assert set(statuses.levels(f'gear_phm: d{cut}', begin, cut_wall)) == {'OK'}
     for name in names[:cut]:
         assert set(statuses.levels(f'gear_phm: {name}', begin, end)) == {'OK'}, name

@@ -22,7 +22,7 @@ closes the bag (summary + metadata.yaml).
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
 import math
 import queue
@@ -74,6 +74,25 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
 
 def _flat(exc: BaseException) -> str:
     return ' '.join(str(exc).split())
+
+
+def silent_among_others(silence: float, timeout: float, others_silence: float,
+                        behind: Callable[[], float]) -> bool:
+    """Whether a drive of many is WARN for silence while the other drives have input.
+
+    ``silence`` [s]: since its last input; ``others_silence`` [s]: since the other drives'
+    last; ``behind()`` [s]: how far its newest input stamp is behind theirs. WARN once silent
+    for 3/4 of ``timeout`` while the others' input is fresh (within a quarter of it), or for
+    half of it with its stamp a quarter of it behind the others' (stamps prove the others'
+    input went on after its own stopped). Below ``timeout`` only: then STALE. Under a load that
+    slows the estimates below one per quarter of ``timeout``, a drive can go from OK to STALE
+    with no WARN between.
+    """
+    if silence >= timeout or silence < timeout / 2:
+        return False
+    if silence >= 0.75 * timeout and others_silence < timeout / 4:
+        return True
+    return behind() >= timeout / 4
 
 
 class Recorder:
@@ -226,10 +245,8 @@ class Channel:
         if silence >= timeout:
             return latest.as_stale(silence)
         others = self.node.last_arrival_ns
-        if self.drive is not None and others is not None \
-                and (now_ns - others) * 1e-9 < timeout / 4 \
-                and (silence >= 0.75 * timeout
-                     or silence >= timeout / 2 and self._behind_others() >= timeout / 4):
+        if self.drive is not None and others is not None and silent_among_others(
+                silence, timeout, (now_ns - others) * 1e-9, self._behind_others):
             return replace(latest, level=max(latest.level, WARN),
                            message=f'no estimator input for {silence:.3g} s while other '
                                    f'drives have input (last: {latest.message})')
