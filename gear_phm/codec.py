@@ -503,3 +503,33 @@ def _joint_state_layout(names: tuple[str, ...],
         fields += [(f'before_{array}', f'V{len(pending)}'), (array, '<f8', (len(names),))]
         pending = bytearray()
     return np.dtype(fields), constants
+
+
+def decode_vector3_stamped_buffer(buffer: bytes | memoryview, offsets: np.ndarray,
+                                  lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Decode geometry_msgs/Vector3Stamped CDR payloads: stamps [ns] (int64), values (n, 3).
+
+    The payloads as in :func:`decode_joint_state_buffer`; a numpy gather per field, no Python
+    work per message (any frame_id). None when a payload is not little-endian CDR of that
+    type, or its stamp's nanosec is 1e9 or more: the caller decodes those with rosbags.
+    """
+    offsets = np.asarray(offsets, dtype=np.int64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    n = offsets.size
+    if n == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    data = np.frombuffer(buffer, dtype=np.uint8)
+    if not (lengths >= 40).all():           # header, stamp, frame_id "\0", 3 float64
+        return None
+    head = data[offsets[:, None] + np.arange(4)]
+    if not ((head[:, 0] == 0) & (head[:, 1] == 1)).all():        # CDR_LE
+        return None
+    sec = _gather_values(data, offsets + 4, '<i4').astype(np.int64)
+    nanosec = _gather_values(data, offsets + 8, '<u4').astype(np.int64)
+    size = _gather_values(data, offsets + 12, '<u4').astype(np.int64)   # frame_id with its NUL
+    # x, y, z: 8-aligned from the end of the encapsulation header
+    start = 4 + ((12 + size + 7) // 8) * 8
+    if not ((size >= 1) & (start + 24 <= lengths) & (nanosec < 1_000_000_000)).all():
+        return None
+    values = data[(offsets + start)[:, None] + np.arange(24)].view('<f8')
+    return sec * 1_000_000_000 + nanosec, values.astype(float)

@@ -40,6 +40,7 @@ from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
 from gear_phm.cli.simulate import LIFE_FILE
+from gear_phm.codec import decode_vector3_stamped_buffer
 from gear_phm.interfaces import (drive_topic, field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT,
                                  HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import RATIO
@@ -135,18 +136,32 @@ def _find_bag(run: Path, drive: str | None = None) -> Path:
 
 
 def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
-    """(stamps [s], N x 3 values) of a Vector3Stamped topic, sorted by stamp."""
+    """(stamps [s], N x 3 values) of a Vector3Stamped topic, sorted by stamp.
+
+    Decoded in batches (:func:`~gear_phm.codec.decode_vector3_stamped_buffer`); a topic with
+    a payload that decoder refuses is read again message by message with rosbags.
+    """
     try:
         with BagReader(path) as bag:
             name = bag.require_topic(topic, VECTOR3_STAMPED_TYPE)
-            rows = [(stamp_to_ns(m.header.stamp) * 1e-9, m.vector.x, m.vector.y, m.vector.z)
-                    for _, _, m in bag.messages([name])]
+            parts = [decode_vector3_stamped_buffer(batch.buffer, batch.offsets, batch.lengths)
+                     for batch in bag.raw_batches([name])]
+            if all(part is not None for part in parts):
+                decoded = [part for part in parts if part is not None]
+                stamps = np.concatenate([s for s, _ in decoded]) if decoded else np.zeros(0)
+                values = np.concatenate([v for _, v in decoded]) if decoded \
+                    else np.zeros((0, 3))
+            else:
+                rows = [(stamp_to_ns(m.header.stamp), m.vector.x, m.vector.y, m.vector.z)
+                        for _, _, m in bag.messages([name])]
+                stamps = np.array([r[0] for r in rows], dtype=np.int64)
+                values = np.array([r[1:] for r in rows], dtype=float).reshape(-1, 3)
     except BagError as exc:
         raise CliError(str(exc)) from None
-    if not rows:
+    if not stamps.size:
         raise CliError(f'topic {topic} in {path} has no messages')
-    data = np.array(sorted(rows, key=lambda r: r[0]))
-    return data[:, 0], data[:, 1:]
+    order = np.argsort(stamps, kind='stable')
+    return stamps[order] * 1e-9, values[order]
 
 
 def _levels(bag: Path, drive: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
