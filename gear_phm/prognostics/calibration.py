@@ -37,8 +37,10 @@ class Draws:
     """Fixed random numbers of the band's Monte Carlo (common random numbers).
 
     ``normals`` (3, n): the parameters' standard-normal draws; ``uniforms`` (n): which law a
-    draw belongs to; ``phases`` (n): uniform in [-0.5, 0.5), the resolution's shift;
-    ``systematic`` (n): standard normal, the systematic error's.
+    draw belongs to, ascending (the draws are kept in that order, so that each law's share is
+    one slice; the quantiles do not depend on the order); ``phases`` (n): uniform in
+    [-0.5, 0.5), the resolution's shift; ``systematic`` (n): standard normal, the systematic
+    error's.
     """
 
     normals: np.ndarray
@@ -56,7 +58,15 @@ class Draws:
         uniforms = rng.random(samples)
         phases = rng.random(samples) - 0.5
         systematic = rng.standard_normal(samples)
-        return cls(normals, uniforms, phases, systematic, rng.random(samples))
+        errors = rng.random(samples)
+        order = np.argsort(uniforms, kind='stable')
+        return cls(np.ascontiguousarray(normals[:, order]), uniforms[order], phases[order],
+                   systematic[order], errors[order])
+
+    def share(self, lower: float, upper: float) -> slice:
+        """Return the draws whose ``uniforms`` are in [lower, upper): one slice."""
+        return slice(int(np.searchsorted(self.uniforms, lower, 'left')),
+                     int(np.searchsorted(self.uniforms, upper, 'left')))
 
 
 def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
@@ -75,11 +85,11 @@ def inverted_cdf_quantiles(values: np.ndarray, probabilities: tuple[float, ...]
 class LawDraws:
     """Each law's share of the draws (:func:`law_draws`): which draws, and their parameters.
 
-    ``parts``: per law, (the law, its draws' mask, their time after t_end to u_eol [s],
-    rate [1/s], shape).
+    ``parts``: per law, (the law, its draws (:meth:`Draws.share`), their time after t_end to
+    u_eol [s], rate [1/s], shape).
     """
 
-    parts: tuple[tuple[Trend, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]
+    parts: tuple[tuple[Trend, slice, np.ndarray, np.ndarray, np.ndarray], ...]
 
 
 def law_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float) -> LawDraws:
@@ -93,9 +103,9 @@ def law_draws(laws: tuple[Trend, ...], draws: Draws, u_eol: float) -> LawDraws:
     edges[-1] = 1.0
     lower = 0.0
     for law, upper in zip(laws, edges):
-        chosen = (draws.uniforms >= lower) & (draws.uniforms < upper)
+        chosen = draws.share(lower, upper)
         lower = upper
-        if not chosen.any():
+        if chosen.stop <= chosen.start:
             continue
         k = 3 if law.model != LINEAR else 2
         cov = np.asarray(law.covariance).reshape(k, k)

@@ -356,9 +356,8 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     outer = np.outer(d, d)
     normalised: np.ndarray = m / outer
     singular = np.linalg.svd(normalised, compute_uv=False)     # np.linalg.cond's 2-norm
-    with np.errstate(divide='ignore', invalid='ignore'):
-        condition = singular[0] / singular[-1]
-    if not condition < 1e12:
+    largest, smallest = float(singular[0]), float(singular[-1])
+    if not (smallest > 0.0 and largest / smallest < 1e12):
         return None
     if not inverse:
         return normalised
