@@ -185,6 +185,25 @@ def _basis(model: str, shape: np.ndarray, s: np.ndarray, x: np.ndarray, span: fl
     return g, dg
 
 
+def _grid_rows(model: str, grid: np.ndarray, s: np.ndarray, x: np.ndarray,
+               span: float) -> np.ndarray:
+    """Return :func:`_basis`'s rows g for a grid of shapes, for the grid's profile only.
+
+    exp(k s) - 1 for expm1(k s) and exp(p log x) for x^p: a fifth of their cost (numpy's
+    expm1 and power with an array of exponents are slow), within about 1e-14 of them
+    relative to the rows' scale (k s >= k min(s), the grid's smallest growth 0.02, and
+    |p log x| <= 10 |log x|). The fit at the chosen shape uses :func:`_basis`.
+    """
+    shape = np.asarray(grid, dtype=float)[:, None]
+    if model in EXPONENTIAL_FORM:
+        with np.errstate(over='ignore', invalid='ignore'):
+            rows: np.ndarray = (np.exp(shape * s) - 1.0) / shape
+        return rows
+    with np.errstate(divide='ignore', over='ignore', invalid='ignore'):
+        rows = span / shape * (np.exp(shape * np.log(x)) - 1.0)        # x = 0: exp(-inf) = 0
+    return rows
+
+
 def _effective_points(residuals: np.ndarray) -> float:
     """Return n over the integrated autocorrelation time of the standardised residuals.
 
@@ -320,8 +339,7 @@ def _fit_model(model: str, s: np.ndarray, x: np.ndarray, span: float, u: np.ndar
         return _Fit(LINEAR, np.array([b0[0], b1[0]]), float(rss[0]),
                     np.column_stack([np.ones_like(s), s]))
     grid = K_SPAN_GRID / span if model == EXPONENTIAL else P_GRID
-    g, _ = _basis(model, grid, s, x, span, derivative=False)
-    rss, _, _ = _profile(g, u, w)
+    rss, _, _ = _profile(_grid_rows(model, grid, s, x, span), u, w)
     if prior is not None:
         rss = rss + prior[1] * prior[0].penalty(grid)
     best = int(np.argmin(rss))
