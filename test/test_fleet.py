@@ -78,7 +78,7 @@ def one_worker(fleet: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _one_worker(fleet: Path, directory: Path) -> None:
     result = run('fleet', str(fleet), '--out', str(directory / 'out'), '--workers', '1',
-                 '--no-progress', '--no-unit-outputs', *OPTIONS)
+                 '--no-progress', '--no-unit-outputs', '--no-plot', *OPTIONS)
     assert result.returncode == 0, result.stderr
     (directory / 'stderr.txt').write_text(result.stderr)
 
@@ -124,6 +124,9 @@ def test_fleet_table_bad_units_and_worker_independence(fleet: Path, one_worker: 
     assert json.loads((two / 'units' / 'unit_01' / 'summary.json').read_text())[
         'config']['ratio'] == 3.0
     assert (two / 'fleet.png').stat().st_size > 10_000
+    assert not (one / 'fleet.png').exists()                             # --no-plot
+    assert sorted(p.name for p in one.iterdir()) == ['fleet.csv', 'fleet.parquet',
+                                                     'fleet_run.json']
     assert (two / 'units' / 'unit_00' / 'summary.json').is_file()
     assert not (one / 'units').exists()
     import pyarrow.parquet as pq
@@ -176,7 +179,7 @@ def test_fleet_runs_on_an_existing_scheduler(fleet: Path, one_worker: Path,
                       dashboard_address=None, local_directory=str(tmp_path / 'dask'),
                       scheduler_kwargs={'dashboard_address': ':0'}) as cluster:  # any port
         result = run('fleet', str(fleet), '--out', str(remote), '--scheduler',
-                     cluster.scheduler_address, '--no-unit-outputs', *OPTIONS)
+                     cluster.scheduler_address, '--no-unit-outputs', '--no-plot', *OPTIONS)
         ran = sorted(cluster.scheduler.task_prefixes)
     assert ran and all(name.startswith('gear-phm-unit') for name in ran), ran
     assert result.returncode == 0, result.stderr
@@ -205,7 +208,7 @@ def test_fleet_bad_unit_yaml_fails_that_unit_only(tmp_path: Path) -> None:
         (root / unit / 'unit.yaml').write_bytes(text)
     out = tmp_path / 'out'
     result = run('fleet', str(root), '--out', str(out), '--ratio', '3', '--workers', '1',
-                 '--no-progress', '--no-unit-outputs')
+                 '--no-progress', '--no-unit-outputs', '--no-plot')
     assert result.returncode == 0, result.stderr
     assert 'Traceback' not in result.stderr
     rows = read_rows(out)

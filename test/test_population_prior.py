@@ -86,7 +86,7 @@ def test_fleet_cli_population_prior(tmp_path: Path) -> None:
     assert simulate.returncode == 0, simulate.stderr
     fleet = subprocess.run(
         [str(GEAR_PHM), 'fleet', str(root), '--ratio', '3.0', '--eta-opposing-min', '0.7333',
-         '--out', str(out), '--workers', '1', '--no-progress', '--no-unit-outputs',
+         '--out', str(out), '--workers', '1', '--no-progress', '--no-unit-outputs', '--no-plot',
          '--population-prior'], capture_output=True, text=True, timeout=500)
     assert fleet.returncode == 0, fleet.stderr
     run = json.loads((out / 'fleet_run.json').read_text())

@@ -1,8 +1,8 @@
 """``gear-phm fleet ROOT --ratio R --out DIR``: every unit of a fleet, in parallel on Dask.
 
 ROOT holds one folder of recordings per unit (see :mod:`gear_phm.offline.fleet`). Writes
-DIR/fleet.parquet, DIR/fleet.csv (one row per unit), DIR/fleet.png, DIR/fleet_run.json and each
-unit's analysis under DIR/units/<unit>/.
+DIR/fleet.parquet, DIR/fleet.csv (one row per unit), DIR/fleet.png (not with --no-plot),
+DIR/fleet_run.json and each unit's analysis under DIR/units/<unit>/.
 """
 from __future__ import annotations
 
@@ -44,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'the running units again with a prior on its shape (needs 3 '
                              'units at end of life with one exponential, power or '
                              'proportional law)')
+    parser.add_argument('--no-plot', action='store_true', help='skip fleet.png')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
     add_health_arguments(parser)
 
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
                                 progress=not args.no_progress,
                                 unit_outputs=not args.no_unit_outputs,
                                 population=args.population_prior,
-                                timeout=args.scheduler_timeout, **options)
+                                timeout=args.scheduler_timeout, plot=not args.no_plot,
+                                **options)
     except FleetError as exc:
         raise CliError(str(exc)) from None
     failed = [r.row for r in results if r.row['level'] == 'FAILED']

@@ -413,14 +413,15 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
                   scheduler: str | None = None, workers: int | None = None,
                   progress: bool = False, unit_outputs: bool = True,
                   population: bool = False, timeout: float = CONNECT_TIMEOUT,
-                  **options: Any) -> list[UnitResult]:
+                  plot: bool = True, **options: Any) -> list[UnitResult]:
     """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty).
 
-    Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png``, ``fleet_run.json`` (worker
-    memory, the population prior) and, with ``unit_outputs``, each unit's analysis under
-    ``units/<unit>/``. ``population``: a population prior, see :func:`run_units`; ``timeout``
-    [s]: the wait for ``scheduler``. ``ratio`` and ``options`` (those of a ``unit.yaml``) are
-    checked before any unit runs (FleetError). ``out`` is written whole or not at all: in a
+    Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png`` (with ``plot``; matplotlib costs
+    about a second of CPU), ``fleet_run.json`` (worker memory, the population prior) and,
+    with ``unit_outputs``, each unit's analysis under ``units/<unit>/``. ``population``: a
+    population prior, see :func:`run_units`; ``timeout`` [s]: the wait for ``scheduler``.
+    ``ratio`` and ``options`` (those of a ``unit.yaml``) are checked before any unit runs
+    (FleetError). ``out`` is written whole or not at all: in a
     folder beside it, renamed when complete (nothing is left if the fleet fails or is
     interrupted).
     """
@@ -444,14 +445,15 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
         raise FleetError(str(exc)) from None
     with Staged(out, FleetError, folder=True) as staged:     # empty, if there (above)
         results = _analyze_into(staged.path, root, units, fleet_options, scheduler, workers,
-                                progress, unit_outputs, population, timeout)
+                                progress, unit_outputs, population, timeout, plot)
         staged.commit()
     return results
 
 
 def _analyze_into(directory: Path, root: Path, units: list[Path], options: dict[str, Any],
                   scheduler: str | None, workers: int | None, progress: bool,
-                  unit_outputs: bool, population: bool, timeout: float) -> list[UnitResult]:
+                  unit_outputs: bool, population: bool, timeout: float,
+                  plot: bool = True) -> list[UnitResult]:
     """Run the units and write the fleet's files into ``directory`` (:func:`analyze_fleet`)."""
     bars: list[Any] = []
 
@@ -473,9 +475,10 @@ def _analyze_into(directory: Path, root: Path, units: list[Path], options: dict[
     rows = [r.row for r in results]
     try:
         write_table(rows, directory)
-        plot_fleet(results, directory / 'fleet.png', f'gear-phm fleet {root.name}: '
-                   f'{len(rows)} '
-                   f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
+        if plot:
+            plot_fleet(results, directory / 'fleet.png', f'gear-phm fleet {root.name}: '
+                       f'{len(rows)} '
+                       f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
         (directory / 'fleet_run.json').write_text(json.dumps({
             'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
             'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1)
