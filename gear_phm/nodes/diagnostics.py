@@ -81,18 +81,16 @@ def silent_among_others(silence: float, timeout: float, others_silence: float,
     """Whether a drive of many is WARN for silence while the other drives have input.
 
     ``silence`` [s]: since its last input; ``others_silence`` [s]: since the other drives'
-    last; ``behind()`` [s]: how far its newest input stamp is behind theirs. WARN once silent
-    for 3/4 of ``timeout`` while the others' input is fresh (within a quarter of it), or for
-    half of it with its stamp a quarter of it behind the others' (stamps prove the others'
-    input went on after its own stopped). Below ``timeout`` only: then STALE. Under a load that
-    slows the estimates below one per quarter of ``timeout``, a drive can go from OK to STALE
-    with no WARN between.
+    last; ``behind()`` [s]: how far its newest input stamp is behind theirs. WARN while the
+    others' input is fresh (within a quarter of ``timeout``) and the drive is silent for 3/4
+    of ``timeout``, or for half of it with its stamp a quarter of it behind the others'
+    (wall-clock silence alone also grows when a loaded executor serves a drive late). Below
+    ``timeout`` only: then STALE. Under a load that slows the estimates below one per quarter
+    of ``timeout``, a drive can go from OK to STALE with no WARN between.
     """
-    if silence >= timeout or silence < timeout / 2:
+    if silence >= timeout or silence < timeout / 2 or not others_silence < timeout / 4:
         return False
-    if silence >= 0.75 * timeout and others_silence < timeout / 4:
-        return True
-    return behind() >= timeout / 4
+    return silence >= 0.75 * timeout or behind() >= timeout / 4
 
 
 class Recorder:
