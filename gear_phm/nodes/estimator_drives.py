@@ -125,10 +125,19 @@ class DrivesEstimator:
             self.batch_timer.reset()
 
     def flush(self) -> None:
-        """Process the buffer and publish what is due."""
+        """Process the buffer and publish what is due.
+
+        The next flush is due at the earliest drive's next output, among the outputs still
+        ahead of the newest stamp buffered: a drive whose samples stopped (its joints cut)
+        keeps an output due in the past, and made every later message a flush of its own for
+        every drive (8 drives, one cut: ~2 messages a flush instead of ~100, 5x the CPU).
+        """
         self.batch_timer.cancel()
+        newest = max((_STAMP(raw, 4) for raw in self.raws if len(raw) >= 12), default=None)
         self._process(publish=True)
-        dues = [due for d in self.drives if (due := d.pipeline.next_output_stamp()) is not None]
+        after = -1 if newest is None else newest[0] * 1_000_000_000 + newest[1]
+        dues = [due for d in self.drives
+                if (due := d.pipeline.next_output_stamp()) is not None and due > after]
         self._due = min(dues) if dues else None
 
     def _process(self, publish: bool) -> None:
