@@ -54,14 +54,15 @@ def write_parameters(path: Path, parameters: dict[str, Any]) -> Path:
     return path
 
 
-def start(exe: str, params_file: Path | None, *params: str) -> subprocess.Popen:
+def start(exe: str, params_file: Path | None, *params: str,
+          env: dict[str, str] | None = None) -> subprocess.Popen:
     """Start a node executable with a parameters file and ``-p`` parameters."""
     args = [str(BIN / exe), '--ros-args']
     if params_file is not None:
         args += ['--params-file', str(params_file)]
     for param in params:
         args += ['-p', param]
-    return subprocess.Popen(args, env=os.environ.copy(), stdout=subprocess.DEVNULL,
+    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)
 
 
@@ -186,11 +187,15 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
     # the cut drive alone: WARN, then STALE, while the others' input flows and they stay OK
     cut_wall = next(t for t, _, _, values in statuses.by_name[f'gear_phm estimator: d{cut}']
                     if int(values.get('dropped_missing_joint', 0)) > 0)
-    # (WARN first while the others' input flows: test_diagnostics_node's
-    # test_a_silent_drive_is_warn_among_others_then_stale; a load that slows the estimates below
-    # one per second can take it from OK to STALE at once)
+    # WARN first while the others' input flows (test_diagnostics_node's
+    # test_a_silent_drive_is_warn_among_others_then_stale): it needs the others' estimates
+    # within a quarter of stale_timeout (1 s). Each drive gets one estimate per 100 messages
+    # (publish_rate 10 Hz of 1 kHz samples): a load that slows the stream below 400 messages/s
+    # (4 estimates a second) can take the cut drive from OK to STALE at once
     cut_levels = statuses.levels(f'gear_phm: d{cut}', cut_wall, end)
     assert 'STALE' in cut_levels, cut_levels
+    if rate >= 400.0:
+        assert 'WARN' in cut_levels, (rate, cut_levels)
     assert set(cut_levels[:cut_levels.index('STALE')]) <= {'OK', 'WARN'}, cut_levels
     assert 'OK' not in cut_levels[cut_levels.index('WARN' if 'WARN' in cut_levels
                                                    else 'STALE'):], cut_levels
@@ -231,8 +236,11 @@ BAD = [  # (executable, drives, global parameters, what stderr must say)
 
 
 def test_bad_transmissions_parameters_are_refused_at_start_with_the_reason(
-        tmp_path: Path) -> None:
-    procs = [start(exe, two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_))
+        tmp_path: Path, sigkill_safe_env: dict[str, str]) -> None:
+    # UDP only: these processes talk to nobody, and once in a full run one of them printed
+    # its error and then never exited (the shared-memory hang of conftest's sigkill_safe_env)
+    procs = [start(exe, two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_),
+                   env=sigkill_safe_env)
              for i, (exe, drives, globals_, _) in enumerate(BAD)]
     try:
         results = [(proc.wait(timeout=60), proc.stderr.read()) for proc in procs]  # type: ignore
