@@ -8,7 +8,6 @@ pass and yields the recorded CDR bytes unchanged.
 """
 from __future__ import annotations
 
-from array import array
 from collections.abc import Generator, Sequence
 from itertools import count
 from pathlib import Path
@@ -17,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from gear_phm.bagio import BagError, BagReader
-from gear_phm.codec import decode_joint_states
+from gear_phm.codec import decode_joint_state_buffer
 from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
                                  TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
 from gear_phm.sources import Channel, Item, one_line, PASS_END, Recorded, SourceError
@@ -74,45 +73,39 @@ class ReplaySource:
 
         That is the positions of unusable JointState messages, the first and last log time of
         everything replayed, and the median JointState period, counted per distinct period
-        (so memory grows with the spread of the periods, not with the bag).
+        (so memory grows with the spread of the periods, not with the bag). Read in batches
+        (:meth:`BagReader.raw_batches`: each topic in log-time order, as :meth:`items` meets
+        its messages), decoded in place.
         """
         rejected: list[int] = []
-        pending: list[bytes] = []
-        pending_ns = array('q')
-        first_raw: bytes | None = None
         truth_ns: list[int] = []                    # log times of the first and last truth
         periods: dict[int, int] = {}                # period [ns] between kept -> how often
         kept_ns: list[int] = []                     # first and last kept log time
         joints = 0                                  # JointState messages so far
-
-        def decode_pending() -> None:
-            batch = decode_joint_states(pending, *self._joints)
-            base = joints - len(pending)
-            for position, reason in batch.rejected_at:
-                rejected.append(base + position)
+        first_raw: bytes | None = None
+        for batch in bag.raw_batches(list(self._channels), CHECK_BATCH):
+            after = np.flatnonzero(batch.log_time_ns >= self._start_ns)
+            if not after.size:
+                continue
+            times = batch.log_time_ns[after]
+            if self._channels[batch.topic] != 'joints':
+                truth_ns = [min([*truth_ns[:1], int(times.min())]),
+                            max([*truth_ns[1:], int(times.max())])]
+                continue
+            offsets, lengths = batch.offsets[after], batch.lengths[after]
+            if first_raw is None:
+                first_raw = bytes(batch.buffer[int(offsets[0]):int(offsets[0] + lengths[0])])
+            decoded = decode_joint_state_buffer(batch.buffer, offsets, lengths, *self._joints)
+            for position, reason in decoded.rejected_at:
+                rejected.append(joints + position)
                 self.dropped[reason] = self.dropped.get(reason, 0) + 1
-            times = np.delete(np.frombuffer(pending_ns, dtype=np.int64),
-                              [position for position, _ in batch.rejected_at])
+            joints += after.size
+            times = times[decoded.message_index]
             if times.size:
                 steps = np.diff(times, prepend=kept_ns[1]) if kept_ns else np.diff(times)
                 for step, times_seen in zip(*np.unique(steps, return_counts=True)):
                     periods[int(step)] = periods.get(int(step), 0) + int(times_seen)
                 kept_ns[:] = [kept_ns[0] if kept_ns else int(times[0]), int(times[-1])]
-            pending.clear()
-            del pending_ns[:]
-
-        for topic, t_ns, raw in bag.raw_messages(list(self._channels), start_ns=self._start_ns):
-            if self._channels[topic] != 'joints':
-                truth_ns[min(len(truth_ns), 1):] = [t_ns]
-                continue
-            joints += 1
-            pending_ns.append(t_ns)
-            pending.append(raw)
-            if first_raw is None:
-                first_raw = raw
-            if len(pending) >= CHECK_BATCH:
-                decode_pending()
-        decode_pending()
         if first_raw is None:
             raise SourceError(f'topic {self.topic} of bag {self.path} has no message after '
                               f'start_offset {start_offset:g} s')
