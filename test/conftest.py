@@ -6,6 +6,8 @@ import sys
 
 import pytest
 
+from helpers.processes import udp_only_env
+
 #: The DDS domain of a test run's first worker; the controller of a run picks it once and
 #: its pytest-xdist workers inherit it.
 DOMAIN_BASE = 'GEAR_PHM_TEST_DOMAIN_BASE'
@@ -50,16 +52,11 @@ sys.dont_write_bytecode = False
 
 @pytest.fixture
 def sigkill_safe_env() -> dict[str, str]:
-    """Environment for a ROS process that a test kills with SIGKILL on purpose.
+    """Environment for a ROS process that a test kills with SIGKILL on purpose (UDP only).
 
-    Fast DDS's shared-memory transport keeps robust mutexes and port queues in /dev/shm; a
-    participant killed in the middle of using them can leave them in a state that makes a
-    later participant hang (eProsima/Fast-DDS#1144). Once, in a fresh clone, a publisher
-    started after the kill tests printed its start-up error and then never exited. The
-    killed process therefore uses UDPv4 only; the processes it talks to keep the default
-    transports and reach it over UDP.
+    :func:`helpers.processes.udp_only_env` says why.
     """
-    return {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+    return udp_only_env()
 
 
 def worksteal_shares(count: int, workers: int) -> list[int]:

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from gear_phm.bagio import BagReader
+from helpers.processes import udp_only_env
 from helpers.shared import build_once
 
 REPO = Path(__file__).resolve().parents[1]
@@ -97,7 +98,7 @@ def _run_bad_inputs(root: Path) -> None:
                   for k, v in params.items()}
         processes[case] = subprocess.Popen(publisher_command(**params), stdout=subprocess.PIPE,
                                            stderr=subprocess.PIPE, text=True,
-                                           env=os.environ.copy())
+                                           env=udp_only_env())     # exit at start-up
     runs = {}
     for case, process in processes.items():
         try:

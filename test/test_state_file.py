@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
 from pathlib import Path
 import signal
 import subprocess
@@ -38,7 +37,7 @@ DURATION = 120.0
 #: under load slows the pace instead of losing input.
 PACE = 1000.0
 #: UDPv4 only for every node process: one of them is killed with SIGKILL (conftest).
-NODE_ENV = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+NODE_ENV = processes.udp_only_env()
 spawn = functools.partial(processes.spawn, env=NODE_ENV)
 ESTIMATOR, DIAGNOSTICS = 'gear_phm estimator', 'gear_phm'
 #: The outputs the drivers log: the RUL (publish_acked's acknowledgement, _quiet); not the

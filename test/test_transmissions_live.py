@@ -237,8 +237,7 @@ BAD = [  # (executable, drives, global parameters, what stderr must say)
 
 def test_bad_transmissions_parameters_are_refused_at_start_with_the_reason(
         tmp_path: Path, sigkill_safe_env: dict[str, str]) -> None:
-    # UDP only: these processes talk to nobody, and once in a full run one of them printed
-    # its error and then never exited (the shared-memory hang of conftest's sigkill_safe_env)
+    # UDP only: these processes talk to nobody (helpers.processes.udp_only_env)
     procs = [start(exe, two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_),
                    env=sigkill_safe_env)
              for i, (exe, drives, globals_, _) in enumerate(BAD)]

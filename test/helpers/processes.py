@@ -10,6 +10,19 @@ import sys
 BIN = Path(sys.executable).parent
 
 
+def udp_only_env() -> dict[str, str]:
+    """Return this environment with Fast DDS on UDPv4 only (no shared-memory transport).
+
+    For node processes that are killed with SIGKILL or exit at start-up: Fast DDS's shared
+    memory keeps robust mutexes and port queues in /dev/shm, and a participant that dies while
+    using them can leave a later one hanging (eProsima/Fast-DDS#1144). Once, in a fresh clone,
+    a publisher started after the kill tests printed its start-up error and never exited; once,
+    in a full run at load, a node refused at start-up did the same. The processes such a node
+    talks to keep the default transports and reach it over UDP.
+    """
+    return {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
+
+
 def spawn(exe: str, *params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
     """Start ``exe`` from the venv with ``-p`` parameters; stderr is kept for the test."""
     args = [str(BIN / exe), '--ros-args']
