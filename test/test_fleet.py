@@ -125,6 +125,8 @@ def test_fleet_table_bad_units_and_worker_independence(fleet: Path, one_worker: 
         'config']['ratio'] == 3.0
     assert (two / 'fleet.png').stat().st_size > 10_000
     assert not (one / 'fleet.png').exists()                             # --no-plot
+    assert [json.loads((run / 'fleet_run.json').read_text())['workers'] for run in (one, two)
+            ] == [1, 2]
     assert sorted(p.name for p in one.iterdir()) == ['fleet.csv', 'fleet.parquet',
                                                      'fleet_run.json']
     assert (two / 'units' / 'unit_00' / 'summary.json').is_file()
@@ -186,6 +188,7 @@ def test_fleet_runs_on_an_existing_scheduler(fleet: Path, one_worker: Path,
     assert (remote / 'fleet.parquet').read_bytes() == (local / 'fleet.parquet').read_bytes()
     assert (remote / 'fleet.csv').read_bytes() == (local / 'fleet.csv').read_bytes()
     assert 'fleet: 100%' in result.stderr and '5/5' in result.stderr     # five unit folders
+    assert json.loads((remote / 'fleet_run.json').read_text())['workers'] == 1   # the cluster's
 
 
 def test_fleet_bad_unit_yaml_fails_that_unit_only(tmp_path: Path) -> None:
@@ -223,6 +226,20 @@ def test_fleet_bad_unit_yaml_fails_that_unit_only(tmp_path: Path) -> None:
                                     'joints and names: drop ratio')
     assert reasons['binary'].endswith('not UTF-8 text')
     assert 'eta_warn must be > eta_opposing_min (0.7)' in reasons['warn']
+
+
+def test_a_local_cluster_has_at_most_one_worker_per_unit(tmp_path: Path) -> None:
+    """One unit and --workers 3: one worker process (two more would only start and idle)."""
+    root = tmp_path / 'root'
+    (root / 'unit_00').mkdir(parents=True)
+    (root / 'unit_00' / 'rec_000').symlink_to(REPO / 'bags' / 'fleet' / 'unit_00' / 'rec_000')
+    out = tmp_path / 'out'
+    result = run('fleet', str(root), '--out', str(out), '--ratio', '3', '--workers', '3',
+                 '--no-progress', '--no-unit-outputs', '--no-plot')
+    assert result.returncode == 0, result.stderr
+    run_info = json.loads((out / 'fleet_run.json').read_text())
+    assert run_info['workers'] == 1 and run_info['units'] == 1, run_info
+    assert read_rows(out)['unit_00']['level'] in ('OK', 'WARN', 'ERROR')
 
 
 @pytest.mark.parametrize('args, message', [

@@ -34,7 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='seconds to wait for --scheduler to answer (default '
                              f'{CONNECT_TIMEOUT:g})')
     parser.add_argument('--workers', type=int, default=None,
-                        help='local cluster: worker processes (default: one per core)')
+                        help='local cluster: worker processes (default: one per core; at '
+                             'most one per unit)')
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
                         help='estimator parameter for every unit (repeatable)')
     parser.add_argument('--no-unit-outputs', action='store_true',

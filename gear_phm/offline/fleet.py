@@ -289,13 +289,15 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
               on_done: Callable[[], None] = lambda: None,
               population: bool = False,
               timeout: float = CONNECT_TIMEOUT,
-              on_start: Callable[[], None] = lambda: None) -> list[UnitResult]:
+              on_start: Callable[[int], None] = lambda workers: None) -> list[UnitResult]:
     """Analyse each unit as one Dask task; results in unit order.
 
-    ``on_start`` is called once the cluster is there, ``on_done`` as each unit completes.
+    ``on_start`` is called once the cluster is there, with its number of workers, ``on_done``
+    as each unit completes.
 
     ``scheduler``: address of an existing cluster (FleetError if it does not answer within
-    ``timeout`` [s]), else a local one with ``workers`` processes (default: one per core).
+    ``timeout`` [s]), else a local one with ``workers`` processes (default: one per core), at
+    most one per unit (a worker without a unit would only cost its start-up).
     With ``population``, the units at end of life then give the fleet's prior
     (:func:`population_prior`) and the others are analysed again with it, as a second round
     of tasks.
@@ -317,13 +319,14 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
                 raise FleetError(msg) from None
         else:
             scratch = tempfile.TemporaryDirectory(prefix='gear-phm-dask-')   # not in the cwd
-            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+            cluster = LocalCluster(n_workers=min(workers or os.cpu_count() or 1,
+                                                 max(len(units), 1)),
                                    threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=40,
                                    local_directory=scratch.name,    # no fixed port (8787):
                                    scheduler_kwargs={'dashboard_address': ':0'})
             client = Client(cluster)
-        on_start()
+        on_start(len(client.scheduler_info()['workers']))
         futures = [client.submit(analyze_unit, unit, options, unit_out, pure=False,
                                  key=f'gear-phm-unit-{unit.name}-{i}')
                    for i, (unit, unit_out) in enumerate(zip(units, outs))]
@@ -417,9 +420,10 @@ def analyze_fleet(root: str | Path, out: str | Path, *, ratio: float | None = No
     """Analyse every unit under ``root`` into ``out`` (which must not exist or be empty).
 
     Writes ``fleet.parquet``, ``fleet.csv``, ``fleet.png`` (with ``plot``; matplotlib costs
-    about a second of CPU), ``fleet_run.json`` (worker memory, the population prior) and,
-    with ``unit_outputs``, each unit's analysis under ``units/<unit>/``. ``population``: a
-    population prior, see :func:`run_units`; ``timeout`` [s]: the wait for ``scheduler``.
+    about a second of CPU), ``fleet_run.json`` (the cluster's workers, worker memory, the
+    population prior) and, with ``unit_outputs``, each unit's analysis under
+    ``units/<unit>/``. ``population``: a population prior, see :func:`run_units`;
+    ``timeout`` [s]: the wait for ``scheduler``.
     ``ratio`` and ``options`` (those of a ``unit.yaml``) are checked before any unit runs
     (FleetError). ``out`` is written whole or not at all: in a
     folder beside it, renamed when complete (nothing is left if the fleet fails or is
@@ -456,8 +460,10 @@ def _analyze_into(directory: Path, root: Path, units: list[Path], options: dict[
                   plot: bool = True) -> list[UnitResult]:
     """Run the units and write the fleet's files into ``directory`` (:func:`analyze_fleet`)."""
     bars: list[Any] = []
+    cluster: dict[str, int] = {}
 
-    def start() -> None:                # once connected: no bar before an error
+    def start(workers: int) -> None:    # once connected: no bar before an error
+        cluster['workers'] = workers
         if progress:
             from tqdm import tqdm
             bars.append(tqdm(total=len(units), unit='unit', file=sys.stderr, desc='fleet'))
@@ -481,6 +487,7 @@ def _analyze_into(directory: Path, root: Path, units: list[Path], options: dict[
                        f'{"drives" if any("/" in row["unit"] for row in rows) else "units"}')
         (directory / 'fleet_run.json').write_text(json.dumps({
             'units': len(rows), 'failed': sum(r['level'] == 'FAILED' for r in rows),
+            'workers': cluster.get('workers'),
             'peak_rss_mib_per_task': {r.row['unit']: round(r.peak_rss_mib, 1)
                                       for r in results},
             'max_peak_rss_mib': round(max(r.peak_rss_mib for r in results), 1),
