@@ -7,10 +7,8 @@ removes it.
 from __future__ import annotations
 
 import functools
-import os
 from pathlib import Path
 import signal
-import subprocess
 import sys
 import time
 from typing import Any
@@ -20,6 +18,7 @@ import pytest
 from gear_phm import stopping
 from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
+from helpers.processes import signalled_when_staged
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 
@@ -69,20 +68,6 @@ def long_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def stopped(command: list[str], folder: Path, signum: int) -> subprocess.CompletedProcess:
-    """Run ``gear-phm command``; send ``signum`` once its staging folder is in ``folder``."""
-    child = subprocess.Popen([str(GEAR_PHM), *command], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, env=os.environ.copy())
-    deadline = time.monotonic() + 60.0
-    while not any(p.name.startswith('.') for p in folder.iterdir()):
-        assert child.poll() is None, child.communicate()
-        assert time.monotonic() < deadline, 'no staging folder within 60 s'
-        time.sleep(0.01)
-    child.send_signal(signum)
-    out, err = child.communicate(timeout=60)
-    return subprocess.CompletedProcess(child.args, child.returncode, out, err)
-
-
 @pytest.mark.parametrize('command, signum, code, word', [
     ('analyze', signal.SIGINT, 130, 'interrupted'),
     ('analyze', signal.SIGTERM, 143, 'terminated'),
@@ -95,7 +80,7 @@ def test_a_stopped_run_exits_with_the_signal_and_leaves_nothing(
     args = (['analyze', str(long_bag), '--ratio', '3.0', '--out', str(out), '--no-progress']
             if command == 'analyze' else
             ['simulate', '--out', str(out), '--duration', '20000', '--rate', '1000'])
-    done = stopped(args, tmp_path, signum)
+    done = signalled_when_staged([str(GEAR_PHM), *args], tmp_path, signum)
     assert done.returncode == code, done.stderr
     assert done.stderr.strip().splitlines() == [f'gear-phm {command}: {word}']
     assert list(tmp_path.iterdir()) == []

@@ -15,10 +15,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
+from helpers.processes import signalled_when_staged
 from helpers.shared import build_once
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
@@ -304,22 +304,9 @@ def test_fleet_terminated_leaves_no_out(tmp_path: Path) -> None:
     """SIGTERM while the fleet runs: exit 143, one line, no --out and no staging folder."""
     folder = tmp_path / 'folder'
     folder.mkdir()
-    child = subprocess.Popen([str(GEAR_PHM), 'fleet', str(REPO / 'bags' / 'fleet'), '--ratio',
-                              '3', '--out', str(folder / 'out'), '--no-progress'],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 60.0
-        while not any(folder.iterdir()):     # the staging folder, once the options are checked
-            assert child.poll() is None, child.communicate()
-            assert time.monotonic() < deadline, 'nothing written within 60 s'
-            time.sleep(0.01)
-        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
-        child.send_signal(signal.SIGTERM)
-        _, err = child.communicate(timeout=60)
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.communicate()
-    assert child.returncode == 143, err
-    assert err.strip().splitlines() == ['gear-phm fleet: terminated']
+    done = signalled_when_staged([str(GEAR_PHM), 'fleet', str(REPO / 'bags' / 'fleet'),
+                                  '--ratio', '3', '--out', str(folder / 'out'),
+                                  '--no-progress'], folder, signal.SIGTERM)
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.strip().splitlines() == ['gear-phm fleet: terminated']
     assert list(folder.iterdir()) == []

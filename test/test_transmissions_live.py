@@ -9,9 +9,7 @@ survives a drive added and one removed, and refuses a drive whose ratio changed.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
-import subprocess
 import time
 from typing import Any
 
@@ -27,7 +25,7 @@ from gear_phm.nodes.common import stamp  # noqa: E402
 from gear_phm.simulation import config_from_parameters, Simulator  # noqa: E402
 from gear_phm.transmissions import parse_transmissions  # noqa: E402
 from helpers.live import Driver, publish_acked, RELIABLE  # noqa: E402
-from helpers.processes import BIN, stop  # noqa: E402
+from helpers.processes import spawn, stop  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 RATE = 1000.0
@@ -52,18 +50,6 @@ def bench_parameters(drives: int = 8) -> dict[str, Any]:
 def write_parameters(path: Path, parameters: dict[str, Any]) -> Path:
     path.write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}}))
     return path
-
-
-def start(exe: str, params_file: Path | None, *params: str,
-          env: dict[str, str] | None = None) -> subprocess.Popen:
-    """Start a node executable with a parameters file and ``-p`` parameters."""
-    args = [str(BIN / exe), '--ros-args']
-    if params_file is not None:
-        args += ['--params-file', str(params_file)]
-    for param in params:
-        args += ['-p', param]
-    return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
 
 
 def bench_messages(parameters: dict[str, Any], seconds: float, cut: int, cut_at: float
@@ -141,9 +127,10 @@ def test_eight_drives_at_1khz_no_loss_u_near_truth_and_a_cut_drive_alone_goes_st
     seconds, cut, cut_at = 11.0, 7, 6.0
     messages, truth = bench_messages(parameters, seconds, cut, cut_at)
     state_file = tmp_path / 'estimator.json'
-    estimator = start('estimator', params_file, 'diagnostics_period:=0.05',
-                      f'state_file:={state_file}')
-    diagnostics = start('diagnostics', params_file, 'rate:=4.0', 'stale_timeout:=4.0')
+    estimator = spawn('estimator', 'diagnostics_period:=0.05', f'state_file:={state_file}',
+                      params_file=params_file)
+    diagnostics = spawn('diagnostics', 'rate:=4.0', 'stale_timeout:=4.0',
+                        params_file=params_file)
     driver = Driver('bench_driver')
     statuses = Statuses(driver)
     names = [f'd{k}' for k in range(8)]
@@ -238,7 +225,7 @@ BAD = [  # (executable, drives, global parameters, what stderr must say)
 def test_bad_transmissions_parameters_are_refused_at_start_with_the_reason(
         tmp_path: Path, sigkill_safe_env: dict[str, str]) -> None:
     # UDP only: these processes talk to nobody (helpers.processes.udp_only_env)
-    procs = [start(exe, two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_),
+    procs = [spawn(exe, params_file=two_drives(tmp_path, f'bad{i}.yaml', drives, **globals_),
                    env=sigkill_safe_env)
              for i, (exe, drives, globals_, _) in enumerate(BAD)]
     try:
@@ -292,10 +279,10 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         feeders[drive].pubs = [node.create_publisher(Vector3Stamped, drive_topic(drive, t),
                                                      OUTPUT_QOS) for t in ESTIMATOR_TOPICS]
     try:
-        first = start('diagnostics', two_drives(tmp_path, 'ab.yaml', {'a': DRIVE_A,
-                                                                      'b': DRIVE_B},
-                                                eta_opposing_min=0.7), *common,
-                      f'record_path:={tmp_path / "record"}', 'record_inputs:=true')
+        first = spawn('diagnostics', *common, f'record_path:={tmp_path / "record"}',
+                      'record_inputs:=true',
+                      params_file=two_drives(tmp_path, 'ab.yaml', {'a': DRIVE_A, 'b': DRIVE_B},
+                                             eta_opposing_min=0.7))
         wait_for(node, lambda: all(f.matched() for f in feeders.values()), 30.0, 'matched')
         # each drive's parameters: declared with descriptors, the global value by default
         client = AsyncParameterClient(node, 'diagnostics')
@@ -334,8 +321,8 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
             'ratio': 12.0, 'motor_joint': 'mb', 'load_joint': 'lb'}
         # b kept, a removed, c added
         started = time.time_ns()
-        second = start('diagnostics', two_drives(tmp_path, 'bc.yaml', {'b': DRIVE_B,
-                                                                       'c': DRIVE_C}), *common)
+        second = spawn('diagnostics', *common,
+                       params_file=two_drives(tmp_path, 'bc.yaml', {'b': DRIVE_B, 'c': DRIVE_C}))
         wait_for(node, lambda: seen.get('gear_phm: c', 0) > started, 60.0,
                  'the node with b and c')
         assert stop(second) == 0
@@ -348,13 +335,13 @@ def test_state_file_of_many_drives_a_drive_added_one_removed_one_changed(
         # b's ratio changed: refused, the file kept; with state_reset b starts fresh
         changed = two_drives(tmp_path, 'b13.yaml',
                              {'b': {**DRIVE_B, 'ratio': 13.0}, 'c': DRIVE_C})
-        third = start('diagnostics', changed, *common)
+        third = spawn('diagnostics', *common, params_file=changed)
         assert third.wait(timeout=60) == 2
         error = third.stderr.read()                         # type: ignore[union-attr]
         assert 'is for other gearboxes (b: ratio 12.0 in the file, 13.0 now)' in error, error
         assert json.loads(state_file.read_text())['state']['drives']['b']['state'] == b_state
         started = time.time_ns()
-        fourth = start('diagnostics', changed, *common, 'state_reset:=true')
+        fourth = spawn('diagnostics', *common, 'state_reset:=true', params_file=changed)
         wait_for(node, lambda: seen.get('gear_phm: c', 0) > started, 60.0,
                  'the node after state_reset')
         assert stop(fourth) == 0
@@ -377,7 +364,7 @@ def test_nan_and_short_joints_of_one_drive_count_against_that_drive_only(
         index = messages[i].name.index('l1')
         messages[i].velocity = messages[i].velocity[:index]
         messages[i].effort = messages[i].effort[:index]
-    estimator = start('estimator', params_file, 'diagnostics_period:=0.05')
+    estimator = spawn('estimator', 'diagnostics_period:=0.05', params_file=params_file)
     driver = Driver('faults_driver')
     statuses = Statuses(driver)
     try:
@@ -412,8 +399,8 @@ def test_publisher_simulates_the_drives_in_one_stream_with_each_drive_s_truth(
     for drive, values in truth.items():
         driver.node.create_subscription(Vector3Stamped, drive_topic(drive, TRUTH_FRICTION),
                                         lambda m, v=values: v.append(m.vector.x), RELIABLE)
-    publisher = start('publisher', params_file, 'rate:=200.0', 'duration:=2.0',
-                      'truth_every:=10', 'extra_joints:=[hyd_p]')
+    publisher = spawn('publisher', 'rate:=200.0', 'duration:=2.0', 'truth_every:=10',
+                      'extra_joints:=[hyd_p]', params_file=params_file)
     try:
         driver.wait(lambda: publisher.poll() is not None and len(joints) >= 400
                     and min(map(len, truth.values())) >= 40, 60.0, 'the whole stream')

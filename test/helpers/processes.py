@@ -6,6 +6,7 @@ from pathlib import Path
 import signal
 import subprocess
 import sys
+import time
 
 BIN = Path(sys.executable).parent
 
@@ -23,9 +24,15 @@ def udp_only_env() -> dict[str, str]:
     return {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
 
 
-def spawn(exe: str, *params: str, env: dict[str, str] | None = None) -> subprocess.Popen:
-    """Start ``exe`` from the venv with ``-p`` parameters; stderr is kept for the test."""
+def spawn(exe: str, *params: str, env: dict[str, str] | None = None,
+          params_file: Path | None = None) -> subprocess.Popen:
+    """Start ``exe`` from the venv with a parameters file and ``-p`` parameters.
+
+    stderr is kept for the test.
+    """
     args = [str(BIN / exe), '--ros-args']
+    if params_file is not None:
+        args += ['--params-file', str(params_file)]
     for param in params:
         args += ['-p', param]
     return subprocess.Popen(args, env=env or os.environ.copy(), stdout=subprocess.DEVNULL,
@@ -44,3 +51,28 @@ def stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
         except subprocess.TimeoutExpired:
             proc.kill()
     return proc.wait()
+
+
+def signalled_when_staged(args: list[str], folder: Path, signum: int
+                          ) -> subprocess.CompletedProcess:
+    """Run ``args``; send ``signum`` once its hidden staging folder is in ``folder``.
+
+    ``folder`` must hold nothing else then (the output is staged beside ``--out``, which is
+    in ``folder``). The process is killed if it has not exited 60 s after the signal.
+    """
+    child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=os.environ.copy())
+    try:
+        deadline = time.monotonic() + 60.0
+        while not any(folder.iterdir()):      # the staging folder, once the options are checked
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, 'nothing written within 60 s'
+            time.sleep(0.01)
+        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
+        child.send_signal(signum)
+        out, err = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.communicate()
+    return subprocess.CompletedProcess(child.args, child.returncode, out, err)
