@@ -11,9 +11,10 @@ JSON has no inf/nan: :func:`encode_float` writes a non-finite float as the strin
 '-inf' or 'nan' (finite floats are numbers, which round-trip exactly), :func:`decode_float`
 reads both forms back.
 
-:func:`save_state` writes a temporary file in the same directory, flushes and fsyncs it,
-renames it over the target (``os.replace``, atomic on POSIX) and fsyncs the directory, so a
-crash at any point leaves the old or the new file, never a torn one.
+:func:`save_state` writes it with :func:`gear_phm.staging.write_atomic`: a temporary file in
+the same directory, flushed and fsynced, renamed over the target (``os.replace``, atomic on
+POSIX), the directory fsynced, so a crash at any point leaves the old or the new file, never a
+torn one.
 
 :func:`load_state`: a missing file gives None (start fresh); an unreadable, unparseable,
 wrong-schema or wrong-kind file is renamed ``<name>.bad-<UTC time>`` and raises
@@ -29,10 +30,10 @@ import json
 import math
 import os
 from pathlib import Path
-import tempfile
 from typing import Any
 
 from gear_phm.errors import GearPhmError
+from gear_phm.staging import write_atomic
 
 #: Version of the document layout; a file with another version is set aside. 2: the filter
 #: and the RUL history run on operating time (issue 13), not on stamp time as in 1.
@@ -114,29 +115,13 @@ def document(kind: str, identity: Mapping[str, Any], state: Mapping[str, Any],
 
 def save_state(path: str | os.PathLike[str], kind: str, identity: Mapping[str, Any],
                state: Mapping[str, Any], saved_stamp_ns: int | None = None) -> None:
-    """Write the document atomically (module docstring); OSError/ValueError on failure."""
-    target = Path(path)
-    directory = target.parent if str(target.parent) else Path('.')
+    """Write the document atomically (:func:`~gear_phm.staging.write_atomic`).
+
+    OSError/ValueError on failure.
+    """
     text = json.dumps(document(kind, identity, state, saved_stamp_ns), allow_nan=False,
                       separators=(',', ':'))
-    fd, temp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=directory)
-    try:
-        with os.fdopen(fd, 'w', encoding='utf-8') as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temp, target)
-    except BaseException:
-        try:
-            os.unlink(temp)
-        except OSError:
-            pass
-        raise
-    dir_fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+    write_atomic(Path(path), text)
 
 
 def identity_difference(saved: Mapping[str, Any], current: Mapping[str, Any]) -> str:

@@ -3,7 +3,7 @@
 ``gear-phm analyze``, ``simulate`` and ``fleet`` write into :attr:`Staged.path`;
 :meth:`Staged.commit` renames it into place once it is complete, and :meth:`Staged.discard`
 (also on leaving a ``with`` block) removes the staging folder: a failed, interrupted or
-terminated run leaves nothing.
+terminated run leaves nothing. :func:`write_atomic` does the same for one file.
 
 A signal can stop a run between two bytecodes anywhere, also while a staging folder is being
 made, before its caller holds it. Every staging folder is therefore registered *before* it
@@ -13,10 +13,41 @@ yet committed or discarded.
 from __future__ import annotations
 
 from collections.abc import Callable
+import os
 from pathlib import Path
 import secrets
 import shutil
+import tempfile
 from typing import Any
+
+
+def write_atomic(target: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to the file ``target`` whole or not at all.
+
+    A temporary file beside it, flushed and fsynced, renamed over ``target`` (atomic on
+    POSIX), then the directory fsynced: a crash at any point leaves the old file or the new
+    one, never a torn one, and a failure leaves no temporary file. Raises OSError.
+    """
+    directory = target.parent if str(target.parent) else Path('.')
+    fd, temp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=directory)
+    try:
+        with os.fdopen(fd, 'w', encoding='utf-8') as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, target)
+    except BaseException:
+        try:
+            os.unlink(temp)
+        except OSError:
+            pass
+        raise
+    dir_fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+
 
 #: staging folders made (or about to be made) and neither committed nor discarded yet
 _pending: set[Path] = set()

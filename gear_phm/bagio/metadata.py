@@ -8,11 +8,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-import os
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from gear_phm.staging import write_atomic
 
 #: The name of the file in a rosbag2 directory.
 METADATA_FILE = 'metadata.yaml'
@@ -87,9 +88,7 @@ def write_metadata(directory: Path, files: Sequence[tuple[str, int, int, int]],
         'ros_distro': 'jazzy',
     }
     text = yaml.safe_dump({'rosbag2_bagfile_information': info}, sort_keys=False)
-    tmp = directory / f'{METADATA_FILE}.tmp'
-    tmp.write_text(text, encoding='utf-8')
-    os.replace(tmp, directory / METADATA_FILE)
+    write_atomic(directory / METADATA_FILE, text)
 
 
 def listed_files(directory: Path) -> list[Path] | None:

@@ -31,7 +31,6 @@ import os
 from pathlib import Path
 import re
 import sys
-import tempfile
 from typing import Any
 
 import numpy as np
@@ -48,6 +47,7 @@ from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
                                           evaluate, finite_from, healthy_acceptance, LAMBDAS,
                                           level_transitions, true_end_of_life_index)
+from gear_phm.staging import write_atomic
 from gear_phm.status import ERROR, LEVEL_NAMES
 from gear_phm.transmissions import load_transmissions, TransmissionsError
 
@@ -467,29 +467,16 @@ def _same(path: Path, other: Path) -> bool:
 
 def _write(args: argparse.Namespace, bag: Path, output: Path, metrics: dict[str, Any],
            u_eol: float) -> None:
-    """Add u_eol and the paths to ``metrics``, write it as JSON to ``output``.
-
-    Atomically: a temporary file beside it, renamed when complete.
-    """
+    """Add u_eol and the paths to ``metrics``, write it as JSON to ``output`` atomically."""
     metrics['u_eol'] = u_eol
     metrics['run'] = str(bag)
     if args.drive is not None:
         metrics['drive'] = args.drive
     metrics['truth'] = str(args.truth)
-    text = json.dumps(metrics, indent=2) + '\n'
-    tmp: str | None = None
     try:
-        with tempfile.NamedTemporaryFile('w', encoding='utf-8', dir=output.parent,
-                                         prefix=f'.{output.name}.', suffix='.tmp',
-                                         delete=False) as stream:
-            tmp = stream.name
-            stream.write(text)
-        os.replace(tmp, output)
+        write_atomic(output, json.dumps(metrics, indent=2) + '\n')
     except OSError as exc:
         raise CliError(f'cannot write {output}: {exc.strerror or exc}') from None
-    finally:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def _healthy(args: argparse.Namespace, bag: Path, output: Path, median: np.ndarray,
