@@ -56,6 +56,16 @@ _ESTIMATOR = spec_map(s for s in ESTIMATOR_PARAMETERS if s.name != RATIO.name)
 _HEALTH = spec_map(s for s in HEALTH_PARAMETERS if s.name != RATIO.name)
 #: The keys a drive may hold.
 DRIVE_KEYS = frozenset((*_JOINTS, RATIO.name, *_ESTIMATOR, *_HEALTH, SIMULATION))
+#: What each drive of a transmissions list sets for itself: not given beside the list.
+DRIVE_OWN = (RATIO.name, *_JOINTS, 'transmission_name', 'hardware_id')
+
+
+def drive_own_given(given: Sequence[str]) -> str:
+    """Return the refusal of :data:`DRIVE_OWN` options ``given`` beside a list ('' if none)."""
+    if not given:
+        return ''
+    return (f'with transmissions, each drive sets its own ratio, joints and names: drop '
+            f'{", ".join(given)}')
 
 
 class TransmissionsError(GearPhmError, ValueError):

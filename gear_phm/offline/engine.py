@@ -49,8 +49,8 @@ from gear_phm.prognostics.config import NOT_OFFLINE_OPTIONS
 from gear_phm.prognostics.metrics import true_end_of_life_index
 from gear_phm.staging import Staged
 from gear_phm.status import LEVEL_NAMES, StatusOut
-from gear_phm.transmissions import (load_transmissions, parse_transmissions, Transmission,
-                                    TransmissionsError)
+from gear_phm.transmissions import (DRIVE_OWN, drive_own_given, load_transmissions,
+                                    parse_transmissions, Transmission, TransmissionsError)
 
 if TYPE_CHECKING:
     from gear_phm.bagio.chunks import RawBatch
@@ -248,14 +248,12 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         runs = [_Run(estimator_config, health_config, motor_joint, load_joint, topic,
                      transmission_name, hardware_id, history, prior)]
     else:
-        given = [name for name, value, default in (
-            ('ratio', ratio, None), ('motor_joint', motor_joint, MOTOR_JOINT.default),
-            ('load_joint', load_joint, LOAD_JOINT.default),
-            ('transmission_name', transmission_name, TRANSMISSION_NAME.default),
-            ('hardware_id', hardware_id, HARDWARE_ID.default)) if value != default]
+        given = [name for name, value, default in zip(DRIVE_OWN, (
+            ratio, motor_joint, load_joint, transmission_name, hardware_id), (
+            None, MOTOR_JOINT.default, LOAD_JOINT.default, TRANSMISSION_NAME.default,
+            HARDWARE_ID.default)) if value != default]
         if given:
-            raise AnalysisError(f'with transmissions, each drive sets its own ratio, joints '
-                                f'and names: drop {", ".join(given)}')
+            raise AnalysisError(drive_own_given(given))
         runs = []
         for drive in _drives(transmissions):
             estimator_config, health_config = split_options(

@@ -37,8 +37,8 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTO
 from gear_phm.prognostics import ShapePrior
 from gear_phm.prognostics.laws import SHAPED
 from gear_phm.staging import Staged
-from gear_phm.transmissions import (parse_transmissions, read_yaml, TRANSMISSIONS,
-                                    TransmissionsError)
+from gear_phm.transmissions import (DRIVE_OWN, drive_own_given, parse_transmissions,
+                                    read_yaml, TRANSMISSIONS, TransmissionsError)
 
 #: Columns of the fleet table, in order. ``rul_operating_*`` [s of operation] is the RUL the
 #: trend gives (operating time: wear accrues only while a unit moves); ``rul_*`` [s] is the
@@ -59,8 +59,6 @@ CONNECT_TIMEOUT = 10.0
 UNIT_SPECS = (RATIO, MOTOR_JOINT, LOAD_JOINT, TRANSMISSION_NAME, HARDWARE_ID,
               replace(DIAGNOSTICS_RATE, name='diagnostics_rate'), STAMP_SOURCE,
               ParamSpec('topic', JOINT_STATES, 'the JointState topic'))
-#: What each drive of a ``transmissions`` list sets for itself.
-DRIVE_OWN = ('ratio', 'motor_joint', 'load_joint', 'transmission_name', 'hardware_id')
 
 
 def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
@@ -199,10 +197,9 @@ def unit_options(unit: Path, fleet_options: dict[str, Any]) -> dict[str, Any]:
         msg = f'{path}: {exc}'
         raise ValueError(msg) from None
     if TRANSMISSIONS in own:
-        given = [name for name in DRIVE_OWN if name in own]
-        if given:
-            msg = (f'{path}: with transmissions, each drive sets its own ratio, joints and '
-                   f'names: drop {", ".join(given)}')
+        refusal = drive_own_given([name for name in DRIVE_OWN if name in own])
+        if refusal:
+            msg = f'{path}: {refusal}'
             raise ValueError(msg)
     options.update(own)
     if TRANSMISSIONS not in options:        # (each drive's own are checked as it is read)
