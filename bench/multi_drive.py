@@ -3,24 +3,33 @@
 ``gear-phm simulate --transmissions`` writes a bench of N drives (different ratios and wear)
 in one JointState stream; then, each as its own process as a user would run them:
 
-- one ``gear-phm analyze BAG --transmissions FILE`` (the bag read once, each message decoded
-  once for all drives);
-- N ``gear-phm analyze BAG --ratio R --motor-joint M --load-joint L``, one per drive.
+- one ``gear-phm analyze BAG --transmissions FILE --jobs 1`` (the bag read once, each
+  message decoded once for all drives, every drive in that one process);
+- the same as users run it, with the default ``--jobs 0``: the drives' work in one worker
+  process per core (:mod:`gear_phm.offline.parallel`), the bag still read once;
+- N ``gear-phm analyze BAG --ratio R --motor-joint M --load-joint L``, one per drive, one after
+  another.
 
-Wall and CPU time (of the child processes) of both, their ratio, and the largest relative
-difference between each drive's u, du/dt and sigma_u (``gear_phm/<drive>/friction``) and the
-single run's (issue 25: u within 1e-9). The per-drive work (the estimator's windows and
-filter, the health assessment at each output) does not shrink with one pass; what is saved is
-the start of N processes and reading and decoding the bag N times, so the ratio grows with the
-sample rate. Appends the table to docs/benchmarks.md (``--no-append``: print only).
+Alternated ``--repeat`` times (medians), so that machine load hits all three. Wall and CPU
+time (of the child processes and theirs) of each, the ratios, and the largest relative
+difference between each drive's u, du/dt and sigma_u (``gear_phm/<drive>/friction``) in a one
+pass and in its single run (issue 25: u within 1e-9). The per-drive work (the estimator's
+windows and filter, the health assessment at each output) does not shrink with one pass; what
+one process saves is the start of N processes and reading and decoding the bag N times, so
+that ratio grows with the sample rate; the workers then share the per-drive work out over the
+cores (the CPU ratio shows what they add). Appends the table to docs/benchmarks.md
+(``--no-append``: print only).
 
 Usage: .venv/bin/python bench/multi_drive.py [--drives 8] [--duration 120] [--rate 1000]
+       [--repeat 3]
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -75,6 +84,7 @@ def main() -> None:
     parser.add_argument('--drives', type=int, default=8)
     parser.add_argument('--duration', type=float, default=120.0, help='bag length [s]')
     parser.add_argument('--rate', type=float, default=1000.0, help='sample rate [Hz]')
+    parser.add_argument('--repeat', type=int, default=3, help='runs of each (median)')
     parser.add_argument('--no-append', action='store_true',
                         help='print only, do not append to docs/benchmarks.md')
     args = parser.parse_args()
@@ -88,36 +98,49 @@ def main() -> None:
         bag = work / 'bag'
         timed([[str(GEAR_PHM), 'simulate', '--transmissions', str(spec), '--duration',
                 str(args.duration), '--rate', str(args.rate), '--out', str(bag)]])
-        common = ['--no-plot', '--no-progress']
-        one_wall, one_cpu = timed([[str(GEAR_PHM), 'analyze', str(bag), '--transmissions',
-                                    str(spec), '--out', str(work / 'all'), *common]])
+        common = ['--no-plot', '--no-progress', '--overwrite']
+        passes = {jobs: [[str(GEAR_PHM), 'analyze', str(bag), '--transmissions', str(spec),
+                          '--out', str(work / f'all_{jobs}'), '--jobs', jobs, *common]]
+                  for jobs in ('1', '0')}
         singles = [[str(GEAR_PHM), 'analyze', str(bag), '--ratio', str(drive['ratio']),
                     '--motor-joint', drive['motor_joint'], '--load-joint',
                     drive['load_joint'], '--out', str(work / name), *common]
                    for name, drive in drives.items()]
-        n_wall, n_cpu = timed(singles)
+        times: dict[str, list[tuple[float, float]]] = {'1': [], '0': [], 'singles': []}
+        for _ in range(args.repeat):
+            for key, commands in (*passes.items(), ('singles', singles)):
+                times[key].append(timed(commands))
+        wall = {key: statistics.median(w for w, _ in runs) for key, runs in times.items()}
+        cpu = {key: statistics.median(c for _, c in runs) for key, runs in times.items()}
+        workers = json.loads((work / 'all_0' / 'summary.json').read_text())['workers']
         worst = [0.0, 0.0, 0.0]                 # u, du/dt, sigma_u
         for name in drives:
-            ours = friction(work / 'all', '/' + interfaces.drive_topic(name,
-                                                                       interfaces.FRICTION))
             theirs = friction(work / name, '/' + interfaces.FRICTION)
-            if ours.shape != theirs.shape:
-                raise SystemExit(f'{name}: {ours.shape} outputs in one pass, '
-                                 f'{theirs.shape} alone')
-            relative = np.abs(ours - theirs)[:, 1:] / np.maximum(np.abs(theirs[:, 1:]), 1e-300)
-            worst = [max(w, float(r)) for w, r in zip(worst, relative.max(axis=0))]
+            for jobs in passes:
+                ours = friction(work / f'all_{jobs}',
+                                '/' + interfaces.drive_topic(name, interfaces.FRICTION))
+                if ours.shape != theirs.shape:
+                    raise SystemExit(f'{name}: {ours.shape} outputs in one pass, '
+                                     f'{theirs.shape} alone')
+                relative = (np.abs(ours - theirs)[:, 1:]
+                            / np.maximum(np.abs(theirs[:, 1:]), 1e-300))
+                worst = [max(w, float(r)) for w, r in zip(worst, relative.max(axis=0))]
     samples = int(round(args.duration * args.rate))
     n = len(drives)
     table = [['analysis', 'wall [s]', 'CPU [s]', 'N runs / one pass (wall)',
               'N runs / one pass (CPU)'],
-             [f'{n} single-drive runs (`--ratio`, one process each)', f'{n_wall:.2f}',
-              f'{n_cpu:.2f}', '1.00', '1.00'],
-             ['one pass (`--transmissions`, one process)', f'{one_wall:.2f}', f'{one_cpu:.2f}',
-              f'{n_wall / one_wall:.2f}', f'{n_cpu / one_cpu:.2f}']]
+             [f'{n} single-drive runs (`--ratio`, one process each)', f'{wall["singles"]:.2f}',
+              f'{cpu["singles"]:.2f}', '1.00', '1.00']]
+    for jobs, label in (('1', 'one pass (`--transmissions --jobs 1`, one process)'),
+                        ('0', f'one pass (`--transmissions`, default `--jobs 0`: {workers} '
+                              f'worker processes)')):
+        table.append([label, f'{wall[jobs]:.2f}', f'{cpu[jobs]:.2f}',
+                      f'{wall["singles"] / wall[jobs]:.2f}', f'{cpu["singles"] / cpu[jobs]:.2f}'])
     notes = (f'{n} drives in one JointState stream ({2 * n} joints), {samples:,} messages '
-             f'({args.duration:g} s at {args.rate:g} Hz). Largest relative difference '
-             f'between a drive in the one pass and its single run: u {worst[0]:.1e}, du/dt '
-             f'{worst[1]:.1e} (near 0 for a drive that does not wear), sigma_u {worst[2]:.1e}.')
+             f'({args.duration:g} s at {args.rate:g} Hz); medians of {args.repeat} alternating '
+             f'runs of each. Largest relative difference between a drive in a one pass and its '
+             f'single run: u {worst[0]:.1e}, du/dt {worst[1]:.1e} (near 0 for a drive that does '
+             f'not wear), sigma_u {worst[2]:.1e}.')
     append_section(f'Many drives in one pass (`gear-phm analyze --transmissions`), {n} drives, '
                    f'{args.rate:g} Hz', table, notes, None if args.no_append else
                    Path(__file__).resolve().parent.parent / 'docs' / 'benchmarks.md')

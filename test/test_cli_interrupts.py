@@ -123,3 +123,74 @@ def test_a_stop_while_the_staging_folder_is_made_leaves_nothing(
                      '--no-progress']) == 130
     assert capsys.readouterr().err.strip().splitlines() == ['gear-phm analyze: interrupted']
     assert list(tmp_path.iterdir()) == []
+
+
+def _children(pid: int) -> list[int]:
+    """Return the processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for stat in Path('/proc').glob('[0-9]*/stat'):
+        try:
+            fields = stat.read_text().rsplit(')', 1)[1].split()
+        except (OSError, IndexError):
+            continue                            # ended meanwhile
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def _running_with(text: str) -> list[int]:
+    """Return the processes whose command line holds ``text``."""
+    found = []
+    for cmdline in Path('/proc').glob('[0-9]*/cmdline'):
+        try:
+            if text.encode() in cmdline.read_bytes():
+                found.append(int(cmdline.parent.name))
+        except OSError:
+            continue
+    return found
+
+
+@pytest.mark.skipif(not Path('/proc/self/stat').exists(), reason='reads /proc')
+def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
+        tmp_path: Path) -> None:
+    """SIGINT to ``gear-phm analyze --transmissions --jobs 2`` once both workers run.
+
+    Exit 130 with the one line, no output, and no worker left (a forked worker carries its
+    parent's command line, which names the unique output folder).
+    """
+    import subprocess
+    import yaml
+    spec = tmp_path / 'bench.yaml'
+    spec.write_text(yaml.safe_dump({'transmissions': {
+        f'd{i}': {'motor_joint': f'm{i}', 'load_joint': f'l{i}', 'ratio': 3.0 + i,
+                  'simulation': {'wear': 'linear', 'friction_initial': 0.05,
+                                 'wear_rate': 1e-4}} for i in range(3)}}))
+    assert gear_phm(['simulate', '--transmissions', str(spec), '--duration', '120', '--rate',
+                     '1000', '--out', str(tmp_path / 'bag')]) == 0
+    folder = tmp_path / 'outs'
+    folder.mkdir()
+    out = folder / 'interrupted_many_drives'
+    child = subprocess.Popen([str(GEAR_PHM), 'analyze', str(tmp_path / 'bag'),
+                              '--transmissions', str(spec), '--jobs', '2', '--out', str(out),
+                              '--no-progress', '--no-plot'],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while len(_children(child.pid)) < 2:    # both workers forked
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, 'no workers within 60 s'
+            time.sleep(0.01)
+        child.send_signal(signal.SIGINT)
+        _, err = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.communicate()
+    assert child.returncode == 130, err
+    assert err.strip().splitlines() == ['gear-phm analyze: interrupted']
+    assert list(folder.iterdir()) == []
+    deadline = time.monotonic() + 10.0           # the workers end with their pipes
+    while _running_with(str(out)):
+        assert time.monotonic() < deadline, _running_with(str(out))
+        time.sleep(0.05)
+

@@ -57,6 +57,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='replace --out if it holds a previous analysis and nothing else '
                              '(summary.json, its bag, plots); never a bag being analysed')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
+    parser.add_argument('--jobs', type=int, default=0, metavar='N',
+                        help='with --transmissions: worker processes for the drives, each '
+                             'a share of them (the bag is still read once); 0: one per core '
+                             '(default), 1: all in this process. The results do not depend '
+                             'on it')
     add_health_arguments(parser)
     parser.add_argument('--no-progress', action='store_true',
                         help='no progress bar (there is one only when stderr is a terminal)')
@@ -67,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
 
     if (args.ratio is None) == (args.transmissions is None):
         raise CliError('give --ratio (one transmission) or --transmissions FILE (many drives)')
+    if args.jobs < 0:
+        raise CliError(f'--jobs must be 0 (one per core) or more, got {args.jobs}')
     options: dict[str, Any] = {**estimator_params(args.param), **health_values(args)}
     if args.transmissions is not None:
         options['transmissions'] = args.transmissions
@@ -86,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
             args.bag, topic=args.topic, out=args.out, overwrite=args.overwrite,
             plot=not args.no_plot, progress=not args.no_progress and sys.stderr.isatty(),
             diagnostics_rate=args.diagnostics_rate, stamp_source=args.stamp_source,
-            **options)
+            jobs=args.jobs, **options)
     except AnalysisError as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary

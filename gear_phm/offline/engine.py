@@ -20,9 +20,9 @@ without cutting the batch (cutting a 100 Hz bag at every tick cost more than the
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import nullcontext
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
 import json
 import math
 import operator
@@ -39,6 +39,7 @@ from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEst
                                  Measurement, StatusSnapshot)
 from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT, stalled_stamps
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
+from gear_phm.offline.parallel import drives_for, Finished, LocalDrives, Made
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
@@ -186,7 +187,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 stamp_source: str = str(STAMP_SOURCE.default),
                 history: int | None = HISTORY,
                 prior: ShapePrior | None = None, transmissions: Any = None,
-                **options: Any) -> Analysis:
+                jobs: int = 1, **options: Any) -> Analysis:
     """Run the estimator and diagnostics nodes' code over recorded bags.
 
     ``path_or_paths``: a rosbag2 directory, a ``.mcap``/``.db3`` file or a ROS1 ``.bag``, a
@@ -205,7 +206,9 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     assessor, its outputs under ``gear_phm/<drive>/...``, its statuses ``gear_phm: <drive>``
     (hardware_id ``<drive>``) and ``gear_phm estimator: <drive>``; ``summary.json`` holds
     ``transmissions: {<drive>: <a single-transmission summary>}`` and the plots are
-    ``analysis_<drive>.png``. The returned Analysis holds the combined summary and each
+    ``analysis_<drive>.png``. ``jobs``: worker processes for the drives, 0 for one per core
+    (:mod:`gear_phm.offline.parallel`; 1, the default: all in this process); the results are
+    the same whatever ``jobs``. The returned Analysis holds the combined summary and each
     drive's own Analysis in ``transmissions``.
 
     Memory does not grow with the bags. The returned histories (estimates, health states,
@@ -221,7 +224,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     header unset).
     Raises :class:`AnalysisError` on bad input (a bad transmissions list included), and when
     the stamps do not advance (:func:`~gear_phm.estimation.pipeline.stalled_stamps`: no
-    measurement at all; ``stamp_source='log'`` is then the remedy).
+    measurement at all; ``stamp_source='log'`` is then the remedy), and
+    :class:`~gear_phm.offline.parallel.ParallelError` if a drive's worker process dies.
     """
     if not isinstance(topic, str) or not topic:
         raise AnalysisError(f'topic must be a topic name, got {topic!r}')
@@ -266,15 +270,19 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite, bags)
-    stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source)
+    stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
     staged = None if target is None else Staged(target, AnalysisError, replace=True)
     try:
-        analyses, readers, elapsed = stream.execute(
+        finished, readers, elapsed = stream.execute(
             bags, None if staged is None else staged.path, progress)
-        for run in runs:
-            refusal = _refusal(run)
-            if refusal:
-                raise AnalysisError(refusal)
+        analyses = []
+        for end in finished:
+            if end.analysis is None:
+                raise AnalysisError(end.error)
+            analyses.append(end.analysis)
+        for end in finished:
+            if end.refusal:
+                raise AnalysisError(end.refusal)
         stalled = stalled_stamps(analyses[0].summary)     # the drives share the stamps
         if stalled:
             remedy = ("; analyse on the bag's record times instead: stamp_source='log' "
@@ -317,6 +325,13 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     finally:
         if staged is not None:
             staged.discard()
+
+
+def _jobs(jobs: Any) -> int:
+    """Return ``analyze_bag``'s ``jobs`` checked (AnalysisError if not an integer >= 0)."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 0:
+        raise AnalysisError(f'jobs must be an integer >= 0 (0: one per core), got {jobs!r}')
+    return jobs
 
 
 def _unmeasured(summary: dict[str, Any]) -> str:
@@ -376,12 +391,13 @@ def _drives(transmissions: Any) -> tuple[Transmission, ...]:
 def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
               readers: list[str], elapsed: float) -> Analysis:
     """Return the Analysis of many drives: the combined summary, each drive's Analysis."""
-    messages = stream.runs[0].samples
+    messages = analyses[0].summary['messages']
     one = len(bags) == 1
     summary = {'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': stream.topic,
                'messages': messages, 'reader': readers[0] if one else readers,
                'seconds': elapsed,
                'samples_per_second': messages / elapsed if elapsed > 0 else math.inf,
+               'workers': stream.drives.workers,
                'transmissions': {run.drive: analysis.summary
                                  for run, analysis in zip(stream.runs, analyses)}}
     return Analysis(EstimateHistory.of([]), HealthHistory.of([]), summary, (), {},
@@ -586,6 +602,34 @@ class _Run:
         return _Step(self.drive, estimates, history, states, latest, first_state, snapshots,
                      received)
 
+    def advance(self, decoded: codec.JointBatch, messages: int, cuts: list[int],
+                ticks: list[int], write: bool) -> Made:
+        """Run one decoded batch; return what the stream writes of it (:class:`Made`).
+
+        ``cuts``: the batch's message index of each /diagnostics tick ``ticks`` [ns];
+        ``write``: the outputs' columns are wanted (an output bag is written).
+        """
+        step = self._step(decoded, messages, cuts)
+        statuses = tuple(tuple(self._statuses(tick, *step.at(i)))
+                         for i, tick in enumerate(ticks))
+        return Made(statuses, tuple(step.limit(i) for i in range(len(ticks))),
+                    step.increasing, tuple(step.columns()) if write else (),
+                    len(interfaces.ESTIMATE_LAYOUT), tuple(step.ends),
+                    tuple(step.first_state[end] for end in step.ends)
+                    + (step.first_state[-1],), len(step.estimates))
+
+    def final_statuses(self, stamp_ns: int) -> tuple[StatusOut, ...]:
+        """Return the statuses of the final /diagnostics array, at ``stamp_ns`` [ns]."""
+        return tuple(self._statuses(stamp_ns, self.samples, None, self.assessor.latest))
+
+    def finish(self, bags: list[Path], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> Finished:
+        """Return the run's Analysis and why its data contradict its parameters, or its error."""
+        try:
+            return Finished(self.result(bags, readers, elapsed, names), '', _refusal(self))
+        except AnalysisError as exc:
+            return Finished(None, str(exc), '')
+
     def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
                   latest: HealthState | None) -> list[StatusOut]:
         """Return the estimator's and the diagnostics node's statuses at ``stamp_ns`` [ns]."""
@@ -633,8 +677,12 @@ class _Stream:
     """
 
     def __init__(self, runs: Sequence[_Run], topic: str, diagnostics_rate: float,
-                 want_truth: bool, stamp_source: str = str(STAMP_SOURCE.default)) -> None:
+                 want_truth: bool, stamp_source: str = str(STAMP_SOURCE.default),
+                 jobs: int = 1) -> None:
         self.runs = list(runs)
+        #: worker processes for the drives (:func:`~gear_phm.offline.parallel.drives_for`)
+        self.jobs = jobs
+        self.drives: LocalDrives = LocalDrives(self.runs)
         self.topic = topic
         #: 'log': each sample is stamped with its message's record time in the bag
         self.log_stamps = stamp_source == 'log'
@@ -651,31 +699,38 @@ class _Stream:
         self.join = any(run.drive is not None for run in self.runs)
 
     def execute(self, bags: list[Path], directory: Path | None, progress: bool
-                ) -> tuple[list[Analysis], list[str], float]:
-        """Read the bags into the runs; return each run's Analysis, the readers, seconds."""
+                ) -> tuple[list[Finished], list[str], float]:
+        """Read the bags into the runs; return each run's end, the readers, seconds.
+
+        A run's end is its :class:`~gear_phm.offline.parallel.Finished` record.
+        """
         from gear_phm.bagio import BagError, Rosbag2McapWriter
         started = time.perf_counter()
         readers = []
+        # the workers (if any) are forked first, before the output bag is opened
+        self.drives = drives_for(self.runs, self.jobs)
         try:
-            with (nullcontext(None) if directory is None
-                  else Rosbag2McapWriter(directory, batch=True)) as writer:
-                for path in bags:
-                    readers.append(self._read(path, writer, progress))
-        except BagError as exc:
-            raise AnalysisError(str(exc)) from None
-        elapsed = time.perf_counter() - started
-        return ([run.result(bags, readers, elapsed, self.names or ()) for run in self.runs],
-                readers, elapsed)
+            try:
+                with (nullcontext(None) if directory is None
+                      else Rosbag2McapWriter(directory, batch=True)) as writer:
+                    for path in bags:
+                        readers.append(self._read(path, writer, progress))
+            except BagError as exc:
+                raise AnalysisError(str(exc)) from None
+            elapsed = time.perf_counter() - started
+            return self.drives.finish(bags, readers, elapsed, self.names or ()), readers, elapsed
+        finally:
+            self.drives.close()
 
-    def _truth_topics(self, bag: Any) -> dict[str, tuple[_Run, str]]:
-        """Return {bag topic: (run, canonical truth topic)} of the truth the bag holds."""
+    def _truth_topics(self, bag: Any) -> dict[str, tuple[int, str]]:
+        """Return {bag topic: (run index, canonical truth topic)} of the truth the bag holds."""
         found = {}
-        for run in self.runs if self.want_truth else ():
+        for index, run in enumerate(self.runs if self.want_truth else ()):
             for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY):
                 topic = bag.resolve_topic(name if run.drive is None
                                           else interfaces.drive_topic(run.drive, name))
                 if topic in bag.topics:
-                    found[topic] = (run, name)
+                    found[topic] = (index, name)
         return found
 
     def _read(self, path: Path, writer: Any, progress: bool) -> str:
@@ -690,34 +745,57 @@ class _Stream:
             bar = _progress(total, not progress)
             self.next_tick = None
             last_log_ns: int | None = None       # of the bag's last JointState
-            pending: list[RawBatch] = []         # JointState chunks, processed by BATCH
-            for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
-                stopping.check()                 # a signal's stop that was swallowed
-                if raw.topic != topic:           # ground truth, for the plot only
-                    stamps, values = interfaces.vector3_stamped_columns(
-                        raw.buffer, raw.offsets, raw.lengths)
-                    run, name = truth_topics[raw.topic]
-                    run._keep_truth(name, stamps, values)
-                    continue
-                pending.append(raw)
-                if not self.join or sum(len(p) for p in pending) >= BATCH:
-                    last_log_ns = self._batch(_joined(pending), writer, bar)
-                    pending.clear()
-            if pending:
-                last_log_ns = self._batch(_joined(pending), writer, bar)
+            write = writer is not None
+            # each batch's drives run (in their workers, if any) while the next is read and
+            # decoded; then it is written, in order
+            batches = (self._prepared(raw)
+                       for raw in self._joint_batches(bag, topic, truth_topics))
+            current = next(batches, None)
+            if current is not None:
+                self.drives.submit(current.decoded, current.messages, current.cuts,
+                                   current.ticks, write)
+            while current is not None:
+                upcoming = next(batches, None)
+                self._write(self.drives.collect(), current.ticks, writer)
+                bar.update(current.messages)
+                last_log_ns = current.last_log_ns
+                if upcoming is not None:
+                    self.drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
+                                       upcoming.ticks, write)
+                current = upcoming
             if last_log_ns is not None:          # the final state, at the last message
-                final = self._tick(last_log_ns, [(run, (run.samples, None, run.assessor.latest))
-                                                 for run in self.runs])
+                final = interfaces.DiagnosticsOut(last_log_ns, tuple(
+                    status for statuses in self.drives.final(last_log_ns)
+                    for status in statuses))
                 if writer is not None:
                     writer.write_output(final)
             bar.close()
             return bag.reader_kind
 
-    def _batch(self, raw: RawBatch, writer: Any, bar: Any) -> int:
-        """Decode one batch of JointState for every drive, run and write it.
+    def _joint_batches(self, bag: Any, topic: str, truth_topics: dict[str, tuple[int, str]]
+                       ) -> Iterator[RawBatch]:
+        """Yield the bag's JointState batches (chunks joined by BATCH with many drives).
 
-        Returns its last log time [ns].
+        The ground truth met on the way goes to its drive, for the plot.
         """
+        pending: list[RawBatch] = []             # JointState chunks, processed by BATCH
+        for raw in bag.raw_batches([topic, *truth_topics], batch_size=BATCH):
+            stopping.check()                     # a signal's stop that was swallowed
+            if raw.topic != topic:               # ground truth, for the plot only
+                stamps, values = interfaces.vector3_stamped_columns(
+                    raw.buffer, raw.offsets, raw.lengths)
+                index, name = truth_topics[raw.topic]
+                self.drives.keep_truth(index, name, stamps, values)
+                continue
+            pending.append(raw)
+            if not self.join or sum(len(p) for p in pending) >= BATCH:
+                yield _joined(pending)
+                pending = []
+        if pending:
+            yield _joined(pending)
+
+    def _prepared(self, raw: RawBatch) -> _Prepared:
+        """Return one batch of JointState decoded for every drive, with its ticks."""
         times = raw.log_time_ns
         if self.next_tick is None:
             self.next_tick = int(times[0]) + self.diag_period_ns
@@ -737,44 +815,30 @@ class _Stream:
             msg = (f'topic {self.topic}: header stamps before 1970 (negative), which no output '
                    "bag can hold; analyse on the bag's record times: --stamp-source log")
             raise AnalysisError(msg)
-        self._write([run._step(batch, len(raw), cuts)
-                     for run, batch in zip(self.runs, decoded)], ticks, writer)
-        bar.update(len(raw))
-        return int(times[-1])
+        return _Prepared(decoded, len(raw), cuts, ticks, int(times[-1]))
 
-    def _tick(self, stamp_ns: int,
-              states: Sequence[tuple[_Run, tuple[int, StatusSnapshot | None,
-                                                 HealthState | None]]]
-              ) -> interfaces.DiagnosticsOut:
-        """Return the /diagnostics array the nodes would publish at ``stamp_ns`` [ns].
-
-        ``states``: per run, (messages so far, the estimator's snapshot (None: now), the
-        newest health state).
-        """
-        return interfaces.DiagnosticsOut(stamp_ns, tuple(
-            status for run, state in states for status in run._statuses(stamp_ns, *state)))
-
-    def _write(self, steps: list[_Step], ticks: list[int], writer: Any) -> None:
+    def _write(self, made: list[Made], ticks: list[int], writer: Any) -> None:
         """Write one batch: each status after the outputs of the estimates before its mark.
 
-        ``ticks`` are the /diagnostics times [ns] of bag time inside the batch; the statuses
-        report the state after the messages logged before each (marks of the pipeline, not
-        cuts of the batch).
+        ``made``: each drive's outputs and statuses (:meth:`_Run.advance`); ``ticks`` are the
+        /diagnostics times [ns] of bag time inside the batch; the statuses report the state
+        after the messages logged before each (marks of the pipeline, not cuts of the batch).
         """
-        outs = [self._tick(tick, [(run, step.at(i)) for run, step in zip(self.runs, steps)])
-                for i, tick in enumerate(ticks)]
         if writer is None:
             return
-        if all(step.increasing for step in steps):      # one block
-            between = [(max(step.limit(i) for step in steps), out)
+        outs = [interfaces.DiagnosticsOut(tick, tuple(
+            status for drive in made for status in drive.statuses[i]))
+            for i, tick in enumerate(ticks)]
+        if all(drive.increasing for drive in made):      # one block
+            between = [(max(drive.limits[i] for drive in made), out)
                        for i, out in enumerate(outs)]
-            writer.write_vector3_columns([c for step in steps for c in step.columns()],
+            writer.write_vector3_columns([c for drive in made for c in drive.columns],
                                          between=between)
             return
         for i, out in enumerate(outs):          # stamps restarted inside the batch: by parts
-            writer.write_vector3_columns([c for step in steps for c in step.columns(i)])
+            writer.write_vector3_columns([c for drive in made for c in drive.part(i)])
             writer.write_output(out)
-        writer.write_vector3_columns([c for step in steps for c in step.columns(len(outs))])
+        writer.write_vector3_columns([c for drive in made for c in drive.part(len(outs))])
 
 
 def _joined(batches: list[RawBatch]) -> RawBatch:
@@ -792,6 +856,20 @@ def _joined(batches: list[RawBatch]) -> RawBatch:
                     b''.join(bytes(b.buffer) for b in batches),
                     np.concatenate([b.offsets + start for b, start in zip(batches, starts)]),
                     np.concatenate([b.lengths for b in batches]))
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """One batch of the stream decoded for every drive: its messages, ticks and cuts."""
+
+    decoded: list[codec.JointBatch]
+    messages: int
+    #: the batch's message index of each /diagnostics tick
+    cuts: list[int]
+    #: the /diagnostics ticks [ns] of bag time inside the batch
+    ticks: list[int]
+    #: the log time [ns] of its last message
+    last_log_ns: int
 
 
 class _Step:

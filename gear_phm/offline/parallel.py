@@ -1,0 +1,321 @@
+"""Many drives of one stream, over the machine's cores: each drive's work in one process.
+
+A bench bag's drives are independent once each message is decoded: each has its own
+estimator and assessor (:class:`gear_phm.offline.engine._Run`). The stream reads and decodes
+each batch once, in the calling process, and hands each drive its columns; it then writes
+what the drives made, in drive order, as :class:`Made` records. :class:`LocalDrives` runs
+the drives in the calling process; :class:`DrivePool` in ``jobs`` worker processes, each
+owning a fixed share of the drives (drive i in worker i mod ``jobs``) for the whole run. Each
+drive's arithmetic is the same in both, and the stream writes the same records in the same
+order: the output bag, the summaries and the plots do not depend on ``jobs``.
+
+The workers are forked (POSIX ``fork``) before the output bag is opened, from a process that
+runs no other thread of ours; where ``fork`` is not available, the drives stay in the calling
+process. A worker ignores SIGINT (the caller stops it) and ends when its pipe closes, so it
+does not outlive a caller that was killed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import multiprocessing
+import os
+import pickle
+import signal
+import threading
+import traceback
+from typing import Any, Protocol, Sequence, TYPE_CHECKING
+
+import numpy as np
+
+from gear_phm.errors import GearPhmError
+from gear_phm.status import StatusOut
+
+if TYPE_CHECKING:
+    from multiprocessing.connection import Connection
+
+    from gear_phm.codec import JointBatch
+    from gear_phm.offline.records import Analysis
+
+#: An output column: (topic, stamps [ns], values (N, 3)), as ``write_vector3_columns`` takes.
+Column = tuple[str, np.ndarray, np.ndarray]
+
+
+class ParallelError(GearPhmError, RuntimeError):
+    """A drive worker process failed or ended without answering."""
+
+
+@dataclass(frozen=True)
+class Made:
+    """What one drive made of one batch, as the stream writes it (picklable).
+
+    ``statuses[i]``: the drive's statuses at /diagnostics tick ``i``; ``limits[i]``: the stamp
+    [ns] of its last estimate before tick ``i`` (-1: none); ``increasing``: its estimates'
+    stamps increase through the batch; ``columns``: the outputs of all its estimates (the
+    first ``estimate_columns`` one row per estimate, the others one row per health state);
+    ``ends[i]``: its estimates before tick ``i``; ``state_ends[i]``: its health states before
+    the first estimate after tick ``i`` (the last: all of them); ``estimates``: how many.
+    """
+
+    statuses: tuple[tuple[StatusOut, ...], ...]
+    limits: tuple[int, ...]
+    increasing: bool
+    columns: tuple[Column, ...]
+    estimate_columns: int
+    ends: tuple[int, ...]
+    state_ends: tuple[int, ...]
+    estimates: int
+
+    def part(self, i: int) -> list[Column]:
+        """Return the outputs of the estimates between tick ``i - 1`` and tick ``i``.
+
+        ``i`` = the number of ticks: those after the last tick.
+        """
+        done = self.ends[i - 1] if i else 0
+        end = self.ends[i] if i < len(self.ends) else self.estimates
+        first = self.state_ends[i - 1] if i else 0
+        last = self.state_ends[i]
+        return [(topic, stamps[done:end], values[done:end]) if k < self.estimate_columns
+                else (topic, stamps[first:last], values[first:last])
+                for k, (topic, stamps, values) in enumerate(self.columns)]
+
+
+@dataclass(frozen=True)
+class Finished:
+    """A drive's end of run: its Analysis and refusal ('' if none), or its error's text."""
+
+    analysis: Analysis | None
+    error: str
+    refusal: str
+
+
+class DriveRun(Protocol):
+    """One drive's estimator and assessor (:class:`gear_phm.offline.engine._Run`)."""
+
+    def advance(self, decoded: JointBatch, messages: int, cuts: list[int], ticks: list[int],
+                write: bool) -> Made: ...
+
+    def _keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None: ...
+
+    def final_statuses(self, stamp_ns: int) -> tuple[StatusOut, ...]: ...
+
+    def finish(self, bags: list[Any], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> Finished: ...
+
+
+class LocalDrives:
+    """The drives in the calling process, in order."""
+
+    #: worker processes (none: the drives run in the calling process)
+    workers = 0
+
+    def __init__(self, runs: Sequence[DriveRun]) -> None:
+        self.runs = list(runs)
+        self._made: list[Made] = []
+
+    def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+               ticks: list[int], write: bool) -> None:
+        """Start one batch (:meth:`advance`); :meth:`collect` returns what it made."""
+        self._made = self.advance(decoded, messages, cuts, ticks, write)
+
+    def collect(self) -> list[Made]:
+        """Return what the drives made of the batch submitted last, in drive order."""
+        made, self._made = self._made, []
+        return made
+
+    def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+                ticks: list[int], write: bool) -> list[Made]:
+        """Run each drive over its columns of one batch (``decoded``, in drive order)."""
+        return [run.advance(batch, messages, cuts, ticks, write)
+                for run, batch in zip(self.runs, decoded)]
+
+    def keep_truth(self, index: int, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
+        """Give drive ``index`` ground-truth rows (stamps [ns], x, y, z) of topic ``name``."""
+        self.runs[index]._keep_truth(name, stamps, values)
+
+    def final(self, stamp_ns: int) -> list[tuple[StatusOut, ...]]:
+        """Return each drive's statuses of the final /diagnostics array at ``stamp_ns``."""
+        return [run.final_statuses(stamp_ns) for run in self.runs]
+
+    def finish(self, bags: list[Any], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> list[Finished]:
+        """Return each drive's end of run."""
+        return [run.finish(bags, readers, elapsed, names) for run in self.runs]
+
+    def close(self) -> None:
+        """Release the drives' processes (none here)."""
+
+
+def usable_cores() -> int:
+    """Return the cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def drives_for(runs: Sequence[DriveRun], jobs: int) -> LocalDrives:
+    """Return the drives in ``jobs`` worker processes, or in this one.
+
+    ``jobs`` 0: one per usable core. No more workers than drives are used, and none for one
+    drive or one job, or where they cannot be forked (:func:`can_fork`).
+    """
+    wanted = usable_cores() if jobs == 0 else jobs
+    workers = min(wanted, len(runs))
+    if workers <= 1 or not can_fork():
+        return LocalDrives(runs)
+    return DrivePool(runs, workers)
+
+
+def can_fork() -> bool:
+    """Whether workers may be forked here: POSIX ``fork``, and no other thread running.
+
+    A thread holding a lock (of a stream, of logging) at the fork would leave it locked in
+    the child for good; Python 3.12 warns of the same. In a process with threads (a test
+    runner, a notebook's kernel, a Dask worker) the drives stay in the calling process.
+    """
+    return 'fork' in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+
+
+class DrivePool(LocalDrives):
+    """The drives in ``workers`` forked processes: drive i in worker i mod ``workers``."""
+
+    def __init__(self, runs: Sequence[DriveRun], workers: int) -> None:
+        super().__init__(runs)
+        context = multiprocessing.get_context('fork')
+        self.workers = workers
+        self.groups = [list(range(w, len(self.runs), workers)) for w in range(workers)]
+        self.pipes: list[Connection] = []
+        #: requests without an answer (ground truth), sent with the next that has one: a
+        #: worker busy with a batch does not read, and a large request would block the caller
+        self.queued: list[list[tuple[Any, ...]]] = [[] for _ in self.groups]
+        self.processes: list[multiprocessing.process.BaseProcess] = []
+        try:
+            for w, group in enumerate(self.groups):
+                mine, theirs = context.Pipe()
+                process = context.Process(    # it closes its copies of the callers' ends
+                    target=_serve, args=(theirs, [self.runs[i] for i in group],
+                                         [*self.pipes, mine]),
+                    name=f'gear-phm drives {w}', daemon=True)
+                process.start()
+                theirs.close()
+                self.pipes.append(mine)
+                self.processes.append(process)
+        except BaseException:
+            self.close()
+            raise
+
+    def _send(self, requests: Sequence[tuple[Any, ...]]) -> None:
+        """Send each worker its queued requests, then ``requests[w]``."""
+        for pipe, queued, request in zip(self.pipes, self.queued, requests):
+            for earlier in queued:
+                pipe.send(earlier)
+            queued.clear()
+            pipe.send(request)
+
+    def _ask(self, requests: Sequence[tuple[Any, ...]]) -> list[Any]:
+        """Send each worker its request; return their answers, in worker order."""
+        self._send(requests)
+        return [_answer(pipe) for pipe in self.pipes]
+
+    def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+               ticks: list[int], write: bool) -> None:
+        """Send each worker its drives' columns of one batch; :meth:`collect` waits."""
+        self._send([('advance', [decoded[i] for i in group], messages, cuts, ticks, write)
+                    for group in self.groups])
+
+    def collect(self) -> list[Made]:
+        """Return what the drives made of the batch submitted last, in drive order."""
+        return self._ordered([_answer(pipe) for pipe in self.pipes])
+
+    def _ordered(self, answers: list[list[Any]]) -> list[Any]:
+        """Return the workers' answers (a list per worker) in drive order."""
+        ordered: list[Any] = [None] * len(self.runs)
+        for group, answer in zip(self.groups, answers):
+            for i, value in zip(group, answer):
+                ordered[i] = value
+        return ordered
+
+    def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+                ticks: list[int], write: bool) -> list[Made]:
+        """Run each drive over its columns of one batch, in its worker."""
+        return self._ordered(self._ask([
+            ('advance', [decoded[i] for i in group], messages, cuts, ticks, write)
+            for group in self.groups]))
+
+    def keep_truth(self, index: int, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
+        """Give drive ``index`` ground-truth rows, in its worker (no answer)."""
+        w = index % len(self.groups)
+        self.queued[w].append(('keep_truth', self.groups[w].index(index), name, stamps, values))
+
+    def final(self, stamp_ns: int) -> list[tuple[StatusOut, ...]]:
+        """Return each drive's statuses of the final /diagnostics array at ``stamp_ns``."""
+        return self._ordered(self._ask([('final', stamp_ns)] * len(self.groups)))
+
+    def finish(self, bags: list[Any], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> list[Finished]:
+        """Return each drive's end of run, from its worker."""
+        return self._ordered(self._ask(
+            [('finish', bags, readers, elapsed, names)] * len(self.groups)))
+
+    def close(self) -> None:
+        """End the workers: their pipes closed (an idle worker returns), then joined.
+
+        A worker still busy with a batch (the caller stopped on an error or a signal) is
+        terminated after a second.
+        """
+        for pipe in self.pipes:
+            pipe.close()
+        for process in self.processes:
+            process.join(timeout=1.0)
+            if process.is_alive():
+                process.terminate()
+                process.join()
+        self.pipes, self.processes = [], []
+
+
+def _answer(pipe: Connection) -> Any:
+    """Return a worker's answer; raise the error it sent, or ParallelError if it is gone."""
+    try:
+        kind, value = pipe.recv()
+    except (EOFError, OSError):
+        msg = 'a drive worker process ended without answering (killed, or out of memory?)'
+        raise ParallelError(msg) from None
+    if kind == 'error':
+        raise value
+    return value
+
+
+def _serve(pipe: Connection, runs: list[DriveRun], others: list[Connection]) -> None:
+    """Answer the stream's requests for ``runs`` until the pipe closes (a worker's loop)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)        # the caller stops the analysis
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    for other in others:        # the caller's ends (of every worker's pipe, this one's too):
+        other.close()           # its closing them must be the EOF that ends this loop
+    drives = LocalDrives(runs)
+    while True:
+        try:
+            request = pipe.recv()
+        except (EOFError, OSError):
+            return
+        if request is None:
+            return
+        kind, *args = request
+        try:
+            value = getattr(drives, kind)(*args)
+        except BaseException as exc:    # noqa: B036 - any failure goes back to the caller
+            text = ''.join(traceback.format_exception(exc)).strip()
+            if not _sent(pipe, ('error', exc)):     # one that does not pickle: its text
+                _sent(pipe, ('error', ParallelError(f'drive worker: {text}')))
+            return
+        if kind != 'keep_truth' and not _sent(pipe, ('ok', value)):
+            return
+
+
+def _sent(pipe: Connection, answer: tuple[str, Any]) -> bool:
+    """Send an answer; False if it cannot be (the caller closed its end: it stopped)."""
+    try:
+        pipe.send(answer)
+    except (OSError, ValueError, TypeError, AttributeError, RuntimeError,
+            pickle.PicklingError):
+        return False
+    return True
