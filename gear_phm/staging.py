@@ -20,6 +20,8 @@ import shutil
 import tempfile
 from typing import Any
 
+from gear_phm import stopping
+
 
 def write_atomic(target: Path, text: str) -> None:
     """Write ``text`` (UTF-8) to the file ``target`` whole or not at all.
@@ -108,7 +110,12 @@ class Staged:
         self.discard()
 
     def commit(self) -> None:
-        """Rename :attr:`path` to the target (the error of ``error`` if that fails)."""
+        """Rename :attr:`path` to the target (the error of ``error`` if that fails).
+
+        A stop that a signal asked for and that was swallowed where it landed
+        (:mod:`gear_phm.stopping`) is raised here instead: a stopped run commits nothing.
+        """
+        stopping.check()
         try:
             if self.target.exists():
                 if self._replace:

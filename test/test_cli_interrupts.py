@@ -194,3 +194,20 @@ def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
         assert time.monotonic() < deadline, _running_with(str(out))
         time.sleep(0.05)
 
+
+def test_a_recorded_stop_is_raised_at_the_commit_and_nothing_is_committed(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stop swallowed after the last loop's check: the commit raises it.
+
+    A fleet's SIGTERM landed in an import's callback (a full-suite run): the fleet then ran to
+    its end, committed its output and exited 0.
+    """
+    from gear_phm.staging import Staged
+    target = tmp_path / 'out'
+    with pytest.raises(SystemExit) as caught:
+        with Staged(target, OSError, folder=True) as staged:
+            (staged.path / 'summary.json').write_text('{}')
+            monkeypatch.setattr(stopping, '_requested', [functools.partial(SystemExit, 143)])
+            staged.commit()
+    assert caught.value.code == 143
+    assert list(tmp_path.iterdir()) == []

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from gear_phm import stopping
 from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import JOINT_STATES
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
@@ -330,6 +331,7 @@ def run_units(units: Sequence[Path], options: dict[str, Any], out: Path | None,
         order = {future.key: i for i, future in enumerate(futures)}
         results: list[list[UnitResult]] = [[] for _ in futures]
         for future in as_completed(futures):
+            stopping.check()                # a signal's stop that was swallowed
             results[order[future.key]] = future.result()
             on_done()
         prior = (population_prior([r.summary for rows in results for r in rows])
