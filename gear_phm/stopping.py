@@ -23,3 +23,8 @@ def check() -> None:
     """Raise the exception of a recorded stop (:func:`request`); return if there is none."""
     if _requested:
         raise _requested[0]()
+
+
+def requested() -> bool:
+    """Whether a stop was recorded (:func:`request`)."""
+    return bool(_requested)

@@ -211,3 +211,25 @@ def test_a_recorded_stop_is_raised_at_the_commit_and_nothing_is_committed(
             staged.commit()
     assert caught.value.code == 143
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_swallowed_recorded_stop_is_not_printed_other_unraisables_are(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The CLI's unraisable hook: a handler's stop swallowed in a callback prints nothing.
+
+    It is raised again later, and the user sees the one line of the stop; before, 'Exception
+    ignored in ...' and a traceback came with it.
+    """
+    from types import SimpleNamespace
+    from gear_phm.cli.main import _quiet_stop
+    seen: list[object] = []
+    hook = _quiet_stop(seen.append)
+    stop = SimpleNamespace(exc_value=SystemExit(143))
+    hook(stop)
+    assert seen == [stop]                       # no stop recorded: not ours
+    monkeypatch.setattr(stopping, '_requested', [functools.partial(SystemExit, 143)])
+    hook(stop)
+    hook(SimpleNamespace(exc_value=KeyboardInterrupt()))
+    other = SimpleNamespace(exc_value=ValueError('a finalizer failed'))
+    hook(other)
+    assert seen == [stop, other]

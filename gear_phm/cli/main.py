@@ -7,12 +7,13 @@ Each subcommand module exposes ``HELP`` (one line), ``add_arguments(parser)`` an
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 import functools
 import importlib
 import signal
 import sys
 from types import FrameType
+from typing import Any
 
 from gear_phm import staging, stopping
 from gear_phm.errors import GearPhmError
@@ -57,6 +58,22 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
+def _quiet_stop(default: Callable[[Any], object]) -> Callable[[Any], None]:
+    """Return a ``sys.unraisablehook`` that does not print a swallowed recorded stop.
+
+    A handler's SystemExit or KeyboardInterrupt that landed where Python cannot raise it (an
+    import's lock callback, a finalizer) would print 'Exception ignored in ...' with a
+    traceback; it is recorded (:mod:`gear_phm.stopping`) and raised again later, so the user
+    sees the one line of a stop. Anything else goes to ``default``.
+    """
+    def hook(unraisable: Any) -> None:
+        stop = isinstance(unraisable.exc_value, (SystemExit, KeyboardInterrupt))
+        if stop and stopping.requested():
+            return
+        default(unraisable)
+    return hook
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """Build the ``gear-phm`` parser.
 
@@ -89,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command in STOPPED_ON_SIGTERM:
         signal.signal(signal.SIGTERM, functools.partial(_terminate, command=args.command))
         signal.signal(signal.SIGINT, _interrupt)
+        sys.unraisablehook = _quiet_stop(sys.unraisablehook)
     try:
         return int(args._run(args) or 0)
     except CliError as exc:
