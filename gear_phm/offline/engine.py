@@ -397,7 +397,7 @@ def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
                'messages': messages, 'reader': readers[0] if one else readers,
                'seconds': elapsed,
                'samples_per_second': messages / elapsed if elapsed > 0 else math.inf,
-               'workers': stream.drives.workers,
+               'workers': 0 if stream.drives is None else stream.drives.workers,
                'transmissions': {run.drive: analysis.summary
                                  for run, analysis in zip(stream.runs, analyses)}}
     return Analysis(EstimateHistory.of([]), HealthHistory.of([]), summary, (), {},
@@ -682,7 +682,8 @@ class _Stream:
         self.runs = list(runs)
         #: worker processes for the drives (:func:`~gear_phm.offline.parallel.drives_for`)
         self.jobs = jobs
-        self.drives: LocalDrives = LocalDrives(self.runs)
+        #: the drives' processes, made once the first bag's size is known (:meth:`_read`)
+        self.drives: LocalDrives | None = None
         self.topic = topic
         #: 'log': each sample is stamped with its message's record time in the bag
         self.log_stamps = stamp_source == 'log'
@@ -707,8 +708,6 @@ class _Stream:
         from gear_phm.bagio import BagError, Rosbag2McapWriter
         started = time.perf_counter()
         readers = []
-        # the workers (if any) are forked first, before the output bag is opened
-        self.drives = drives_for(self.runs, self.jobs)
         try:
             try:
                 with (nullcontext(None) if directory is None
@@ -718,9 +717,11 @@ class _Stream:
             except BagError as exc:
                 raise AnalysisError(str(exc)) from None
             elapsed = time.perf_counter() - started
+            assert self.drives is not None              # made by the first bag's _read
             return self.drives.finish(bags, readers, elapsed, self.names or ()), readers, elapsed
         finally:
-            self.drives.close()
+            if self.drives is not None:
+                self.drives.close()
 
     def _truth_topics(self, bag: Any) -> dict[str, tuple[int, str]]:
         """Return {bag topic: (run index, canonical truth topic)} of the truth the bag holds."""
@@ -742,6 +743,9 @@ class _Stream:
             if total == 0:
                 raise AnalysisError(f'topic {topic} in bag {path} has no message')
             truth_topics = self._truth_topics(bag)
+            if self.drives is None:         # the workers (if any), for a bag of this size
+                self.drives = drives_for(self.runs, self.jobs, total)
+            drives = self.drives
             bar = _progress(total, not progress)
             self.next_tick = None
             last_log_ns: int | None = None       # of the bag's last JointState
@@ -752,20 +756,20 @@ class _Stream:
                        for raw in self._joint_batches(bag, topic, truth_topics))
             current = next(batches, None)
             if current is not None:
-                self.drives.submit(current.decoded, current.messages, current.cuts,
-                                   current.ticks, write)
+                drives.submit(current.decoded, current.messages, current.cuts,
+                              current.ticks, write)
             while current is not None:
                 upcoming = next(batches, None)
-                self._write(self.drives.collect(), current.ticks, writer)
+                self._write(drives.collect(), current.ticks, writer)
                 bar.update(current.messages)
                 last_log_ns = current.last_log_ns
                 if upcoming is not None:
-                    self.drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
-                                       upcoming.ticks, write)
+                    drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
+                                  upcoming.ticks, write)
                 current = upcoming
             if last_log_ns is not None:          # the final state, at the last message
                 final = interfaces.DiagnosticsOut(last_log_ns, tuple(
-                    status for statuses in self.drives.final(last_log_ns)
+                    status for statuses in drives.final(last_log_ns)
                     for status in statuses))
                 if writer is not None:
                     writer.write_output(final)
@@ -785,6 +789,7 @@ class _Stream:
                 stamps, values = interfaces.vector3_stamped_columns(
                     raw.buffer, raw.offsets, raw.lengths)
                 index, name = truth_topics[raw.topic]
+                assert self.drives is not None
                 self.drives.keep_truth(index, name, stamps, values)
                 continue
             pending.append(raw)
