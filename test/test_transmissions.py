@@ -507,20 +507,25 @@ def test_jobs_split_the_drives_over_processes_with_the_same_results(
         bench: Path, tmp_path: Path) -> None:
     """``gear-phm analyze --jobs 2``: the drives in two worker processes, the same outputs.
 
-    On a bag whose stamps restart mid-batch (the writing by parts) and on the bench bag:
-    message for message, the output bag and the summaries equal an analysis in one process
-    (``analyze_bag(..., jobs=1)``).
+    On a bag whose stamps restart mid-batch (the writing by parts) and on the bench bag (with
+    the plots, drawn in the workers): message for message, the output bag, the summaries and
+    the plots' pixels equal an analysis in one process (``analyze_bag(..., jobs=1)``).
     """
     restarted = tmp_path / 'restarted'
     _restarted(bench, restarted)
-    for bag in (restarted, bench / 'bag'):
+    for bag, plot in ((restarted, False), (bench / 'bag', True)):
         split, whole = tmp_path / f'{bag.name}_jobs2', tmp_path / f'{bag.name}_jobs1'
         result = subprocess.run(
             [str(GEAR_PHM), 'analyze', str(bag), '--transmissions', str(bench / 'bench.yaml'),
-             '--jobs', '2', '--out', str(split), '--no-progress', '--no-plot'],
-            capture_output=True, text=True, timeout=300)
+             '--jobs', '2', '--out', str(split), '--no-progress',
+             *([] if plot else ['--no-plot'])], capture_output=True, text=True, timeout=300)
         assert result.returncode == 0, result.stderr
-        analyze_bag(bag, transmissions=bench / 'bench.yaml', out=whole, plot=False, jobs=1)
+        analyze_bag(bag, transmissions=bench / 'bench.yaml', out=whole, plot=plot, jobs=1)
+        for name in DRIVES if plot else ():
+            from matplotlib.image import imread
+            ours, theirs = (imread(str(d / f'analysis_{name}.png')) for d in (split, whole))
+            assert ours.shape == theirs.shape and ours.shape[0] > 400
+            np.testing.assert_allclose(ours, theirs, atol=1e-6)
         ours = json.loads((split / 'summary.json').read_text())
         theirs = json.loads((whole / 'summary.json').read_text())
         assert (ours.pop('workers'), theirs.pop('workers')) == (2, 0)

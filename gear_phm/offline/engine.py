@@ -274,7 +274,7 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     staged = None if target is None else Staged(target, AnalysisError, replace=True)
     try:
         finished, readers, elapsed = stream.execute(
-            bags, None if staged is None else staged.path, progress)
+            bags, None if staged is None else staged.path, progress)     # closed: finally
         analyses = []
         for end in finished:
             if end.analysis is None:
@@ -311,18 +311,14 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
             written = staged.path
             (written / 'summary.json').write_text(
                 json.dumps(analysis.summary, indent=2, default=_json) + '\n')
-            if plot:
-                from gear_phm.offline.plot import plot_analysis
-                if transmissions is None:
-                    plot_analysis(written / 'analysis.png', analysis,
-                                  runs[0].estimator_config.ratio, bags)
-                for run, drive_analysis in zip(runs, analyses) if transmissions else ():
-                    plot_analysis(written / f'analysis_{run.drive}.png', drive_analysis,
-                                  run.estimator_config.ratio, bags, drive=str(run.drive))
+            if plot:                    # each drive's in its worker, if any
+                stream.plot([written / ('analysis.png' if run.drive is None
+                                        else f'analysis_{run.drive}.png') for run in runs], bags)
             staged.commit()
             analysis = replace(analysis, out=target)
         return analysis
     finally:
+        stream.close()
         if staged is not None:
             staged.discard()
 
@@ -477,6 +473,8 @@ class _Run:
         self.truth: dict[str, tuple[Binned, Binned]] = {}    # by topic: history, envelope
         self.true_end_of_life_ns: int | None = None
         self.samples = 0
+        #: the Analysis once the run finished (:meth:`finish`), for its plot
+        self.analysis: Analysis | None = None
 
     def _on_measurement(self, measurement: Measurement, accepted: bool) -> None:
         stamp_ns = self.pipeline.stamp_ns(measurement.t)
@@ -626,9 +624,17 @@ class _Run:
                names: Sequence[tuple[str, ...]] = ()) -> Finished:
         """Return the run's Analysis and why its data contradict its parameters, or its error."""
         try:
-            return Finished(self.result(bags, readers, elapsed, names), '', _refusal(self))
+            self.analysis = self.result(bags, readers, elapsed, names)
         except AnalysisError as exc:
             return Finished(None, str(exc), '')
+        return Finished(self.analysis, '', _refusal(self))
+
+    def plot(self, path: Path, bags: list[Path]) -> None:
+        """Draw the finished run's plot into ``path`` (:func:`.plot.plot_analysis`)."""
+        from gear_phm.offline.plot import plot_analysis
+        assert self.analysis is not None, 'plot after finish'
+        plot_analysis(path, self.analysis, self.estimator_config.ratio, bags,
+                      drive='' if self.drive is None else self.drive)
 
     def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
                   latest: HealthState | None) -> list[StatusOut]:
@@ -719,9 +725,19 @@ class _Stream:
             elapsed = time.perf_counter() - started
             assert self.drives is not None              # made by the first bag's _read
             return self.drives.finish(bags, readers, elapsed, self.names or ()), readers, elapsed
-        finally:
-            if self.drives is not None:
-                self.drives.close()
+        except BaseException:
+            self.close()
+            raise
+
+    def plot(self, paths: list[Path], bags: list[Path]) -> None:
+        """Draw each finished drive's plot into its path (in its worker, if any)."""
+        assert self.drives is not None
+        self.drives.plot(paths, bags)
+
+    def close(self) -> None:
+        """End the drives' worker processes, if any (after :meth:`execute` and plots)."""
+        if self.drives is not None:
+            self.drives.close()
 
     def _truth_topics(self, bag: Any) -> dict[str, tuple[int, str]]:
         """Return {bag topic: (run index, canonical truth topic)} of the truth the bag holds."""

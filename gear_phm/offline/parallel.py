@@ -101,6 +101,8 @@ class DriveRun(Protocol):
     def finish(self, bags: list[Any], readers: list[str], elapsed: float,
                names: Sequence[tuple[str, ...]] = ()) -> Finished: ...
 
+    def plot(self, path: Any, bags: list[Any]) -> None: ...
+
 
 class LocalDrives:
     """The drives in the calling process, in order."""
@@ -140,6 +142,11 @@ class LocalDrives:
                names: Sequence[tuple[str, ...]] = ()) -> list[Finished]:
         """Return each drive's end of run."""
         return [run.finish(bags, readers, elapsed, names) for run in self.runs]
+
+    def plot(self, paths: Sequence[Any], bags: list[Any]) -> None:
+        """Draw each finished drive's plot into its path (``paths`` in drive order)."""
+        for run, path in zip(self.runs, paths):
+            run.plot(path, bags)
 
     def close(self) -> None:
         """Release the drives' processes (none here)."""
@@ -265,6 +272,10 @@ class DrivePool(LocalDrives):
         """Return each drive's end of run, from its worker."""
         return self._ordered(self._ask(
             [('finish', bags, readers, elapsed, names)] * len(self.groups)))
+
+    def plot(self, paths: Sequence[Any], bags: list[Any]) -> None:
+        """Draw each finished drive's plot into its path, in its worker."""
+        self._ask([('plot', [paths[i] for i in group], bags) for group in self.groups])
 
     def close(self) -> None:
         """End the workers: their pipes closed (an idle worker returns), then joined.
