@@ -391,3 +391,40 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
     result = json.loads(scored.read_text())
     assert result['band_coverage']['predictions'] > 500
     assert result['band_coverage']['share'] >= 0.75, result['band_coverage']
+
+
+PLOTTER = """
+import sys
+from pathlib import Path
+from gear_phm.offline import analyze_bag
+from gear_phm.offline.parallel import start_plotter
+from gear_phm.offline.plot import plot_analysis
+bag, out = Path(sys.argv[1]), Path(sys.argv[2])
+plotter = start_plotter()                       # forked first: it imports matplotlib meanwhile
+assert plotter is not None and 'matplotlib' not in sys.modules
+analysis = analyze_bag(bag, ratio=3.0, plot=False)
+plotter.plot([(out / 'plotter.png', analysis, 3.0, [bag], '')])
+try:
+    plotter.plot([(out / 'missing' / 'x.png', analysis, 3.0, [bag], '')])
+except FileNotFoundError as exc:
+    print('error came back:', type(exc).__name__)
+plotter.close()
+assert not plotter.process.is_alive() and 'matplotlib' not in sys.modules
+plot_analysis(out / 'here.png', analysis, 3.0, [bag])
+"""
+
+
+def test_the_plot_process_draws_what_this_process_would(tmp_path: Path) -> None:
+    """``gear-phm analyze`` forks a process that imports matplotlib while it analyses.
+
+    Its plot's pixels equal the plot drawn in the analysing process; its error comes back to
+    the caller; it ends on close; the caller never imports matplotlib for it.
+    """
+    from matplotlib.image import imread
+    result = subprocess.run([sys.executable, '-c', PLOTTER, str(REPO / 'bags' / 'wearing'),
+                             str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ['error came back: FileNotFoundError']
+    ours, theirs = imread(str(tmp_path / 'plotter.png')), imread(str(tmp_path / 'here.png'))
+    assert ours.shape == theirs.shape and ours.shape[0] > 400
+    np.testing.assert_allclose(ours, theirs, atol=1e-6)

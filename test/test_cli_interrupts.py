@@ -84,6 +84,10 @@ def test_a_stopped_run_exits_with_the_signal_and_leaves_nothing(
     assert done.returncode == code, done.stderr
     assert done.stderr.strip().splitlines() == [f'gear-phm {command}: {word}']
     assert list(tmp_path.iterdir()) == []
+    deadline = time.monotonic() + 10.0           # analyze's plot process ended with it
+    while _running_with(str(out)):
+        assert time.monotonic() < deadline, _running_with(str(out))
+        time.sleep(0.05)
 
 
 def test_a_recorded_stop_is_raised_at_the_next_chunk_or_batch(

@@ -39,7 +39,7 @@ from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEst
                                  Measurement, StatusSnapshot)
 from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT, stalled_stamps
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
-from gear_phm.offline.parallel import drives_for, Finished, LocalDrives, Made
+from gear_phm.offline.parallel import drives_for, Finished, LocalDrives, Made, start_plotter
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
@@ -271,6 +271,9 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite, bags)
     stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
+    # the plots' process imports matplotlib meanwhile; not where drive workers may draw them
+    plotter = (start_plotter() if plot and target is not None
+               and (len(runs) == 1 or stream.jobs == 1) else None)
     staged = None if target is None else Staged(target, AnalysisError, replace=True)
     try:
         finished, readers, elapsed = stream.execute(
@@ -311,14 +314,22 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
             written = staged.path
             (written / 'summary.json').write_text(
                 json.dumps(analysis.summary, indent=2, default=_json) + '\n')
-            if plot:                    # each drive's in its worker, if any
-                stream.plot([written / ('analysis.png' if run.drive is None
-                                        else f'analysis_{run.drive}.png') for run in runs], bags)
+            if plot:
+                pngs = [written / ('analysis.png' if run.drive is None
+                                   else f'analysis_{run.drive}.png') for run in runs]
+                if plotter is not None:
+                    plotter.plot([(png, drive, run.estimator_config.ratio, bags,
+                                   run.drive or '')
+                                  for png, run, drive in zip(pngs, runs, analyses)])
+                else:                   # each drive's in its worker, if any
+                    stream.plot(pngs, bags)
             staged.commit()
             analysis = replace(analysis, out=target)
         return analysis
     finally:
         stream.close()
+        if plotter is not None:
+            plotter.close()
         if staged is not None:
             staged.discard()
 
