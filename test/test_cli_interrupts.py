@@ -18,7 +18,7 @@ import pytest
 from gear_phm import stopping
 from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
-from helpers.processes import signalled_when_staged
+from helpers.processes import signalled_when, signalled_when_staged
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 
@@ -162,7 +162,6 @@ def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
     Exit 130 with the one line, no output, and no worker left (a forked worker carries its
     parent's command line, which names the unique output folder).
     """
-    import subprocess
     import yaml
     spec = tmp_path / 'bench.yaml'
     spec.write_text(yaml.safe_dump({'transmissions': {
@@ -174,24 +173,12 @@ def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
     folder = tmp_path / 'outs'
     folder.mkdir()
     out = folder / 'interrupted_many_drives'
-    child = subprocess.Popen([str(GEAR_PHM), 'analyze', str(tmp_path / 'bag'),
-                              '--transmissions', str(spec), '--jobs', '2', '--out', str(out),
-                              '--no-progress', '--no-plot'],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 60.0
-        while len(_children(child.pid)) < 2:    # both workers forked
-            assert child.poll() is None, child.communicate()
-            assert time.monotonic() < deadline, 'no workers within 60 s'
-            time.sleep(0.01)
-        child.send_signal(signal.SIGINT)
-        _, err = child.communicate(timeout=60)
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.communicate()
-    assert child.returncode == 130, err
-    assert err.strip().splitlines() == ['gear-phm analyze: interrupted']
+    done = signalled_when(
+        [str(GEAR_PHM), 'analyze', str(tmp_path / 'bag'), '--transmissions', str(spec),
+         '--jobs', '2', '--out', str(out), '--no-progress', '--no-plot'],
+        lambda child: len(_children(child.pid)) >= 2, 'both workers forked', signal.SIGINT)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip().splitlines() == ['gear-phm analyze: interrupted']
     assert list(folder.iterdir()) == []
     deadline = time.monotonic() + 10.0           # the workers end with their pipes
     while _running_with(str(out)):

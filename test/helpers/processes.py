@@ -1,6 +1,7 @@
 """Start and stop the package's node executables as real subprocesses (integration tests)."""
 from __future__ import annotations
 
+from collections.abc import Callable
 import os
 from pathlib import Path
 import signal
@@ -53,22 +54,21 @@ def stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
     return proc.wait()
 
 
-def signalled_when_staged(args: list[str], folder: Path, signum: int
-                          ) -> subprocess.CompletedProcess:
-    """Run ``args``; send ``signum`` once its hidden staging folder is in ``folder``.
+def signalled_when(args: list[str], ready: Callable[[subprocess.Popen], bool], what: str,
+                   signum: int) -> subprocess.CompletedProcess:
+    """Run ``args``; send ``signum`` once ``ready(child)`` (``what``: for the error).
 
-    ``folder`` must hold nothing else then (the output is staged beside ``--out``, which is
-    in ``folder``). The process is killed if it has not exited 60 s after the signal.
+    AssertionError if the child exits first or is not ready within 60 s; it is killed if it
+    has not exited 60 s after the signal.
     """
     child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env=os.environ.copy())
     try:
         deadline = time.monotonic() + 60.0
-        while not any(folder.iterdir()):      # the staging folder, once the options are checked
+        while not ready(child):
             assert child.poll() is None, child.communicate()
-            assert time.monotonic() < deadline, 'nothing written within 60 s'
+            assert time.monotonic() < deadline, f'not {what} within 60 s'
             time.sleep(0.01)
-        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
         child.send_signal(signum)
         out, err = child.communicate(timeout=60)
     finally:
@@ -76,3 +76,18 @@ def signalled_when_staged(args: list[str], folder: Path, signum: int
             child.kill()
             child.communicate()
     return subprocess.CompletedProcess(child.args, child.returncode, out, err)
+
+
+def signalled_when_staged(args: list[str], folder: Path, signum: int
+                          ) -> subprocess.CompletedProcess:
+    """Run ``args``; send ``signum`` once its hidden staging folder is in ``folder``.
+
+    ``folder`` must hold nothing else then (the output is staged beside ``--out``, which is
+    in ``folder``).
+    """
+    def staged(child: subprocess.Popen) -> bool:
+        if not any(folder.iterdir()):         # the staging folder, once the options are checked
+            return False
+        assert [p.name.startswith('.') for p in folder.iterdir()] == [True]
+        return True
+    return signalled_when(args, staged, 'staged', signum)
