@@ -545,30 +545,44 @@ def test_jobs_split_the_drives_over_processes_with_the_same_results(
 
 
 FAILING = """
-import multiprocessing, os, sys
+import contextlib, io, multiprocessing, os, sys
 from pathlib import Path
-from gear_phm.offline import AnalysisError, engine
-from gear_phm.offline.parallel import ParallelError
+from gear_phm.cli.main import main
+from gear_phm.offline import AnalysisError, ParallelError, engine
 bag, spec, out = sys.argv[1:4]
-real = engine._Run.advance
+real_advance, real_write = engine._Run.advance, engine._Stream._write
 MODE = ''
 def advance(self, *args):
-    if self.drive == 'rudder':
-        if MODE == 'raise':
-            raise AnalysisError('drive rudder: made to fail')
+    if self.drive == 'rudder' and MODE == 'raise':
+        raise AnalysisError('drive rudder: made to fail')
+    if self.drive == 'rudder' and MODE == 'die':
         os._exit(3)
-    return real(self, *args)
-engine._Run.advance = advance
-for MODE, error in (('raise', AnalysisError), ('die', ParallelError)):
+    return real_advance(self, *args)
+def write(self, *args):                 # killed between two requests: the next send fails
+    for process in getattr(self.drives, 'processes', []) if MODE == 'killed' else ():
+        process.kill()
+        process.join()
+    return real_write(self, *args)
+engine._Run.advance, engine._Stream._write = advance, write
+def gone():
+    left = os.listdir(Path(out).parent)
+    assert not Path(out).exists() and not left, left
+    assert not multiprocessing.active_children(), multiprocessing.active_children()
+for MODE, error in (('raise', AnalysisError), ('die', ParallelError), ('killed', ParallelError)):
     try:
         engine.analyze_bag(bag, transmissions=spec, out=out, jobs=2, plot=False)
     except error as exc:
         print(MODE, type(exc).__name__, exc, flush=True)
     else:
         raise SystemExit(f'{MODE}: no error')
-    left = os.listdir(Path(out).parent)
-    assert not Path(out).exists() and not left, left
-    assert not multiprocessing.active_children(), multiprocessing.active_children()
+    gone()
+MODE = 'die'
+err = io.StringIO()
+with contextlib.redirect_stderr(err):
+    code = main(['analyze', bag, '--transmissions', spec, '--jobs', '2', '--out', out,
+                 '--no-progress', '--no-plot'])
+print(code, err.getvalue().strip(), flush=True)
+gone()
 """
 
 
@@ -576,7 +590,8 @@ def test_a_failing_drive_worker_fails_the_analysis_and_leaves_nothing(
         bench: Path, tmp_path: Path) -> None:
     """A drive's error in its worker is the analysis's error; a dead worker, ParallelError.
 
-    Either way no output is left and no worker process stays.
+    A worker that dies on a request, or was killed between two: ParallelError, and through
+    ``gear-phm analyze`` a one-line error (exit 2). No output is left, no worker stays.
     """
     folder = tmp_path / 'outs'
     folder.mkdir()
@@ -584,10 +599,10 @@ def test_a_failing_drive_worker_fails_the_analysis_and_leaves_nothing(
         [sys.executable, '-c', FAILING, str(bench / 'bag'), str(bench / 'bench.yaml'),
          str(folder / 'out')], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
+    gone = 'a drive worker process ended without answering (killed, or out of memory?)'
     assert result.stdout.splitlines() == [
-        'raise AnalysisError drive rudder: made to fail',
-        'die ParallelError a drive worker process ended without answering (killed, or out of '
-        'memory?)']
+        'raise AnalysisError drive rudder: made to fail', f'die ParallelError {gone}',
+        f'killed ParallelError {gone}', f'2 gear-phm analyze: error: {gone}']
 
 
 def test_jobs_must_be_zero_or_more(bench: Path, tmp_path: Path,

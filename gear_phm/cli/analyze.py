@@ -70,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gear_phm.offline import AnalysisError, analyze_bag
+    from gear_phm.offline.parallel import ParallelError
 
     if (args.ratio is None) == (args.transmissions is None):
         raise CliError('give --ratio (one transmission) or --transmissions FILE (many drives)')
@@ -95,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
             plot=not args.no_plot, progress=not args.no_progress and sys.stderr.isatty(),
             diagnostics_rate=args.diagnostics_rate, stamp_source=args.stamp_source,
             jobs=args.jobs, **options)
-    except AnalysisError as exc:
+    except (AnalysisError, ParallelError) as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary
     rate = (f'{summary["messages"]} messages in {summary["seconds"]:.2f} s '

@@ -10,7 +10,8 @@ In a notebook::
 ``gear-phm analyze`` is a thin command-line wrapper around :func:`analyze_bag`.
 """
 from gear_phm.offline.engine import AnalysisError, analyze_bag, split_options
+from gear_phm.offline.parallel import ParallelError
 from gear_phm.offline.records import Analysis, EstimateHistory, HealthHistory
 
-__all__ = ['Analysis', 'AnalysisError', 'EstimateHistory', 'HealthHistory', 'analyze_bag',
-           'split_options']
+__all__ = ['Analysis', 'AnalysisError', 'EstimateHistory', 'HealthHistory', 'ParallelError',
+           'analyze_bag', 'split_options']

@@ -21,6 +21,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import sys
 import threading
 import traceback
 from typing import Any, Protocol, Sequence, TYPE_CHECKING
@@ -42,6 +43,9 @@ Column = tuple[str, np.ndarray, np.ndarray]
 
 class ParallelError(GearPhmError, RuntimeError):
     """A drive worker process failed or ended without answering."""
+
+
+_GONE = 'a drive worker process ended without answering (killed, or out of memory?)'
 
 
 @dataclass(frozen=True)
@@ -183,13 +187,25 @@ def drives_for(runs: Sequence[DriveRun], jobs: int, messages: int = 0) -> LocalD
 
 
 def can_fork() -> bool:
-    """Whether workers may be forked here: POSIX ``fork``, and no other thread running.
+    """Whether workers may be forked here: POSIX ``fork``, no other thread, no ROS running.
 
     A thread holding a lock (of a stream, of logging) at the fork would leave it locked in
-    the child for good; Python 3.12 warns of the same. In a process with threads (a test
-    runner, a notebook's kernel, a Dask worker) the drives stay in the calling process.
+    the child for good; Python 3.12 warns of the same. In a process with threads (a notebook's
+    kernel, a Dask worker) the drives stay in the calling process. A process with an rclpy
+    context up (a DDS participant: native threads and shared memory that ``threading`` does
+    not see) does not fork either.
     """
-    return 'fork' in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    return ('fork' in multiprocessing.get_all_start_methods()
+            and threading.active_count() == 1 and not _ros_running())
+
+
+def _ros_running() -> bool:
+    """Whether rclpy is imported and its default context is initialised."""
+    rclpy = sys.modules.get('rclpy')
+    try:
+        return rclpy is not None and bool(rclpy.ok())
+    except Exception:                   # noqa: B902 - an rclpy in any state: assume it runs
+        return True
 
 
 class DrivePool(LocalDrives):
@@ -221,12 +237,18 @@ class DrivePool(LocalDrives):
             raise
 
     def _send(self, requests: Sequence[tuple[Any, ...]]) -> None:
-        """Send each worker its queued requests, then ``requests[w]``."""
+        """Send each worker its queued requests, then ``requests[w]``.
+
+        ParallelError if a worker is gone (its pipe closed: killed between two batches).
+        """
         for pipe, queued, request in zip(self.pipes, self.queued, requests):
-            for earlier in queued:
-                pipe.send(earlier)
+            try:
+                for earlier in queued:
+                    pipe.send(earlier)
+                pipe.send(request)
+            except OSError:
+                raise ParallelError(_GONE) from None
             queued.clear()
-            pipe.send(request)
 
     def _ask(self, requests: Sequence[tuple[Any, ...]]) -> list[Any]:
         """Send each worker its request; return their answers, in worker order."""
@@ -298,8 +320,7 @@ def _answer(pipe: Connection) -> Any:
     try:
         kind, value = pipe.recv()
     except (EOFError, OSError):
-        msg = 'a drive worker process ended without answering (killed, or out of memory?)'
-        raise ParallelError(msg) from None
+        raise ParallelError(_GONE) from None
     if kind == 'error':
         raise value
     return value
