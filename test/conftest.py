@@ -101,3 +101,41 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         ordered += [item for _, item in zip(range(share - len(head)), rest)]
     ordered += rest
     items[:] = ordered
+
+
+#: Where each pytest-xdist worker of a run writes faulthandler's report of a fatal error (a
+#: worker crashed twice in test_diagnostics_node.py with only "node down: Not properly
+#: terminated"); the controller prints any at the end of the run.
+CRASH_LOG = 'GEAR_PHM_TEST_CRASH_LOG'
+
+
+@pytest.hookimpl(trylast=True)             # after pytest's own faulthandler set-up
+def pytest_configure(config: pytest.Config) -> None:
+    """On a worker: faulthandler writes to its crash log (a fatal signal's Python stacks)."""
+    import faulthandler
+    import tempfile
+    worker = os.environ.get('PYTEST_XDIST_WORKER')
+    if worker is None:
+        os.environ.setdefault(CRASH_LOG, tempfile.mkdtemp(prefix='gear-phm-crashes-'))
+        return
+    folder = os.environ.get(CRASH_LOG)
+    if folder and os.path.isdir(folder):
+        config._gear_phm_crash_log = open(os.path.join(folder, f'{worker}.log'), 'a')
+        faulthandler.enable(file=config._gear_phm_crash_log, all_threads=True)
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """On the controller: print the workers' crash reports, if any, and remove them."""
+    import shutil
+    if os.environ.get('PYTEST_XDIST_WORKER') is not None:
+        return
+    folder = os.environ.get(CRASH_LOG)
+    if not folder or not os.path.isdir(folder):
+        return
+    for name in sorted(os.listdir(folder)):
+        with open(os.path.join(folder, name)) as handle:
+            report = handle.read().strip()
+        if report:
+            sys.stderr.write(f'\n--- faulthandler report of worker {name[:-4]} ---\n'
+                             f'{report}\n')
+    shutil.rmtree(folder, ignore_errors=True)
