@@ -720,25 +720,22 @@ class _Stream:
                 ) -> tuple[list[Finished], list[str], float]:
         """Read the bags into the runs; return each run's end, the readers, seconds.
 
-        A run's end is its :class:`~gear_phm.offline.parallel.Finished` record.
+        A run's end is its :class:`~gear_phm.offline.parallel.Finished` record. The drives'
+        workers, if any, stay for the plots: :meth:`close` ends them (analyze_bag's finally).
         """
         from gear_phm.bagio import BagError, Rosbag2McapWriter
         started = time.perf_counter()
         readers = []
         try:
-            try:
-                with (nullcontext(None) if directory is None
-                      else Rosbag2McapWriter(directory, batch=True)) as writer:
-                    for path in bags:
-                        readers.append(self._read(path, writer, progress))
-            except BagError as exc:
-                raise AnalysisError(str(exc)) from None
-            elapsed = time.perf_counter() - started
-            assert self.drives is not None              # made by the first bag's _read
-            return self.drives.finish(bags, readers, elapsed, self.names or ()), readers, elapsed
-        except BaseException:
-            self.close()
-            raise
+            with (nullcontext(None) if directory is None
+                  else Rosbag2McapWriter(directory, batch=True)) as writer:
+                for path in bags:
+                    readers.append(self._read(path, writer, progress))
+        except BagError as exc:
+            raise AnalysisError(str(exc)) from None
+        elapsed = time.perf_counter() - started
+        assert self.drives is not None              # made by the first bag's _read
+        return self.drives.finish(bags, readers, elapsed, self.names or ()), readers, elapsed
 
     def plot(self, paths: list[Path], bags: list[Path]) -> None:
         """Draw each finished drive's plot into its path (in its worker, if any)."""
@@ -932,22 +929,12 @@ class _Step:
         end = self.ends[i]
         return int(self.stamps[end - 1]) if end else -1
 
-    def columns(self, part: int | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
-        """Return the outputs (:func:`output_columns`) of all estimates or of one part.
+    def columns(self) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """Return the outputs (:func:`output_columns`) of all the batch's estimates.
 
-        Part ``i`` holds the estimates between tick ``i - 1`` and tick ``i`` (``i`` = the
-        number of ticks: those after the last).
+        The part between two ticks is a slice of them (:meth:`.parallel.Made.part`).
         """
-        if part is None:
-            estimates, states, history = self.estimates, self.states, self.history
-        else:
-            done = self.ends[part - 1] if part else 0
-            end = self.ends[part] if part < len(self.ends) else len(self.estimates)
-            estimates = self.estimates[done:end]
-            states = self.states[self.first_state[done]:self.first_state[end]]
-            history = EstimateHistory(**{f.name: getattr(self.history, f.name)[done:end]
-                                         for f in fields(EstimateHistory)})
-        columns = output_columns(estimates, states, history)
+        columns = output_columns(self.estimates, self.states, self.history)
         if self.drive is None:
             return columns
         return [(interfaces.drive_topic(self.drive, topic), stamps, values)

@@ -213,7 +213,6 @@ class DrivePool(LocalDrives):
 
     def __init__(self, runs: Sequence[DriveRun], workers: int) -> None:
         super().__init__(runs)
-        context = multiprocessing.get_context('fork')
         self.workers = workers
         self.groups = [list(range(w, len(self.runs), workers)) for w in range(workers)]
         self.pipes: list[Connection] = []
@@ -223,14 +222,9 @@ class DrivePool(LocalDrives):
         self.processes: list[multiprocessing.process.BaseProcess] = []
         try:
             for w, group in enumerate(self.groups):
-                mine, theirs = context.Pipe()
-                process = context.Process(    # it closes its copies of the callers' ends
-                    target=_serve, args=(theirs, LocalDrives([self.runs[i] for i in group]),
-                                         [*self.pipes, mine]),
-                    name=f'gear-phm drives {w}', daemon=True)
-                process.start()
-                theirs.close()
-                self.pipes.append(mine)
+                pipe, process = _fork(LocalDrives([self.runs[i] for i in group]),
+                                      f'gear-phm drives {w}', self.pipes)
+                self.pipes.append(pipe)
                 self.processes.append(process)
         except BaseException:
             self.close()
@@ -242,12 +236,9 @@ class DrivePool(LocalDrives):
         ParallelError if a worker is gone (its pipe closed: killed between two batches).
         """
         for pipe, queued, request in zip(self.pipes, self.queued, requests):
-            try:
-                for earlier in queued:
-                    pipe.send(earlier)
-                pipe.send(request)
-            except OSError:
-                raise ParallelError(_GONE) from None
+            for earlier in queued:
+                _request(pipe, earlier)
+            _request(pipe, request)
             queued.clear()
 
     def _ask(self, requests: Sequence[tuple[Any, ...]]) -> list[Any]:
@@ -276,9 +267,8 @@ class DrivePool(LocalDrives):
     def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
                 ticks: list[int], write: bool) -> list[Made]:
         """Run each drive over its columns of one batch, in its worker."""
-        return self._ordered(self._ask([
-            ('advance', [decoded[i] for i in group], messages, cuts, ticks, write)
-            for group in self.groups]))
+        self.submit(decoded, messages, cuts, ticks, write)
+        return self.collect()
 
     def keep_truth(self, index: int, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
         """Give drive ``index`` ground-truth rows, in its worker (no answer)."""
@@ -305,14 +295,48 @@ class DrivePool(LocalDrives):
         A worker still busy with a batch (the caller stopped on an error or a signal) is
         terminated after a second.
         """
-        for pipe in self.pipes:
-            pipe.close()
-        for process in self.processes:
-            process.join(timeout=1.0)
-            if process.is_alive():
-                process.terminate()
-                process.join()
+        _end(self.pipes, self.processes)
         self.pipes, self.processes = [], []
+
+
+def _fork(target: Any, name: str, callers: list[Connection]
+          ) -> tuple[Connection, multiprocessing.process.BaseProcess]:
+    """Fork a worker serving ``target`` (:func:`_serve`); return the caller's pipe end, it.
+
+    ``callers``: the caller's ends of the workers forked before, which the new one closes
+    with its own copy of this one's (an end left open in a worker would hide its EOF).
+    """
+    context = multiprocessing.get_context('fork')
+    mine, theirs = context.Pipe()
+    process = context.Process(target=_serve, args=(theirs, target, [*callers, mine]),
+                              name=name, daemon=True)
+    process.start()
+    theirs.close()
+    return mine, process
+
+
+def _end(pipes: Sequence[Connection], processes: Sequence[multiprocessing.process.BaseProcess]
+         ) -> None:
+    """Close the pipes (an idle worker returns), then join the workers.
+
+    A worker still busy (the caller stopped on an error or a signal) is terminated after a
+    second.
+    """
+    for pipe in pipes:
+        pipe.close()
+    for process in processes:
+        process.join(timeout=1.0)
+        if process.is_alive():
+            process.terminate()
+            process.join()
+
+
+def _request(pipe: Connection, request: tuple[Any, ...]) -> None:
+    """Send a worker a request; ParallelError if it is gone (its pipe closed)."""
+    try:
+        pipe.send(request)
+    except OSError:
+        raise ParallelError(_GONE) from None
 
 
 def _answer(pipe: Connection) -> Any:
@@ -340,8 +364,6 @@ def _serve(pipe: Connection, target: Any, others: list[Connection]) -> None:
         try:
             request = pipe.recv()
         except (EOFError, OSError):
-            return
-        if request is None:
             return
         kind, *args = request
         try:
@@ -394,25 +416,16 @@ class Plotter:
     """
 
     def __init__(self) -> None:
-        context = multiprocessing.get_context('fork')
-        self.pipe, theirs = context.Pipe()
-        self.process = context.Process(target=_serve, args=(theirs, _Drawing(), [self.pipe]),
-                                       name='gear-phm plotter', daemon=True)
-        self.process.start()
-        theirs.close()
+        self.pipe, self.process = _fork(_Drawing(), 'gear-phm plotter', [])
 
     def plot(self, jobs: Sequence[PlotJob]) -> None:
         """Draw the plots and return once they are written (the plotter's error if any)."""
-        self.pipe.send(('plot', list(jobs)))
+        _request(self.pipe, ('plot', list(jobs)))
         _answer(self.pipe)
 
     def close(self) -> None:
         """End the plotter (terminated after a second if it is still drawing)."""
-        self.pipe.close()
-        self.process.join(timeout=1.0)
-        if self.process.is_alive():
-            self.process.terminate()
-            self.process.join()
+        _end([self.pipe], [self.process])
 
 
 def start_plotter() -> Plotter | None:
