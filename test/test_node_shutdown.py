@@ -4,12 +4,13 @@ from __future__ import annotations
 import os
 from pathlib import Path
 import signal
-import subprocess
 import sys
 import threading
 import time
 
 import pytest
+
+from helpers.processes import signalled_when
 
 PUBLISHER = Path(sys.executable).parent / 'publisher'
 
@@ -60,26 +61,19 @@ def test_running_publisher_stopped_by_signal_exits_0(sig: signal.Signals) -> Non
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    process = subprocess.Popen(
-        [str(PUBLISHER), '--ros-args', '-p', f'remap:={topic}', '-p', 'rate:=200.0'],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=os.environ.copy())
     try:
-        deadline = time.monotonic() + 30.0
-        while len(received) < 50 and time.monotonic() < deadline and process.poll() is None:
-            time.sleep(0.02)
-        assert len(received) >= 50, 'the publisher never published'
-        process.send_signal(sig)
-        _, stderr = process.communicate(timeout=20)
+        process = signalled_when(
+            [str(PUBLISHER), '--ros-args', '-p', f'remap:={topic}', '-p', 'rate:=200.0'],
+            lambda _child: len(received) >= 50, 'published 50 messages', sig,
+            ready_within=30.0, exit_within=20.0)
     finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
         spinner.join(timeout=5.0)
-    assert process.returncode == 0, stderr
-    assert 'Traceback' not in stderr and 'error' not in stderr.lower(), stderr
+    assert process.returncode == 0, process.stderr
+    assert 'Traceback' not in process.stderr and 'error' not in process.stderr.lower(), \
+        process.stderr
 
 
 def test_stop_signals_request_a_stop_then_a_second_signal_stops_now() -> None:

@@ -55,22 +55,24 @@ def stop(proc: subprocess.Popen, sig: int = signal.SIGINT) -> int:
 
 
 def signalled_when(args: list[str], ready: Callable[[subprocess.Popen], bool], what: str,
-                   signum: int) -> subprocess.CompletedProcess:
+                   signum: int, ready_within: float = 60.0, exit_within: float = 60.0
+                   ) -> subprocess.CompletedProcess:
     """Run ``args``; send ``signum`` once ``ready(child)`` (``what``: for the error).
 
-    AssertionError if the child exits first or is not ready within 60 s; it is killed if it
-    has not exited 60 s after the signal.
+    AssertionError if the child exits first or is not ready within ``ready_within`` [s]; it
+    is killed (and subprocess.TimeoutExpired raised) if it has not exited ``exit_within`` [s]
+    after the signal.
     """
     child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env=os.environ.copy())
     try:
-        deadline = time.monotonic() + 60.0
+        deadline = time.monotonic() + ready_within
         while not ready(child):
             assert child.poll() is None, child.communicate()
-            assert time.monotonic() < deadline, f'not {what} within 60 s'
+            assert time.monotonic() < deadline, f'not {what} within {ready_within:g} s'
             time.sleep(0.01)
         child.send_signal(signum)
-        out, err = child.communicate(timeout=60)
+        out, err = child.communicate(timeout=exit_within)
     finally:
         if child.poll() is None:
             child.kill()
