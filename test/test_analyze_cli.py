@@ -438,6 +438,7 @@ assert can_fork()
 rclpy.init()                        # a DDS participant's native threads: no fork
 assert not can_fork() and start_plotter() is None
 assert drives_for([object(), object()], 2).workers == 0
+assert drives_for([object()], 2).workers == 0    # one drive: its assessor stays here too
 rclpy.shutdown()
 stop = threading.Event()
 thread = threading.Thread(target=stop.wait)

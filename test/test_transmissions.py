@@ -614,3 +614,78 @@ def test_jobs_must_be_zero_or_more(bench: Path, tmp_path: Path,
     assert not out.exists()
     with pytest.raises(ValueError, match='jobs must be an integer >= 0'):
         analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', jobs=1.5, plot=False)
+
+
+SPLIT_FAILING = """
+import os, sys
+from pathlib import Path
+from gear_phm.offline import AnalysisError, ParallelError, engine
+bag, out = sys.argv[1:3]
+real_assess = engine._Run.assess
+MODE = ''
+def assess(self, *args):
+    if MODE == 'raise':
+        raise AnalysisError('the assessor was made to fail')
+    if MODE == 'die':
+        os._exit(3)
+    return real_assess(self, *args)
+engine._Run.assess = assess
+for MODE, error in (('raise', AnalysisError), ('die', ParallelError)):
+    try:
+        engine.analyze_bag(bag, 3.0, motor_joint='pdu_l', load_joint='flap_l_out', out=out,
+                           jobs=2, plot=False)
+    except error as exc:
+        print(MODE, type(exc).__name__, exc, flush=True)
+    else:
+        raise SystemExit(f'{MODE}: no error')
+    assert not Path(out).exists()
+"""
+
+
+def test_one_drive_assesses_in_a_worker_with_the_same_results(
+        bench: Path, tmp_path: Path) -> None:
+    """One drive with ``--jobs 2``: its assessor in a worker process, the same outputs.
+
+    On a bag whose stamps restart mid-batch (the assessor's restart) and on the bench bag (two
+    bags read as one run, with the plot): message for message, the output bag, the summary and
+    the plot's pixels equal an analysis in one process (``analyze_bag(..., jobs=1)``). The
+    worker's error is the analysis's; a worker that dies is a ParallelError; nothing is left.
+    """
+    restarted = tmp_path / 'restarted'
+    _restarted(bench, restarted)
+    drive = ['--ratio', '3.0', '--motor-joint', 'pdu_l', '--load-joint', 'flap_l_out']
+    for bags, plot in (([restarted], False), ([bench / 'bag', restarted], True)):
+        split, whole = tmp_path / f'{bags[0].name}_jobs2', tmp_path / f'{bags[0].name}_jobs1'
+        result = subprocess.run(
+            [str(GEAR_PHM), 'analyze', *map(str, bags), *drive, '--jobs', '2', '--out',
+             str(split), '--no-progress', *([] if plot else ['--no-plot'])],
+            capture_output=True, text=True, timeout=300)
+        assert result.returncode == 0, result.stderr
+        analyze_bag(bags, 3.0, motor_joint='pdu_l', load_joint='flap_l_out', out=whole,
+                    plot=plot, jobs=1)
+        if plot:
+            from matplotlib.image import imread
+            ours, theirs = (imread(str(d / 'analysis.png')) for d in (split, whole))
+            assert ours.shape == theirs.shape and ours.shape[0] > 400
+            np.testing.assert_allclose(ours, theirs, atol=1e-6)
+        ours = json.loads((split / 'summary.json').read_text())
+        theirs = json.loads((whole / 'summary.json').read_text())
+        for summary in (ours, theirs):
+            for key in ('seconds', 'samples_per_second', 'bag'):
+                summary.pop(key)
+        assert ours['health']['level'] in ('OK', 'WARN', 'ERROR')
+        _same_summary(ours, theirs)
+        outputs = _outputs(split)
+        _same_outputs(outputs, _outputs(whole))
+        assert len(outputs) > 3000
+        health = [content for topic, _, content in outputs if topic == '/gear_phm/health/rul']
+        assert len(health) > 500
+    folder = tmp_path / 'outs'
+    folder.mkdir()
+    result = subprocess.run([sys.executable, '-c', SPLIT_FAILING, str(bench / 'bag'),
+                             str(folder / 'out')], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    gone = 'a drive worker process ended without answering (killed, or out of memory?)'
+    assert result.stdout.splitlines() == [
+        'raise AnalysisError the assessor was made to fail', f'die ParallelError {gone}']
+    assert not list(folder.iterdir())

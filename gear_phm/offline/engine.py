@@ -36,10 +36,11 @@ import numpy as np
 from gear_phm import codec, interfaces, stopping
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
-                                 Measurement, StatusSnapshot)
+                                 Measurement)
 from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT, stalled_stamps
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
-from gear_phm.offline.parallel import drives_for, Finished, LocalDrives, Made, start_plotter
+from gear_phm.offline.parallel import (Assessed, Column, drives_for, Estimated, Finished,
+                                       HealthHalf, LocalDrives, Made, start_plotter)
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
@@ -533,21 +534,24 @@ class _Run:
             return MeasuredWindows({})
         return MeasuredWindows(self.measurements.first())
 
-    def _keep(self, history: EstimateHistory, states: Sequence[HealthState]) -> None:
-        """Add a batch's estimates, health states and measured windows to the histories."""
+    def _keep_estimates(self, history: EstimateHistory) -> None:
+        """Add a batch's estimates and measured windows to the histories."""
         if history.stamp_ns.size:
             columns = {f.name: getattr(history, f.name) for f in fields(history)}
             self.estimates.extend(columns)
             sigma = history.u_sigma
             self.envelopes[ESTIMATES].extend(
                 {**columns, 'u_low': history.u - 2 * sigma, 'u_high': history.u + 2 * sigma})
+        self._keep_measurements()
+
+    def _keep_states(self, states: Sequence[HealthState]) -> None:
+        """Add a batch's health states to the histories."""
         if states:
             health = HealthHistory.of(states)
             columns = {name: getattr(health, name) for name in _HEALTH_COLUMNS}
             self.states.extend(columns, health.messages)
             self.envelopes[HEALTH].extend(
                 {**columns, 'rul_unknown': (~np.isfinite(health.rul_median)).astype(float)})
-        self._keep_measurements()
 
     def _keep_measurements(self) -> None:
         """Add the measured windows of the batch to their history and envelopes."""
@@ -587,8 +591,13 @@ class _Run:
             if index is not None:
                 self.true_end_of_life_ns = int(stamps[index])
 
-    def _step(self, decoded: codec.JointBatch, messages: int, cuts: list[int]) -> _Step:
-        """Run the estimator and the assessor over one decoded batch (see :meth:`_process`)."""
+    def estimate(self, decoded: codec.JointBatch, messages: int, cuts: list[int],
+                 write: bool) -> Estimated:
+        """Run the estimator over one decoded batch; return its half of :meth:`advance`.
+
+        ``cuts``: the batch's message index of each /diagnostics tick; ``write``: the
+        outputs' columns are wanted (an output bag is written).
+        """
         index = decoded.message_index
         marks = np.searchsorted(index, cuts, side='left').tolist()
         rejected_at = [(int(np.searchsorted(index, position)), reason)
@@ -596,6 +605,26 @@ class _Run:
         estimates, snapshots = self.pipeline.on_batch_marked(
             decoded.stamp_ns, decoded.motor_velocity, decoded.motor_effort,
             decoded.load_velocity, decoded.load_effort, marks, rejected_at)
+        history = EstimateHistory.of(estimates)     # the columns kept and written
+        self._keep_estimates(history)
+        statuses = tuple(self.pipeline.status(self.estimator_status_name, self.samples + cut,
+                                              snapshot)
+                         for cut, snapshot in zip(cuts, snapshots))
+        self.samples += messages
+        ends = tuple(snapshot.estimates for snapshot in snapshots)
+        stamps = history.stamp_ns
+        return Estimated(
+            estimates, ends, statuses,
+            tuple(int(stamps[end - 1]) if end else -1 for end in ends),
+            bool(np.all(np.diff(stamps) > 0)),
+            tuple(self._topics(_estimate_columns(estimates, history))) if write else ())
+
+    def assess(self, estimates: Sequence[FrictionEstimate], ends: Sequence[int],
+               ticks: Sequence[int], write: bool) -> Assessed:
+        """Run the assessor over a batch's estimates; return its half of :meth:`advance`.
+
+        ``ends[i]``: the estimates before /diagnostics tick ``ticks[i]`` [ns].
+        """
         latest = [self.assessor.latest]         # the newest health state after i estimates
         states: list[HealthState] = []
         first_state = [0]                       # states[first_state[i]:] came after i
@@ -604,32 +633,53 @@ class _Run:
                 states.append(state)
             latest.append(state if state is not None else latest[-1])
             first_state.append(len(states))
-        history = EstimateHistory.of(estimates)     # the columns kept and written
-        self._keep(history, states)
-        received = [self.samples + cut for cut in cuts]
-        self.samples += messages
-        return _Step(self.drive, estimates, history, states, latest, first_state, snapshots,
-                     received)
+        self._keep_states(states)
+        statuses = tuple(self._health_statuses(tick, latest[end])
+                         for tick, end in zip(ticks, ends))
+        columns = (tuple(self._topics(interfaces.vector3_columns(
+            states, interfaces.HEALTH_LAYOUT))) if write and states else ())
+        return Assessed(statuses, columns,
+                        tuple(first_state[end] for end in ends) + (first_state[-1],))
 
     def advance(self, decoded: codec.JointBatch, messages: int, cuts: list[int],
                 ticks: list[int], write: bool) -> Made:
         """Run one decoded batch; return what the stream writes of it (:class:`Made`).
 
+        :meth:`estimate`, then :meth:`assess` of its estimates (which
+        :class:`~gear_phm.offline.parallel.SplitDrive` runs in two processes).
         ``cuts``: the batch's message index of each /diagnostics tick ``ticks`` [ns];
         ``write``: the outputs' columns are wanted (an output bag is written).
         """
-        step = self._step(decoded, messages, cuts)
-        statuses = tuple(tuple(self._statuses(tick, *step.at(i)))
-                         for i, tick in enumerate(ticks))
-        return Made(statuses, tuple(step.limit(i) for i in range(len(ticks))),
-                    step.increasing, tuple(step.columns()) if write else (),
-                    len(interfaces.ESTIMATE_LAYOUT), tuple(step.ends),
-                    tuple(step.first_state[end] for end in step.ends)
-                    + (step.first_state[-1],), len(step.estimates))
+        estimated = self.estimate(decoded, messages, cuts, write)
+        return estimated.made(self.assess(estimated.estimates, estimated.ends, ticks, write))
 
     def final_statuses(self, stamp_ns: int) -> tuple[StatusOut, ...]:
         """Return the statuses of the final /diagnostics array, at ``stamp_ns`` [ns]."""
-        return tuple(self._statuses(stamp_ns, self.samples, None, self.assessor.latest))
+        return (self.final_estimator(), *self.final_health(stamp_ns))
+
+    def final_estimator(self) -> StatusOut:
+        """Return the estimator's status of the final /diagnostics array."""
+        return self.pipeline.status(self.estimator_status_name, self.samples, None)
+
+    def final_health(self, stamp_ns: int) -> tuple[StatusOut, ...]:
+        """Return the health status of the final /diagnostics array (none before a state)."""
+        return self._health_statuses(stamp_ns, self.assessor.latest)
+
+    def health_half(self) -> HealthHalf:
+        """Return what :meth:`assess` made of the run, for :meth:`take_health`."""
+        return HealthHalf(self.assessor, self.states, self.envelopes[HEALTH], self.first_seen)
+
+    def take_health(self, half: HealthHalf) -> None:
+        """Take the assessor and what it made from another process's copy of this run."""
+        self.assessor, self.states, self.first_seen = half.assessor, half.states, half.first_seen
+        self.envelopes[HEALTH] = half.envelope
+
+    def _topics(self, columns: list[Column]) -> Iterator[Column]:
+        """Return output columns under this drive's topics (today's names for one drive)."""
+        if self.drive is None:
+            return iter(columns)
+        return ((interfaces.drive_topic(self.drive, topic), stamps, values)
+                for topic, stamps, values in columns)
 
     def finish(self, bags: list[Path], readers: list[str], elapsed: float,
                names: Sequence[tuple[str, ...]] = ()) -> Finished:
@@ -647,15 +697,13 @@ class _Run:
         plot_analysis(path, self.analysis, self.estimator_config.ratio, bags,
                       drive='' if self.drive is None else self.drive)
 
-    def _statuses(self, stamp_ns: int, received: int, snapshot: StatusSnapshot | None,
-                  latest: HealthState | None) -> list[StatusOut]:
-        """Return the estimator's and the diagnostics node's statuses at ``stamp_ns`` [ns]."""
-        statuses = [self.pipeline.status(self.estimator_status_name, received, snapshot)]
-        if latest is not None:
-            statuses.append(interfaces.health_status(latest, self.transmission_name,
-                                                     self.hardware_id))
-            self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
-        return statuses
+    def _health_statuses(self, stamp_ns: int, latest: HealthState | None
+                         ) -> tuple[StatusOut, ...]:
+        """Return the diagnostics node's status at ``stamp_ns`` [ns] (none before a state)."""
+        if latest is None:
+            return ()
+        self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
+        return (interfaces.health_status(latest, self.transmission_name, self.hardware_id),)
 
     def _summary(self, bags: list[Path], readers: list[str], elapsed: float
                  ) -> dict[str, Any]:
@@ -778,16 +826,20 @@ class _Stream:
             # decoded; then it is written, in order
             batches = (self._prepared(raw)
                        for raw in self._joint_batches(bag, topic, truth_topics))
+            # (``drives.ahead``: the next batch is submitted before this one is collected)
             current = next(batches, None)
             if current is not None:
                 drives.submit(current.decoded, current.messages, current.cuts,
                               current.ticks, write)
             while current is not None:
                 upcoming = next(batches, None)
+                if upcoming is not None and drives.ahead:
+                    drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
+                                  upcoming.ticks, write)
                 self._write(drives.collect(), current.ticks, writer)
                 bar.update(current.messages)
                 last_log_ns = current.last_log_ns
-                if upcoming is not None:
+                if upcoming is not None and not drives.ahead:
                     drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
                                   upcoming.ticks, write)
                 current = upcoming
@@ -899,46 +951,6 @@ class _Prepared:
     ticks: list[int]
     #: the log time [ns] of its last message
     last_log_ns: int
-
-
-class _Step:
-    """What one drive's estimator and assessor made of one batch, for the writer.
-
-    ``latest[i]`` is the newest health state after ``i`` estimates, ``states[first_state[i]:]``
-    came after estimate ``i``; ``snapshots``/``received`` are per /diagnostics tick.
-    """
-
-    def __init__(self, drive: str | None, estimates: list[FrictionEstimate],
-                 history: EstimateHistory, states: list[HealthState],
-                 latest: list[HealthState | None], first_state: list[int],
-                 snapshots: list[StatusSnapshot], received: list[int]) -> None:
-        self.drive = drive
-        self.estimates, self.history, self.states = estimates, history, states
-        self.latest, self.first_state = latest, first_state
-        self.snapshots, self.received = snapshots, received
-        self.ends = [snapshot.estimates for snapshot in snapshots]
-        self.stamps = history.stamp_ns
-        self.increasing = bool(np.all(np.diff(self.stamps) > 0))
-
-    def at(self, i: int) -> tuple[int, StatusSnapshot, HealthState | None]:
-        """Return (messages received, estimator snapshot, newest health state) at tick ``i``."""
-        return self.received[i], self.snapshots[i], self.latest[self.ends[i]]
-
-    def limit(self, i: int) -> int:
-        """Return the stamp [ns] of the last estimate before tick ``i`` (-1: none)."""
-        end = self.ends[i]
-        return int(self.stamps[end - 1]) if end else -1
-
-    def columns(self) -> list[tuple[str, np.ndarray, np.ndarray]]:
-        """Return the outputs (:func:`output_columns`) of all the batch's estimates.
-
-        The part between two ticks is a slice of them (:meth:`.parallel.Made.part`).
-        """
-        columns = output_columns(self.estimates, self.states, self.history)
-        if self.drive is None:
-            return columns
-        return [(interfaces.drive_topic(self.drive, topic), stamps, values)
-                for topic, stamps, values in columns]
 
 
 def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState],

@@ -28,6 +28,7 @@ from typing import Any, Protocol, Sequence, TYPE_CHECKING
 
 import numpy as np
 
+from gear_phm import interfaces
 from gear_phm.errors import GearPhmError
 from gear_phm.status import StatusOut
 
@@ -35,7 +36,9 @@ if TYPE_CHECKING:
     from multiprocessing.connection import Connection
 
     from gear_phm.codec import JointBatch
+    from gear_phm.offline.decimate import Binned
     from gear_phm.offline.records import Analysis
+    from gear_phm.prognostics import HealthAssessor
 
 #: An output column: (topic, stamps [ns], values (N, 3)), as ``write_vector3_columns`` takes.
 Column = tuple[str, np.ndarray, np.ndarray]
@@ -84,6 +87,56 @@ class Made:
 
 
 @dataclass(frozen=True)
+class Estimated:
+    """The estimator's half of what one drive made of one batch (``_Run.estimate``).
+
+    ``ends[i]``: its estimates before /diagnostics tick ``i``; ``statuses[i]``: the
+    estimator's status there; ``limits[i]``: the stamp [ns] of the last estimate before it
+    (-1: none); ``increasing``: the estimates' stamps increase through the batch;
+    ``columns``: their outputs (if written).
+    """
+
+    estimates: list[Any]
+    ends: tuple[int, ...]
+    statuses: tuple[StatusOut, ...]
+    limits: tuple[int, ...]
+    increasing: bool
+    columns: tuple[Column, ...]
+
+    def made(self, assessed: Assessed) -> Made:
+        """Return the batch's :class:`Made`, with the assessor's half."""
+        return Made(tuple((status, *health) for status, health in
+                          zip(self.statuses, assessed.statuses)),
+                    self.limits, self.increasing, self.columns + assessed.columns,
+                    len(interfaces.ESTIMATE_LAYOUT), self.ends, assessed.state_ends,
+                    len(self.estimates))
+
+
+@dataclass(frozen=True)
+class Assessed:
+    """The assessor's half of what one drive made of one batch (``_Run.assess``).
+
+    ``statuses[i]``: the health status at /diagnostics tick ``i`` (none before a state);
+    ``columns``: the health states' outputs (if written); ``state_ends[i]``: the states
+    before the first estimate after tick ``i`` (the last: all of them).
+    """
+
+    statuses: tuple[tuple[StatusOut, ...], ...]
+    columns: tuple[Column, ...]
+    state_ends: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class HealthHalf:
+    """A run's assessor and what it kept, handed from the process that ran it."""
+
+    assessor: HealthAssessor
+    states: Binned
+    envelope: Binned
+    first_seen: dict[str, int]
+
+
+@dataclass(frozen=True)
 class Finished:
     """A drive's end of run: its Analysis and refusal ('' if none), or its error's text."""
 
@@ -102,6 +155,20 @@ class DriveRun(Protocol):
 
     def final_statuses(self, stamp_ns: int) -> tuple[StatusOut, ...]: ...
 
+    def estimate(self, decoded: JointBatch, messages: int, cuts: list[int],
+                 write: bool) -> Estimated: ...
+
+    def assess(self, estimates: Sequence[Any], ends: Sequence[int], ticks: Sequence[int],
+               write: bool) -> Assessed: ...
+
+    def final_health(self, stamp_ns: int) -> tuple[StatusOut, ...]: ...
+
+    def final_estimator(self) -> StatusOut: ...
+
+    def health_half(self) -> HealthHalf: ...
+
+    def take_health(self, half: HealthHalf) -> None: ...
+
     def finish(self, bags: list[Any], readers: list[str], elapsed: float,
                names: Sequence[tuple[str, ...]] = ()) -> Finished: ...
 
@@ -113,6 +180,8 @@ class LocalDrives:
 
     #: worker processes (none: the drives run in the calling process)
     workers = 0
+    #: the caller may :meth:`submit` the next batch before it collects the last one
+    ahead = False
 
     def __init__(self, runs: Sequence[DriveRun]) -> None:
         self.runs = list(runs)
@@ -173,17 +242,17 @@ def drives_for(runs: Sequence[DriveRun], jobs: int, messages: int = 0) -> LocalD
     """Return the drives in worker processes, or in this one.
 
     ``jobs``: worker processes, at most one per drive; 1: none. 0: one per usable core, for a
-    bag of at least :data:`AUTO_MIN_SAMPLES` ``messages`` times drives. None for one drive
-    (measured: a single drive's work in a worker, with reading and writing beside it, was no
-    faster, 2.05-2.11 s against 2.05-2.48 s for 300,000 samples at 1 kHz, and cost 0.3 s
-    more CPU at 100 Hz), nor where workers cannot be forked (:func:`can_fork`).
+    bag of at least :data:`AUTO_MIN_SAMPLES` ``messages`` times drives. One drive with two
+    or more: its assessor in a worker (:class:`SplitDrive`). None where workers cannot be
+    forked (:func:`can_fork`).
     """
     if jobs == 0:
         jobs = usable_cores() if messages * len(runs) >= AUTO_MIN_SAMPLES else 1
-    workers = min(jobs, len(runs))
-    if workers <= 1 or not can_fork():
+    if jobs <= 1 or not can_fork():
         return LocalDrives(runs)
-    return DrivePool(runs, workers)
+    if len(runs) == 1:
+        return SplitDrive(runs[0])
+    return DrivePool(runs, min(jobs, len(runs)))
 
 
 def can_fork() -> bool:
@@ -297,6 +366,92 @@ class DrivePool(LocalDrives):
         """
         _end(self.pipes, self.processes)
         self.pipes, self.processes = [], []
+
+
+class SplitDrive(LocalDrives):
+    """One drive over two processes: its estimator here, its assessor in a forked worker.
+
+    A single drive's time goes about half to reading, estimating and writing, half to the
+    health assessment (the RUL refits, per estimate the levels); they run side by side, one
+    batch apart. :meth:`submit` runs the estimator over a batch at once and hands its
+    estimates to the worker when the worker is free; :meth:`collect` returns the oldest
+    batch's :class:`Made` (``ahead``: the caller submits the next batch first, so that its
+    estimation overlaps this one's assessment). The worker is this process forked before the
+    first batch: its copy of the run assesses, and :meth:`finish` takes its assessor back.
+    """
+
+    ahead = True
+    workers = 1
+
+    def __init__(self, run: DriveRun) -> None:
+        super().__init__([run])
+        #: estimated batches not yet collected, the oldest first; the oldest is the worker's
+        self.waiting: list[tuple[Estimated, list[int], bool]] = []
+        self.pipe, self.process = _fork(_Assessing(run), 'gear-phm assessor', [])
+
+    def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+               ticks: list[int], write: bool) -> None:
+        """Run the estimator over one batch; the worker assesses it once it is free."""
+        estimated = self.runs[0].estimate(decoded[0], messages, cuts, write)
+        self.waiting.append((estimated, ticks, write))
+        if len(self.waiting) == 1:
+            self._hand(0)
+
+    def _hand(self, i: int) -> None:
+        """Send the worker the estimates of waiting batch ``i``."""
+        estimated, ticks, write = self.waiting[i]
+        _request(self.pipe, ('assess', estimated.estimates, estimated.ends, ticks, write))
+
+    def collect(self) -> list[Made]:
+        """Return what the drive made of the oldest batch submitted; start the next one's."""
+        assessed = _answer(self.pipe)
+        estimated, _, _ = self.waiting.pop(0)
+        if self.waiting:
+            self._hand(0)
+        return [estimated.made(assessed)]
+
+    def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
+                ticks: list[int], write: bool) -> list[Made]:
+        """Run the drive over one batch (nothing else waiting)."""
+        self.submit(decoded, messages, cuts, ticks, write)
+        return self.collect()
+
+    def final(self, stamp_ns: int) -> list[tuple[StatusOut, ...]]:
+        """Return the drive's statuses of the final /diagnostics array at ``stamp_ns``."""
+        run = self.runs[0]
+        _request(self.pipe, ('final_health', stamp_ns))
+        return [(run.final_estimator(), *_answer(self.pipe))]
+
+    def finish(self, bags: list[Any], readers: list[str], elapsed: float,
+               names: Sequence[tuple[str, ...]] = ()) -> list[Finished]:
+        """Take the worker's assessor back; return the drive's end of run."""
+        _request(self.pipe, ('health_half',))
+        self.runs[0].take_health(_answer(self.pipe))
+        return super().finish(bags, readers, elapsed, names)
+
+    def close(self) -> None:
+        """End the worker (terminated after a second if it is still assessing)."""
+        _end([self.pipe], [self.process])
+
+
+class _Assessing:
+    """The :class:`SplitDrive` worker's side: its copy of the run's assessor."""
+
+    def __init__(self, run: DriveRun) -> None:
+        self.run = run
+
+    def assess(self, estimates: Sequence[Any], ends: Sequence[int], ticks: Sequence[int],
+               write: bool) -> Assessed:
+        """Assess one batch's estimates (:meth:`gear_phm.offline.engine._Run.assess`)."""
+        return self.run.assess(estimates, ends, ticks, write)
+
+    def final_health(self, stamp_ns: int) -> tuple[StatusOut, ...]:
+        """Return the health status of the final /diagnostics array."""
+        return self.run.final_health(stamp_ns)
+
+    def health_half(self) -> HealthHalf:
+        """Return the assessor and what it kept."""
+        return self.run.health_half()
 
 
 def _fork(target: Any, name: str, callers: list[Connection]
