@@ -101,6 +101,11 @@ def main() -> int:
              '`gear-phm analyze` end to end: samples/s (wall), wall [s], CPU [s]',
              'analyze processing loop [s] (summary.json)', 'ratio analyze / rosbags (wall)',
              'ratio analyze / rosbags (CPU of both processes)']]
+    # the package's bytecode written first, as a user's second run finds it (this machine
+    # sets PYTHONDONTWRITEBYTECODE: a module changed since the setup was compiled per run)
+    subprocess.run([sys.executable, '-m', 'compileall', '-q', str(Path(__file__).resolve()
+                                                                  .parents[1] / 'gear_phm')],
+                   check=True, stdout=subprocess.DEVNULL)
     with tempfile.TemporaryDirectory() as tmp:
         for rate in args.rates:
             for samples in args.samples:

@@ -58,11 +58,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              '(summary.json, its bag, plots); never a bag being analysed')
     parser.add_argument('--no-plot', action='store_true', help='skip the PNG')
     parser.add_argument('--jobs', type=int, default=0, metavar='N',
-                        help='with --transmissions: worker processes for the drives, at '
-                             'most one per drive, while this one reads, decodes and writes '
-                             '(the bag is still read once); 0 (default): one per core, for '
-                             'bags of 100,000 samples or more (messages times drives); 1: all '
-                             'in this process. The results do not depend on it')
+                        help='worker processes: with --transmissions, for the drives (at '
+                             'most one per drive), while this one reads, decodes and writes '
+                             "(the bag is still read once); one drive's health assessment in "
+                             'one, beside its estimator; 0 (default): one per core, for bags '
+                             'of 100,000 samples or more (messages times drives); 1: all in '
+                             'this process. The results do not depend on it')
     add_health_arguments(parser)
     parser.add_argument('--no-progress', action='store_true',
                         help='no progress bar (there is one only when stderr is a terminal)')

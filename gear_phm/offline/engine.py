@@ -207,10 +207,11 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     assessor, its outputs under ``gear_phm/<drive>/...``, its statuses ``gear_phm: <drive>``
     (hardware_id ``<drive>``) and ``gear_phm estimator: <drive>``; ``summary.json`` holds
     ``transmissions: {<drive>: <a single-transmission summary>}`` and the plots are
-    ``analysis_<drive>.png``. ``jobs``: worker processes for the drives, 0 for one per core
-    (:mod:`gear_phm.offline.parallel`; 1, the default: all in this process); the results are
-    the same whatever ``jobs``. The returned Analysis holds the combined summary and each
-    drive's own Analysis in ``transmissions``.
+    ``analysis_<drive>.png``. The returned Analysis holds the combined summary and each
+    drive's own Analysis in ``transmissions``. ``jobs``: worker processes, 0 for one per core
+    (:mod:`gear_phm.offline.parallel`; 1, the default: all in this process): with many drives
+    each worker runs its share of them; one drive's health assessment runs in a worker beside
+    its estimator. The results are the same whatever ``jobs``.
 
     Memory does not grow with the bags. The returned histories (estimates, health states,
     measured windows and, with ``plot``, the ground truth) keep between ``history`` (default
