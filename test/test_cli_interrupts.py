@@ -160,7 +160,8 @@ def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
     """SIGINT to ``gear-phm analyze --transmissions --jobs 2`` once both workers run.
 
     Exit 130 with the one line, no output, and no worker left (a forked worker carries its
-    parent's command line, which names the unique output folder).
+    parent's command line, which names the unique output folder). The same for SIGTERM to
+    one drive's run, its assessor in a worker (exit 143).
     """
     import yaml
     spec = tmp_path / 'bench.yaml'
@@ -180,6 +181,22 @@ def test_an_interrupted_many_drive_run_ends_its_workers_and_leaves_nothing(
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip().splitlines() == ['gear-phm analyze: interrupted']
     assert list(folder.iterdir()) == []
+    _ended(out)
+    # one drive of it, its assessor in a worker beside the plot process: SIGTERM
+    out = folder / 'terminated_one_drive'
+    done = signalled_when(
+        [str(GEAR_PHM), 'analyze', str(tmp_path / 'bag'), '--ratio', '3.0', '--motor-joint',
+         'm0', '--load-joint', 'l0', '--jobs', '2', '--out', str(out), '--no-progress'],
+        lambda child: len(_children(child.pid)) >= 2, 'assessor and plot process forked',
+        signal.SIGTERM)
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
+    assert done.stderr.strip().splitlines() == ['gear-phm analyze: terminated']
+    assert list(folder.iterdir()) == []
+    _ended(out)
+
+
+def _ended(out: Path) -> None:
+    """Wait until no process holds ``out`` in its command line (forked workers do)."""
     deadline = time.monotonic() + 10.0           # the workers end with their pipes
     while _running_with(str(out)):
         assert time.monotonic() < deadline, _running_with(str(out))
