@@ -287,3 +287,15 @@ def test_bench_rul_ceiling_tiny() -> None:
         assert 0.0 <= number(row['alpha-lambda ceiling (all pairs)']) <= 100.0
         if row['lives'] == 'deterministic':
             assert number(row['alpha-lambda ceiling (all pairs)']) == 100.0
+
+
+def test_bench_analyze_floor_tiny() -> None:
+    out = run('analyze_floor.py', '--samples', '2000', '--rates', '100', '--repeat', '1')
+    [row] = table(out, 'bag')
+    assert row['bag'] == '2,000 samples, 100 Hz'
+    assert_ratio(row['budget of 3x [s]'], row['rosbags read + deserialize [s]'], '3')
+    parts = [number(row[key]) for key in ('start-up [s]',
+                                          'assessment chain [s] (of it RUL refits)',
+                                          'plot draw [s]')]
+    assert number(row['floor [s]']) == pytest.approx(sum(parts), abs=0.02)
+    assert_ratio(row['floor / budget'], row['floor [s]'], row['budget of 3x [s]'])
