@@ -13,7 +13,8 @@ of ``--rates``), in one run:
 - start-up: a process that imports what ``gear-phm analyze`` imports before it reads (wall);
 - the assessment chain: ``analyze_bag(bag, 3.0, jobs=1, plot=False)`` with
   ``HealthAssessor.on_estimates`` timed, and of it the RUL refits (``RulPredictor._refit``);
-- the draw: ``plot_analysis`` of the finished Analysis, matplotlib imported before (best of 3).
+- the draw: ``plot_analysis`` of the finished Analysis, matplotlib imported before (best of
+  ``--repeat``).
 
 The floor is start-up + assessment + draw [s]; the budget is rosbags' time / 3. Medians of
 ``--repeat`` runs.
@@ -61,7 +62,7 @@ analysis = analyze_bag(sys.argv[1], 3.0, jobs=1, plot=False)
 import matplotlib.backends.backend_agg, matplotlib.figure
 from gear_phm.offline.plot import plot_analysis
 draws = []
-for _ in range(3):
+for _ in range(int(sys.argv[3])):
     start = time.perf_counter()
     plot_analysis(Path(sys.argv[2]), analysis, 3.0, [Path(sys.argv[1])])
     draws.append(time.perf_counter() - start)
@@ -78,8 +79,9 @@ def measure(bag: Path, png: Path, repeat: int) -> dict[str, float]:
         start = time.perf_counter()
         subprocess.run([sys.executable, '-c', IMPORTS], check=True)
         runs['start-up'].append(time.perf_counter() - start)
-        chain = json.loads(subprocess.run([sys.executable, '-c', CHAIN, str(bag), str(png)],
-                                          check=True, capture_output=True, text=True).stdout)
+        chain = json.loads(subprocess.run(
+            [sys.executable, '-c', CHAIN, str(bag), str(png), str(repeat)], check=True,
+            capture_output=True, text=True).stdout)
         for key in ('assess', 'refits', 'draw'):
             runs[key].append(chain[key])
         baseline = json.loads(subprocess.run([sys.executable, '-c', ROSBAGS, str(bag)],
