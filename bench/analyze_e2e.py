@@ -66,6 +66,17 @@ def simulate(bag: Path, samples: int, rate: float) -> None:
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
+def compile_package() -> None:
+    """Write the package's bytecode, as a user's second run finds it.
+
+    This machine sets PYTHONDONTWRITEBYTECODE: a module changed since the setup would be
+    compiled again by every run.
+    """
+    subprocess.run([sys.executable, '-m', 'compileall', '-q',
+                    str(Path(__file__).resolve().parents[1] / 'gear_phm')],
+                   check=True, stdout=subprocess.DEVNULL)
+
+
 def measure(bag: Path, out: Path, repeat: int, plot: bool) -> dict[str, float]:
     analyze = [str(BIN / 'gear-phm'), 'analyze', str(bag), '--ratio', '3.0', '--out',
                str(out), '--overwrite', '--no-progress'] + ([] if plot else ['--no-plot'])
@@ -101,11 +112,7 @@ def main() -> int:
              '`gear-phm analyze` end to end: samples/s (wall), wall [s], CPU [s]',
              'analyze processing loop [s] (summary.json)', 'ratio analyze / rosbags (wall)',
              'ratio analyze / rosbags (CPU of both processes)']]
-    # the package's bytecode written first, as a user's second run finds it (this machine
-    # sets PYTHONDONTWRITEBYTECODE: a module changed since the setup was compiled per run)
-    subprocess.run([sys.executable, '-m', 'compileall', '-q', str(Path(__file__).resolve()
-                                                                  .parents[1] / 'gear_phm')],
-                   check=True, stdout=subprocess.DEVNULL)
+    compile_package()
     with tempfile.TemporaryDirectory() as tmp:
         for rate in args.rates:
             for samples in args.samples:

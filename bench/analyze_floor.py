@@ -34,7 +34,7 @@ import tempfile
 import time
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from analyze_e2e import ROSBAGS, simulate  # noqa: E402, I100, I201
+from analyze_e2e import compile_package, ROSBAGS, simulate  # noqa: E402, I100, I201
 
 from _report import append_section, BENCHMARKS_MD  # noqa: E402
 
@@ -102,9 +102,7 @@ def main() -> int:
     rows = [['bag', 'rosbags read + deserialize [s]', 'budget of 3x [s]', 'start-up [s]',
              'assessment chain [s] (of it RUL refits)', 'plot draw [s]', 'floor [s]',
              'floor / budget']]
-    subprocess.run([sys.executable, '-m', 'compileall', '-q', str(Path(__file__).resolve()
-                                                                  .parents[1] / 'gear_phm')],
-                   check=True, stdout=subprocess.DEVNULL)
+    compile_package()
     with tempfile.TemporaryDirectory() as tmp:
         for rate in args.rates:
             for samples in args.samples:
