@@ -828,21 +828,21 @@ class _Stream:
             batches = (self._prepared(raw)
                        for raw in self._joint_batches(bag, topic, truth_topics))
             # (``drives.ahead``: the next batch is submitted before this one is collected)
+
+            def submit(batch: _Prepared | None) -> None:
+                if batch is not None:
+                    drives.submit(batch.decoded, batch.messages, batch.cuts, batch.ticks, write)
             current = next(batches, None)
-            if current is not None:
-                drives.submit(current.decoded, current.messages, current.cuts,
-                              current.ticks, write)
+            submit(current)
             while current is not None:
                 upcoming = next(batches, None)
-                if upcoming is not None and drives.ahead:
-                    drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
-                                  upcoming.ticks, write)
+                if drives.ahead:
+                    submit(upcoming)
                 self._write(drives.collect(), current.ticks, writer)
                 bar.update(current.messages)
                 last_log_ns = current.last_log_ns
-                if upcoming is not None and not drives.ahead:
-                    drives.submit(upcoming.decoded, upcoming.messages, upcoming.cuts,
-                                  upcoming.ticks, write)
+                if not drives.ahead:
+                    submit(upcoming)
                 current = upcoming
             if last_log_ns is not None:          # the final state, at the last message
                 final = interfaces.DiagnosticsOut(last_log_ns, tuple(

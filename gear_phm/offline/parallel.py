@@ -199,7 +199,10 @@ class LocalDrives:
 
     def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
                 ticks: list[int], write: bool) -> list[Made]:
-        """Run each drive over its columns of one batch (``decoded``, in drive order)."""
+        """Run each drive over its columns of one batch (``decoded``, in drive order).
+
+        A :class:`DrivePool` worker's request for its drives, too.
+        """
         return [run.advance(batch, messages, cuts, ticks, write)
                 for run, batch in zip(self.runs, decoded)]
 
@@ -387,7 +390,8 @@ class SplitDrive(LocalDrives):
         super().__init__([run])
         #: estimated batches not yet collected, the oldest first; the oldest is the worker's
         self.waiting: list[tuple[Estimated, list[int], bool]] = []
-        self.pipe, self.process = _fork(_Assessing(run), 'gear-phm assessor', [])
+        # the worker serves its copy of the run: assess, final_health, health_half
+        self.pipe, self.process = _fork(run, 'gear-phm assessor', [])
 
     def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
                ticks: list[int], write: bool) -> None:
@@ -395,11 +399,11 @@ class SplitDrive(LocalDrives):
         estimated = self.runs[0].estimate(decoded[0], messages, cuts, write)
         self.waiting.append((estimated, ticks, write))
         if len(self.waiting) == 1:
-            self._hand(0)
+            self._hand()
 
-    def _hand(self, i: int) -> None:
-        """Send the worker the estimates of waiting batch ``i``."""
-        estimated, ticks, write = self.waiting[i]
+    def _hand(self) -> None:
+        """Send the worker the estimates of the oldest waiting batch."""
+        estimated, ticks, write = self.waiting[0]
         _request(self.pipe, ('assess', estimated.estimates, estimated.ends, ticks, write))
 
     def collect(self) -> list[Made]:
@@ -407,7 +411,7 @@ class SplitDrive(LocalDrives):
         assessed = _answer(self.pipe)
         estimated, _, _ = self.waiting.pop(0)
         if self.waiting:
-            self._hand(0)
+            self._hand()
         return [estimated.made(assessed)]
 
     def advance(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
@@ -432,26 +436,6 @@ class SplitDrive(LocalDrives):
     def close(self) -> None:
         """End the worker (terminated after a second if it is still assessing)."""
         _end([self.pipe], [self.process])
-
-
-class _Assessing:
-    """The :class:`SplitDrive` worker's side: its copy of the run's assessor."""
-
-    def __init__(self, run: DriveRun) -> None:
-        self.run = run
-
-    def assess(self, estimates: Sequence[Any], ends: Sequence[int], ticks: Sequence[int],
-               write: bool) -> Assessed:
-        """Assess one batch's estimates (:meth:`gear_phm.offline.engine._Run.assess`)."""
-        return self.run.assess(estimates, ends, ticks, write)
-
-    def final_health(self, stamp_ns: int) -> tuple[StatusOut, ...]:
-        """Return the health status of the final /diagnostics array."""
-        return self.run.final_health(stamp_ns)
-
-    def health_half(self) -> HealthHalf:
-        """Return the assessor and what it kept."""
-        return self.run.health_half()
 
 
 def _fork(target: Any, name: str, callers: list[Connection]
@@ -508,7 +492,8 @@ def _answer(pipe: Connection) -> Any:
 def _serve(pipe: Connection, target: Any, others: list[Connection]) -> None:
     """Answer the caller's requests, ``target``'s methods by name, until the pipe closes.
 
-    A worker's loop (``target``: its :class:`LocalDrives`, or :class:`_Drawing`).
+    A worker's loop (``target``: its :class:`LocalDrives`, its copy of a drive's run
+    (:class:`SplitDrive`), or :class:`_Drawing`).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)        # the caller stops the analysis
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
