@@ -24,7 +24,7 @@ from gear_phm.bagio.writer import vector3_stamped_cdr
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.interfaces import (DiagnosticsOut, estimate_outputs, health_outputs, StatusOut,
                                  Vector3Out)
-from gear_phm.offline.engine import output_columns
+from gear_phm.offline.engine import estimate_columns
 from gear_phm.offline.records import EstimateHistory
 from gear_phm.prognostics import RulEstimate, Trend
 from gear_phm.prognostics.assessor import HealthState
@@ -157,7 +157,12 @@ def test_analyze_columns_are_the_published_records() -> None:
                           RulEstimate(100.0 - k, 50.0, math.inf, 'linear'), e.power_flow, 1, 0,
                           0.6, Trend())
               for k, e in enumerate(estimates) if k != 2]
-    columns = output_columns(estimates, states)
+
+    def columns_of(estimates: list[FrictionEstimate], states: list[HealthState]) -> list:
+        """Return the columns analyze writes: the estimator's half, then the assessor's."""
+        return (estimate_columns(estimates, EstimateHistory.of(estimates))
+                + interfaces.vector3_columns(states, interfaces.HEALTH_LAYOUT))
+    columns = columns_of(estimates, states)
     got = [Vector3Out(topic, int(s), *xyz) for topic, stamps, xyzs in columns
            for s, xyz in zip(stamps, xyzs.tolist())]
     expected = [r for e in estimates for r in estimate_outputs(e)] + \
@@ -169,12 +174,13 @@ def test_analyze_columns_are_the_published_records() -> None:
     assert {r.topic for r in got} == {*interfaces.ESTIMATOR_TOPICS, interfaces.HEALTH_RUL,
                                       interfaces.HEALTH_EFFICIENCY}
     assert [r.x for r in got if r.topic == interfaces.OPERATING_TIME] == [0.0, 12.5, 25.0, 37.5]
-    # from the estimates' EstimateHistory (as analyze writes them): the same columns
-    from_history = output_columns(estimates, states, EstimateHistory.of(estimates))
-    assert [topic for topic, _, _ in from_history] == [topic for topic, _, _ in columns]
-    for (_, stamps, xyz), (_, stamps_h, xyz_h) in zip(columns, from_history):
-        assert stamps_h.tolist() == stamps.tolist()
-        np.testing.assert_array_equal(xyz_h, xyz)       # NaN where NaN, else bit-equal
+    # a part of the batch (as the writing by parts slices the batch's columns): the columns
+    # of that part's estimates and states alone
+    part = columns_of(estimates[:2], states[:2])
+    assert [topic for topic, _, _ in part] == [topic for topic, _, _ in columns]
+    for (topic, stamps, xyz), (_, stamps_p, xyz_p) in zip(columns, part):
+        assert stamps_p.tolist() == stamps[:2].tolist()
+        np.testing.assert_array_equal(xyz_p, xyz[:2])   # NaN where NaN, else bit-equal
 
 
 def _groups_bag(directory: Path, batch: bool) -> list[tuple[str, int, int, int, bytes]]:

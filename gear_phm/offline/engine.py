@@ -618,7 +618,7 @@ class _Run:
             estimates, ends, statuses,
             tuple(int(stamps[end - 1]) if end else -1 for end in ends),
             bool(np.all(np.diff(stamps) > 0)),
-            tuple(self._topics(_estimate_columns(estimates, history))) if write else ())
+            tuple(self._topics(estimate_columns(estimates, history))) if write else ())
 
     def assess(self, estimates: Sequence[FrictionEstimate], ends: Sequence[int],
                ticks: Sequence[int], write: bool) -> Assessed:
@@ -954,33 +954,19 @@ class _Prepared:
     last_log_ns: int
 
 
-def output_columns(estimates: Sequence[FrictionEstimate], states: Sequence[HealthState],
-                   history: EstimateHistory | None = None
-                   ) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """Return the Vector3Stamped outputs of a batch as ``(topic, stamps [ns], xyz)`` columns.
-
-    The estimator's and the diagnostics node's topics, in publishing order
-    (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`, :data:`~gear_phm.interfaces.HEALTH_LAYOUT`).
-    ``history``: the estimates' :class:`EstimateHistory` if made already (else made here).
-    """
-    columns = _estimate_columns(estimates, history if history is not None
-                                else EstimateHistory.of(estimates))
-    if states:
-        columns += interfaces.vector3_columns(states, interfaces.HEALTH_LAYOUT)
-    return columns
-
-
 #: The estimate fields written from the estimates themselves (not :class:`EstimateHistory`).
 _FROM_ESTIMATES = ('measurement', 'measurement_variance', 'direction_offset',
                    'measurement_direction', 'measurement_bias')
 
 
-def _estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
-                      ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
+                     ) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return :func:`gear_phm.interfaces.vector3_columns` of estimates, from their ``history``.
 
-    The measurements and the direction offset, which the history does not hold, are read
-    from the estimates.
+    The estimator's outputs as ``(topic, stamps [ns], xyz)`` columns, in publishing order
+    (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`; the diagnostics node's are
+    ``vector3_columns(states, HEALTH_LAYOUT)``). The measurements and the direction offset,
+    which the history does not hold, are read from the estimates.
     """
     row = operator.attrgetter(*_FROM_ESTIMATES)
     measured = np.array([row(e) for e in estimates], dtype=float).reshape(
