@@ -73,6 +73,21 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('period_hold', 5.0, 'a longer sample period must last this long (in stamp time) '
               "before it is taken as the rig's new rate; until then its gaps count as "
               'samples_missing', 's', 0.0, 1e6),
+    ParamSpec('no_load_model', False, 'learn the load-independent (no-load) loss at the motor '
+              '(T_0 sign(w_m) + c_v w_m and a torque offset) jointly with u, and fuse into u '
+              'only the windows where it is identified (false: the paper model, every loss is '
+              'friction)'),
+    ParamSpec('no_load_tolerance', 0.004, "largest std dev of a window's no-load correction, "
+              'relative to its load energy (about the efficiency), for the window to be fused '
+              'into u; above it the window is held as not identifiable', '-', 1e-6, 1.0),
+    ParamSpec('no_load_cool_gap', 3600.0, 'after an idle gap longer than this (stamp time) the '
+              'no-load loss starts again from its cold value', 's', 0.0, 1e9),
+    ParamSpec('no_load_reference_speed', 0.0, 'motor speed at which the no-load torque is '
+              'reported (0: the typical speed of the windows)', 'rad/s', 0.0, 1e9),
+    ParamSpec('rated_load_torque', 0.0, 'output torque of the rated point for the total '
+              'efficiency (0: not reported)', 'N m', 0.0, 1e12),
+    ParamSpec('rated_speed', 0.0, 'output speed of the rated point for the total efficiency '
+              '(0: not reported)', 'rad/s', 0.0, 1e9),
     ParamSpec('loss_warn', 0.01, 'WARN when the share of samples missing over the last '
               'status period exceeds this', '-', 0.0, 1.0),
 )
@@ -116,6 +131,12 @@ class EstimatorConfig:
     backwards_policy: str = str(DEFAULTS['backwards_policy'])
     stamp_run: int = int(DEFAULTS['stamp_run'])
     period_hold: float = float(DEFAULTS['period_hold'])
+    no_load_model: bool = bool(DEFAULTS['no_load_model'])
+    no_load_tolerance: float = float(DEFAULTS['no_load_tolerance'])
+    no_load_cool_gap: float = float(DEFAULTS['no_load_cool_gap'])
+    no_load_reference_speed: float = float(DEFAULTS['no_load_reference_speed'])
+    rated_load_torque: float = float(DEFAULTS['rated_load_torque'])
+    rated_speed: float = float(DEFAULTS['rated_speed'])
     loss_warn: float = float(DEFAULTS['loss_warn'])
 
     def __post_init__(self) -> None:

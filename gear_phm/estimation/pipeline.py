@@ -23,6 +23,7 @@ import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
+from gear_phm.estimation.no_load import NoLoadLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
                                         predicted_stacked)
 from gear_phm.estimation.powerflow import classify
@@ -46,14 +47,16 @@ MESSAGE_REASON_TEXT = {
     'truncated': 'truncated', 'bad_encoding': 'not in little-endian CDR',
     'bad_message': 'not a readable JointState'}
 #: Window / measurement reasons and events (do not count as rejected samples).
-WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated')
+WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated',
+                  'not_identifiable')
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
 #: The summary values of the estimator's status, in its order (after messages_received).
 _STATUS_SUMMARY_KEYS = (
     'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
     'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
     'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
-    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s')
+    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s',
+    'no_load_torque', 'no_load_torque_sigma', 'no_load_identified', 'total_efficiency')
 _STATUS_SUMMARY = operator.itemgetter(*_STATUS_SUMMARY_KEYS)
 
 
@@ -63,6 +66,11 @@ def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(f'windows_rejected_{reason}' if reason in WINDOW_REASONS
                  else f'events_{reason}' if reason in EVENTS else f'dropped_{reason}'
                  for reason in reasons)
+
+
+#: The status message while windows are held because the no-load loss is not identified.
+NOT_IDENTIFIABLE = ('no-load loss not identifiable (the load does not vary enough to tell it '
+                    'from friction): u held')
 
 
 #: :meth:`EstimatorPipeline.reversed_torque`: the share of samples out of the deadband that
@@ -207,6 +215,8 @@ class EstimatorPipeline:
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
         self.inertia = InertiaLearner(c.motor_inertia)
+        self.no_load = NoLoadLearner(c.no_load_tolerance, c.no_load_cool_gap,
+                                     c.no_load_reference_speed)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
@@ -246,6 +256,7 @@ class EstimatorPipeline:
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
             'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
             'inertia': self.inertia.to_state(), 'window': self.integrator.to_state(),
+            'no_load': self.no_load.to_state(),
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -275,8 +286,11 @@ class EstimatorPipeline:
             fresh.inertia.from_state(state['inertia'])
         if 'window' in state:               # added within schema 2 (2026-11-27)
             fresh.integrator.from_state(state['window'])
+        if 'no_load' in state:              # a state without it starts the no-load part anew
+            fresh.no_load.from_state(state['no_load'])
         self.filter = fresh.filter
         self.inertia = fresh.inertia
+        self.no_load = fresh.no_load
         self.integrator = fresh.integrator
         self.counts = counts
         self._carry = carried
@@ -742,6 +756,22 @@ class EstimatorPipeline:
                 or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
         result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
                                 inertia)
+        no_load = (0.0, 0.0)
+        if c.no_load_model and isinstance(result, Measurement):
+            # the no-load part as known before this window (gear_phm.estimation.no_load); a
+            # window where it is not identified is held: it would read drag as friction
+            correction = self.no_load.observe(
+                0 if window.code == OPPOSING else 1, window.t_start, window.t_end,
+                self._window_operating_time(window),
+                window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
+                window.motor_energy_variance, window.load_energy_variance, window.motor_travel, window.motor_travel_square,
+                window.motion)
+            if not correction.identified:
+                self.counts['not_identifiable'] += 1
+                return []
+            no_load = (correction.energy, correction.variance)
+            result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
+                                    c.model_sigma, inertia, no_load)
         if isinstance(result, str):
             self.counts[result] += 1
             return []
@@ -779,7 +809,7 @@ class EstimatorPipeline:
             # the wear of a unit's first 14 s of operation (bags/fleet/unit_00: WARN at 16 s
             # became WARN a week later, at its next recording)
             applied = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                     c.model_sigma, self.inertia.correction)
+                                     c.model_sigma, self.inertia.correction, no_load)
             if isinstance(applied, Measurement):
                 u_variance = applied.u_variance
         variance = u_variance + self.filter.mismatch_variance(direction)
@@ -913,7 +943,22 @@ class EstimatorPipeline:
             'reversed_torque': self.reversed_torque(),
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
             'windows_over_unity': self.windows_over_unity, 'over_unity': self.over_unity(),
+            **self._no_load_summary(eta_d),
         }
+
+    def _no_load_summary(self, eta_opposing: float) -> dict[str, Any]:
+        """Return the no-load loss and the total efficiency at the rated point (summary keys)."""
+        c = self.config
+        learned = self.no_load.estimate()
+        return {
+            'no_load_torque': learned.torque, 'no_load_torque_sigma': learned.torque_sigma,
+            'no_load_coulomb': learned.coulomb, 'no_load_viscous': learned.viscous,
+            'no_load_offset': learned.offset,
+            'no_load_reference_speed': learned.reference_speed,
+            'no_load_cold_torque': learned.cold_torque,
+            'no_load_identified': learned.identified,
+            'total_efficiency': learned.total_efficiency(eta_opposing, c.ratio,
+                                                         c.rated_load_torque, c.rated_speed)}
 
     def reversed_torque(self) -> str:
         """Return which effort's sign looks reversed, as advice; '' when nothing does.
@@ -1013,6 +1058,8 @@ class EstimatorPipeline:
                  else summary['consecutive_gated'])
         if summary['timed_out']:
             level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
+        elif summary['filter_updates'] == 0 and summary['counts'].get('not_identifiable', 0):
+            level, message = OK, NOT_IDENTIFIABLE
         elif summary['filter_updates'] == 0:
             stalled = stalled_stamps(summary)
             level, message = WARN, ('no efficiency measurement yet'
@@ -1021,6 +1068,9 @@ class EstimatorPipeline:
             level, message = WARN, f'{gated} measurement(s) gated'
         else:
             level, message = OK, 'estimating'
+        if level == OK and summary['filter_updates'] and summary.get('no_load_identified') \
+                is False and summary['counts'].get('not_identifiable', 0):
+            message += f'; {NOT_IDENTIFIABLE}'
         drift = summary.get('direction_offset_drift_z', math.nan)
         if abs(drift) > OFFSET_DRIFT_Z:     # a report of its own, not a level (not wear)
             message += (f'; direction offset drifted {drift:+.3g} sigma since it settled '
