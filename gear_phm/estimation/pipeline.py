@@ -55,9 +55,12 @@ _STATUS_SUMMARY_KEYS = (
     'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
     'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
     'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
-    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s',
-    'no_load_torque', 'no_load_torque_sigma', 'no_load_identified', 'total_efficiency')
+    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s')
 _STATUS_SUMMARY = operator.itemgetter(*_STATUS_SUMMARY_KEYS)
+#: With ``no_load_model``, the status also holds these summary values, after the others.
+_NO_LOAD_STATUS_KEYS = ('no_load_torque', 'no_load_torque_sigma', 'no_load_coulomb',
+                        'no_load_viscous', 'no_load_offset', 'no_load_identified',
+                        'total_efficiency')
 
 
 @functools.lru_cache(maxsize=16)
@@ -939,11 +942,14 @@ class EstimatorPipeline:
             'samples_missing': self.samples_missing,
             'sample_period_s': (math.nan if self.screen.period_ns is None
                                 else self.screen.period_ns * 1e-9),
-            'counts': dict(self.counts), 'timed_out': self.timed_out,
+            'counts': (dict(self.counts) if self.config.no_load_model else {
+                reason: count for reason, count in self.counts.items()
+                if reason != 'not_identifiable'}),
+            'timed_out': self.timed_out,
             'reversed_torque': self.reversed_torque(),
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
             'windows_over_unity': self.windows_over_unity, 'over_unity': self.over_unity(),
-            **self._no_load_summary(eta_d),
+            **(self._no_load_summary(eta_d) if self.config.no_load_model else {}),
         }
 
     def _no_load_summary(self, eta_opposing: float) -> dict[str, Any]:
@@ -1085,11 +1091,13 @@ class EstimatorPipeline:
             message = text if level == OK else f'{message}; {text}'
             level = WARN
         counts = sorted(summary['counts'].items())
+        no_load = _NO_LOAD_STATUS_KEYS if self.config.no_load_model else ()
         keys = ((('messages_received',) if messages_received is not None else ())
-                + _STATUS_SUMMARY_KEYS + ('loss_ratio',) + _count_keys(tuple(
+                + _STATUS_SUMMARY_KEYS + no_load + ('loss_ratio',) + _count_keys(tuple(
                     reason for reason, _ in counts)))
         values = itertools.chain(
             (messages_received,) if messages_received is not None else (),
-            _STATUS_SUMMARY(summary), (loss,), (count for _, count in counts))
+            _STATUS_SUMMARY(summary), (summary[key] for key in no_load), (loss,),
+            (count for _, count in counts))
         return StatusOut(level, name, message, 'gear_phm',
                          tuple(zip(keys, format_values(values))))
