@@ -6,15 +6,30 @@ parameter with its ParameterDescriptor (:func:`gear_phm.nodes.common.declare_par
 builds the ``--kebab-case`` CLI option (:mod:`gear_phm.cli.options`), validates values
 (:meth:`ParamSpec.check`) and generates the README tables. Cross-field rules live in the
 config dataclasses, which call :func:`check_values` first.
+
+A config dataclass declares each parameter once, as a field whose default is :func:`param`
+(or :func:`param_from` for a spec shared with other nodes, such as :data:`RATIO`);
+:func:`specs_of` reads the specs back from the fields, in field order::
+
+    @dataclass(frozen=True)
+    class Config:
+        ratio: float = param_from(RATIO, float)
+        noise: float = param(0.01, 'std dev of one sample', 'N m', 0.0, 1e6)
+
+    PARAMETERS = specs_of(Config)
 """
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, replace
 import math
-from typing import Any
+from typing import TypeVar
 
 Value = bool | int | float | str
+#: The type of one parameter's value, fixed by its default.
+T = TypeVar('T', bool, int, float, str)
+#: The key of a config field's :class:`ParamSpec` in its ``dataclasses.Field.metadata``.
+SPEC = 'gear_phm.param'
 
 
 @dataclass(frozen=True)
@@ -49,7 +64,7 @@ class ParamSpec:
         """Return the description with its unit, e.g. ``prior std dev of u [-]``."""
         return f'{self.description} [{self.unit}]' if self.unit else self.description
 
-    def check(self, value: Any) -> Value:
+    def check(self, value: object) -> Value:
         """Return ``value`` converted to this parameter's type (an int is a float).
 
         Raises ValueError naming the parameter, the rule and the value.
@@ -117,7 +132,7 @@ def spec_map(specs: Iterable[ParamSpec]) -> dict[str, ParamSpec]:
     return table
 
 
-def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[str, Value]:
+def check_values(specs: Iterable[ParamSpec], values: Mapping[str, object]) -> dict[str, Value]:
     """Check each value of ``values`` by the spec of its name.
 
     Raises ValueError on an unknown name or a bad value.
@@ -132,6 +147,55 @@ def check_values(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -> dict[
 def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
     """``{name: default}``."""
     return {spec.name: spec.default for spec in specs}
+
+
+def param(default: T, description: str, unit: str = '', low: float | None = None,
+          high: float | None = None, *, choices: tuple[str, ...] = (), read_only: bool = False,
+          nan_means: str = '') -> T:
+    """Declare a config dataclass field and its :class:`ParamSpec` (named after the field).
+
+    The arguments are those of ParamSpec without the name. Typed as the default, so that
+    ``x: float = param(0.5, ...)`` type-checks; at run time it is the ``dataclasses.field``
+    whose metadata holds the spec, read back by :func:`specs_of`.
+    """
+    spec = ParamSpec('', default, description, unit, low, high, choices, read_only, nan_means)
+    return param_from(spec, type(default))
+
+
+def param_from(spec: ParamSpec, kind: type[T]) -> T:
+    """Declare a config dataclass field by a spec shared with others (e.g. :data:`RATIO`).
+
+    ``kind`` is the type of the spec's default (the field's type, for the type checker).
+    Raises TypeError when the default is not of that type. A field of another name than the
+    spec's is that spec renamed.
+    """
+    default = spec.default
+    if type(default) is not kind:
+        msg = f'parameter {spec.name}: default {default!r} is not of type {kind.__name__}'
+        raise TypeError(msg) from None
+    held: T = field(default=default, metadata={SPEC: spec})
+    return held
+
+
+def specs_of(config: type) -> tuple[ParamSpec, ...]:
+    """Return the :class:`ParamSpec` of each field of dataclass ``config``, in field order.
+
+    Each spec is named after its field. Raises TypeError on a field not declared by
+    :func:`param` or :func:`param_from`, or whose annotation is not its default's type.
+    """
+    specs = []
+    for item in fields(config):
+        spec = item.metadata.get(SPEC)
+        if not isinstance(spec, ParamSpec):
+            msg = f'{config.__name__}.{item.name} is not declared by param() or param_from()'
+            raise TypeError(msg) from None
+        kind = spec.kind
+        if item.type not in (kind, kind.__name__):
+            msg = (f'{config.__name__}.{item.name} is annotated {item.type!r} but its default '
+                   f'{spec.default!r} is of type {kind.__name__}')
+            raise TypeError(msg) from None
+        specs.append(spec if spec.name == item.name else replace(spec, name=item.name))
+    return tuple(specs)
 
 
 #: The gearbox ratio, one parameter of the simulation (publisher), the estimator and the

@@ -3,13 +3,21 @@
 :class:`HealthConfig` holds everything that sets end of life, the RUL extrapolation and the
 health levels. The diagnostics node declares one ROS parameter per field (same name, same
 range, same description); ``gear-phm analyze`` exposes them as ``--kebab-case`` options.
+
+Each parameter is declared once, as a field of :class:`HealthConfig`. To add one, add a field
+``name: type = param(default, description, unit, low, high)`` (see
+:func:`gear_phm.parameters.param`; ``choices=`` for a text); :data:`PARAMETERS` follows from
+it. Then give it a commented entry in config/diagnostics.yaml and, for a rule between fields,
+a check in :func:`cross_field_problem`.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 import math
 
-from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
+from gear_phm.parameters import (check_values, defaults, param, param_from, ParamSpec, RATIO,
+                                 specs_of, Value)
 from gear_phm.prognostics.laws import MODELS
 
 TRENDS = ('auto', *MODELS)
@@ -43,92 +51,62 @@ def derived_eta_warn(eta_opposing_min: float, eta_healthy: float = 1.0) -> float
     return eta_opposing_min + ETA_WARN_MARGIN * budget
 
 
-#: The health parameters (diagnostics node parameters of the same names,
-#: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options).
-PARAMETERS: tuple[ParamSpec, ...] = (
-    RATIO,
-    ParamSpec('eta_opposing_min', 0.5,
-              'end of life when the opposing-load efficiency eta_D falls to this', '-', -1.0,
-              1.0),
-    ParamSpec('self_locking_eol', True, 'count the self-locking onset (eta_I <= 0, u >= 1) as '
-              'end of life (ERROR)'),
-    ParamSpec('u_max', 0.0, 'end of life when u reaches this (0: criterion disabled)', '-',
-              0.0, 1e6),
-    ParamSpec('eta_warn', math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)',
-              '-', -1.0, 1.0,
-              nan_means='derived: eta_opposing_min + 0.25 (eta_healthy - eta_opposing_min), '
-                        'eta_healthy the healthy eta_D learned once the filter has settled'),
-    ParamSpec('warn_horizon', 3600.0, 'WARN when the RUL median in operating time is below '
-              f'this; it clears once the RUL 5 % bound is above {RUL_CLEAR_FACTOR:g} times '
-              'this',
-              's', 0.0, 1e12),
-    ParamSpec('detect_z', 2.0, 'degradation is seen when the fitted du/dt at the newest time '
-              '> detect_z sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0),
-    ParamSpec('trend', 'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)',
-              choices=TRENDS),
-    ParamSpec('eta_accuracy', 0.001, 'systematic uncertainty of the measured efficiency '
-              '(torque-sensor calibration, model accuracy): it does not average out over '
-              'windows and widens the RUL band by its u at end of life over du/dt', '-', 0.0,
-              0.5),
-    ParamSpec('mc_samples', 2000, 'Monte Carlo samples of the posterior for RUL bounds', '-',
-              100, 1_000_000),
-    ParamSpec('seed', 0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0,
-              2**31 - 1),
-    ParamSpec('nis_window', 20, 'number of recent NIS values averaged for the filter check',
-              '-', 1, 100_000),
-    # 1 - 1e-6, not 0.999: the test runs on every new NIS value, so a long life holds
-    # thousands of windows, and at 0.999 a consistent filter crossed the bound (a WARN, then
-    # OK, then WARN again on random lives 28 and 89; docs/prognostics.md, "Levels")
-    ParamSpec('nis_probability', 0.999999, 'chi-square probability of the NIS-average bound '
-              '(model mismatch, WARN, above)', '-', 0.5, 1.0 - 1e-12),
-    ParamSpec('max_u_sigma', 1.0, 'ERROR (filter lost the signal) when sigma_u exceeds this',
-              '-', 1e-9, 1e6),
-    ParamSpec('nis_lost', 25.0, 'ERROR (filter lost the signal) when the median of the NIS '
-              'window exceeds this; a mean above the chi-square bound alone is a model '
-              'mismatch (WARN)', '-', 1.0, 1e12),
-    ParamSpec('level_hysteresis', 0.05, 'a level is left when its value is back by this '
-              "fraction of the threshold's distance from a new gearbox (eta_D 1, u 0)",
-              '-', 0.0, 0.5),
-    ParamSpec('level_dwell', 5.0, 'a level change must hold this long in stamp time before '
-              'it is reported (leaving a WARN or ERROR condition: level_clear_dwell)', 's',
-              0.0, 1e6),
-    ParamSpec('level_clear_dwell', 600.0, 'a reported WARN or ERROR condition is left only '
-              'once its clearing test has held this long in stamp time, so that a '
-              'condition near its threshold gives one report, not a flicker', 's', 0.0, 1e9),
-    ParamSpec('stale_timeout', 2.0, 'STALE when no estimator input arrives for this long', 's',
-              1e-3, 1e6),
-)
-#: ``{name: default}`` of :data:`PARAMETERS`, the one home of these defaults.
-DEFAULTS = defaults(PARAMETERS)
-#: The health parameters that are not options of the offline tools (``analyze_bag``,
-#: ``gear-phm analyze``/``evaluate``): the ratio is their own argument, and staleness is a
-#: live-only concept (no clock runs offline).
-NOT_OFFLINE_OPTIONS: tuple[str, ...] = (RATIO.name, 'stale_timeout')
-
-
 @dataclass(frozen=True)
 class HealthConfig:
     """End-of-life, RUL and health-level parameters (SI units, see :data:`PARAMETERS`)."""
 
-    ratio: float = float(DEFAULTS['ratio'])
-    eta_opposing_min: float = float(DEFAULTS['eta_opposing_min'])
-    self_locking_eol: bool = bool(DEFAULTS['self_locking_eol'])
-    u_max: float = float(DEFAULTS['u_max'])
-    eta_warn: float = float(DEFAULTS['eta_warn'])
-    warn_horizon: float = float(DEFAULTS['warn_horizon'])
-    detect_z: float = float(DEFAULTS['detect_z'])
-    trend: str = str(DEFAULTS['trend'])
-    eta_accuracy: float = float(DEFAULTS['eta_accuracy'])
-    mc_samples: int = int(DEFAULTS['mc_samples'])
-    seed: int = int(DEFAULTS['seed'])
-    nis_window: int = int(DEFAULTS['nis_window'])
-    nis_probability: float = float(DEFAULTS['nis_probability'])
-    max_u_sigma: float = float(DEFAULTS['max_u_sigma'])
-    nis_lost: float = float(DEFAULTS['nis_lost'])
-    level_hysteresis: float = float(DEFAULTS['level_hysteresis'])
-    level_dwell: float = float(DEFAULTS['level_dwell'])
-    level_clear_dwell: float = float(DEFAULTS['level_clear_dwell'])
-    stale_timeout: float = float(DEFAULTS['stale_timeout'])
+    ratio: float = param_from(RATIO, float)
+    eta_opposing_min: float = param(
+        0.5, 'end of life when the opposing-load efficiency eta_D falls to this', '-', -1.0, 1.0)
+    self_locking_eol: bool = param(
+        True, 'count the self-locking onset (eta_I <= 0, u >= 1) as end of life (ERROR)')
+    u_max: float = param(
+        0.0, 'end of life when u reaches this (0: criterion disabled)', '-', 0.0, 1e6)
+    eta_warn: float = param(
+        math.nan, 'WARN when eta_D is below this (must be > eta_opposing_min)', '-', -1.0, 1.0,
+        nan_means='derived: eta_opposing_min + 0.25 (eta_healthy - eta_opposing_min), '
+                  'eta_healthy the healthy eta_D learned once the filter has settled')
+    warn_horizon: float = param(
+        3600.0, 'WARN when the RUL median in operating time is below this; it clears once the '
+        f'RUL 5 % bound is above {RUL_CLEAR_FACTOR:g} times this', 's', 0.0, 1e12)
+    detect_z: float = param(
+        2.0, 'degradation is seen when the fitted du/dt at the newest time > detect_z '
+        'sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0)
+    trend: str = param(
+        'auto', 'RUL wear law fitted to the whole u history (auto: by AICc)', choices=TRENDS)
+    eta_accuracy: float = param(
+        0.001, 'systematic uncertainty of the measured efficiency (torque-sensor calibration, '
+        'model accuracy): it does not average out over windows and widens the RUL band by its '
+        'u at end of life over du/dt', '-', 0.0, 0.5)
+    mc_samples: int = param(
+        2000, 'Monte Carlo samples of the posterior for RUL bounds', '-', 100, 1_000_000)
+    seed: int = param(
+        0, 'seed of the fixed Monte Carlo draws (common random numbers)', '-', 0, 2**31 - 1)
+    nis_window: int = param(
+        20, 'number of recent NIS values averaged for the filter check', '-', 1, 100_000)
+    # 1 - 1e-6, not 0.999: the test runs on every new NIS value, so a long life holds
+    # thousands of windows, and at 0.999 a consistent filter crossed the bound (a WARN, then
+    # OK, then WARN again on random lives 28 and 89; docs/prognostics.md, "Levels")
+    nis_probability: float = param(
+        0.999999, 'chi-square probability of the NIS-average bound (model mismatch, WARN, '
+        'above)', '-', 0.5, 1.0 - 1e-12)
+    max_u_sigma: float = param(
+        1.0, 'ERROR (filter lost the signal) when sigma_u exceeds this', '-', 1e-9, 1e6)
+    nis_lost: float = param(
+        25.0, 'ERROR (filter lost the signal) when the median of the NIS window exceeds this; '
+        'a mean above the chi-square bound alone is a model mismatch (WARN)', '-', 1.0, 1e12)
+    level_hysteresis: float = param(
+        0.05, "a level is left when its value is back by this fraction of the threshold's "
+        'distance from a new gearbox (eta_D 1, u 0)', '-', 0.0, 0.5)
+    level_dwell: float = param(
+        5.0, 'a level change must hold this long in stamp time before it is reported (leaving '
+        'a WARN or ERROR condition: level_clear_dwell)', 's', 0.0, 1e6)
+    level_clear_dwell: float = param(
+        600.0, 'a reported WARN or ERROR condition is left only once its clearing test has '
+        'held this long in stamp time, so that a condition near its threshold gives one '
+        'report, not a flicker', 's', 0.0, 1e9)
+    stale_timeout: float = param(
+        2.0, 'STALE when no estimator input arrives for this long', 's', 1e-3, 1e6)
 
     def __post_init__(self) -> None:
         check_values(PARAMETERS, asdict(self))
@@ -155,21 +133,33 @@ class HealthConfig:
             return derived_eta_warn(self.eta_opposing_min, eta_healthy)
         return self.eta_warn
 
-    def as_dict(self) -> dict[str, object]:
+    def as_dict(self) -> dict[str, Value]:
         """Plain dict of all parameters."""
         return asdict(self)
 
 
-def cross_field_problem(values: dict[str, object]) -> str:
+#: The health parameters (diagnostics node parameters of the same names,
+#: config/diagnostics.yaml; ``gear-phm analyze`` and ``evaluate`` options), one per field of
+#: :class:`HealthConfig`, in field order.
+PARAMETERS: tuple[ParamSpec, ...] = specs_of(HealthConfig)
+#: ``{name: default}`` of :data:`PARAMETERS`.
+DEFAULTS = defaults(PARAMETERS)
+#: The health parameters that are not options of the offline tools (``analyze_bag``,
+#: ``gear-phm analyze``/``evaluate``): the ratio is their own argument, and staleness is a
+#: live-only concept (no clock runs offline).
+NOT_OFFLINE_OPTIONS: tuple[str, ...] = (RATIO.name, 'stale_timeout')
+
+
+def cross_field_problem(values: Mapping[str, Value]) -> str:
     """Reason why a set of parameter values is inconsistent, or '' if it is fine.
 
     Checks: an explicit ``eta_warn > eta_opposing_min`` (the warning must come before end of
     life; NaN, the derived default, always is) and ``eta_opposing_min > -1/ratio`` (below that
     no friction parameter reaches it).
     """
-    eta_min = float(values['eta_opposing_min'])  # type: ignore[arg-type]
-    eta_warn = float(values['eta_warn'])  # type: ignore[arg-type]
-    ratio = float(values['ratio'])  # type: ignore[arg-type]
+    eta_min = float(values['eta_opposing_min'])
+    eta_warn = float(values['eta_warn'])
+    ratio = float(values['ratio'])
     if not math.isnan(eta_warn) and not eta_warn > eta_min:
         return (f'eta_warn must be > eta_opposing_min ({eta_min!r}) so WARN comes before end '
                 f'of life, got {eta_warn!r}; leave it unset (nan) for the derived default '

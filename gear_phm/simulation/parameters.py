@@ -7,9 +7,8 @@ parameter, CLI option with ``-`` for ``_``); :func:`config_from_parameters` buil
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
-from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO
+from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO, T, Value
 from gear_phm.simulation.duty_cycle import DutyCycle
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
 from gear_phm.simulation.sensors import Channel, Sensors
@@ -113,42 +112,63 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 )
 
 
-def config_from_parameters(values: Mapping[str, Any]) -> SimulationConfig:
+def config_from_parameters(values: Mapping[str, object]) -> SimulationConfig:
     """Build a SimulationConfig from flat values (missing names take PARAMETERS' defaults).
 
     Raises ValueError naming the field and the value; unknown names are refused too.
     """
-    v: dict[str, Any] = {**defaults(PARAMETERS), **check_values(PARAMETERS, values)}
-    plant = Plant(ratio=v['ratio'], motor_inertia=v['motor_inertia'],
-                  load_inertia=v['load_inertia'], air_load_preload=v['air_load_preload'],
-                  air_load_stiffness=v['air_load_stiffness'], efficiency_model=v['plant'],
-                  pinion_teeth=v['pinion_teeth'], module=v['module'],
-                  bearing_radius_1=v['bearing_radius_1'],
-                  bearing_radius_2=v['bearing_radius_2'],
-                  direction_offset=v['direction_offset'])
-    duty = DutyCycle(travel=v['travel'], extend_time=v['extend_time'],
-                     retract_time=v['retract_time'], accel_time=v['accel_time'],
-                     dwell_extended=v['dwell_extended'], dwell_retracted=v['dwell_retracted'])
-    wear = Wear(kind=v['wear'], initial=v['friction_initial'], rate=v['wear_rate'],
-                t_fault=v['t_fault'], step=v['fault_step'], exponent=v['wear_exponent'],
-                exp_amplitude=v['wear_exp_amplitude'], exp_rate=v['wear_exp_rate'],
-                power_coefficient=v['wear_power_coefficient'], base=v['friction_base'],
-                onset=v['wear_onset'], running_in=v['running_in'],
-                running_in_time=v['running_in_time'], regime_time=v['regime_time'],
-                regime_factor=v['regime_factor'], process=v['wear_process'],
-                process_scale=v['wear_process_scale'], process_step=v['wear_process_step'])
+    v = {**defaults(PARAMETERS), **check_values(PARAMETERS, values)}
+
+    def num(name: str) -> float:
+        return _typed(v, name, float)
+
+    def text(name: str) -> str:
+        return _typed(v, name, str)
+
+    plant = Plant(ratio=num('ratio'), motor_inertia=num('motor_inertia'),
+                  load_inertia=num('load_inertia'), air_load_preload=num('air_load_preload'),
+                  air_load_stiffness=num('air_load_stiffness'), efficiency_model=text('plant'),
+                  pinion_teeth=num('pinion_teeth'), module=num('module'),
+                  bearing_radius_1=num('bearing_radius_1'),
+                  bearing_radius_2=num('bearing_radius_2'),
+                  direction_offset=num('direction_offset'))
+    duty = DutyCycle(travel=num('travel'), extend_time=num('extend_time'),
+                     retract_time=num('retract_time'), accel_time=num('accel_time'),
+                     dwell_extended=num('dwell_extended'),
+                     dwell_retracted=num('dwell_retracted'))
+    wear = Wear(kind=text('wear'), initial=num('friction_initial'), rate=num('wear_rate'),
+                t_fault=num('t_fault'), step=num('fault_step'), exponent=num('wear_exponent'),
+                exp_amplitude=num('wear_exp_amplitude'), exp_rate=num('wear_exp_rate'),
+                power_coefficient=num('wear_power_coefficient'), base=num('friction_base'),
+                onset=num('wear_onset'), running_in=num('running_in'),
+                running_in_time=num('running_in_time'), regime_time=num('regime_time'),
+                regime_factor=num('regime_factor'), process=text('wear_process'),
+                process_scale=num('wear_process_scale'),
+                process_step=num('wear_process_step'))
     sensors = Sensors(*(Channel(sigma=_named(v, f'noise_{c}'), bias=_named(v, f'bias_{c}'))
                         for c in ('velocity_motor', 'velocity_load', 'effort_motor',
                                   'effort_load')))
     return SimulationConfig(plant=plant, duty_cycle=duty, wear=wear, sensors=sensors,
-                            seed=int(v['seed']))
+                            seed=_typed(v, 'seed', int))
 
 
-def _named(values: Mapping[str, Any], name: str) -> float:
+def _typed(values: Mapping[str, Value], name: str, kind: type[T]) -> T:
+    """Return the checked value ``name``, of its spec's type ``kind``.
+
+    Raises TypeError on another type (a checked value never has one).
+    """
+    value = values[name]
+    if not isinstance(value, kind):
+        msg = f'{name} is {value!r}, not of type {kind.__name__}'
+        raise TypeError(msg)
+    return value
+
+
+def _named(values: Mapping[str, Value], name: str) -> float:
     """Re-raise a Channel error with the flat parameter name."""
+    value = _typed(values, name, float)
     try:
-        Channel(sigma=values[name]) if name.startswith('noise') else Channel(bias=values[name])
+        Channel(sigma=value) if name.startswith('noise') else Channel(bias=value)
     except ValueError as exc:
         raise ValueError(f'{name}: {exc}') from None
-    value: float = values[name]
     return value
