@@ -98,7 +98,7 @@ class EstimatorConfig:
     no_load_model: bool = param(
         False, 'learn the load-independent (no-load) loss at the motor (T_0 sign(w_m) + c_v w_m '
         'and a torque offset) jointly with u, and fuse into u only the windows where it is '
-        'identified (false: the paper model, every loss is friction)')
+        'identified (false: the paper model, every loss is friction)', read_only=True)
     no_load_tolerance: float = param(
         0.004, "largest std dev of a window's no-load correction, relative to its load energy "
         '(about the efficiency), for the window to be fused into u; above it the window is '

@@ -152,6 +152,7 @@ class _PredictionBase:
     bias: tuple[float, float]
     fixed: tuple[float, float, float, float]
     mismatch: tuple[float, float]
+    no_load: tuple[float, float, float]
 
 
 class EstimatorPipeline:
@@ -835,7 +836,16 @@ class EstimatorPipeline:
             f.x, f.P, math.inf if f.t is None else f.t,
             f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
             (self._last_eta, last.innovation, last.innovation_variance, last.nis),
-            (f.mismatch_variance(0), f.mismatch_variance(1)))
+            (f.mismatch_variance(0), f.mismatch_variance(1)), self._no_load_fields())
+
+    def _no_load_fields(self) -> tuple[float, float, float]:
+        """Return an estimate's no-load torque, its std dev and the total efficiency (NaN off)."""
+        if not self.config.no_load_model:
+            return math.nan, math.nan, math.nan
+        values = self._no_load_summary(efficiencies(
+            float(self.filter.x[0]) + self.filter.direction_bias(0), self.config.ratio)[0])
+        return (values['no_load_torque'], values['no_load_torque_sigma'],
+                values['total_efficiency'])
 
     def _predictions(self, outputs: list[FrictionEstimate],
                      runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
@@ -871,11 +881,14 @@ class EstimatorPipeline:
         for (at, _, base), size in zip(runs_at, sizes):
             fixed, q, mismatch = base.fixed, base.q, base.mismatch
             offset = base.bias[1] - base.bias[0]
+            torque, sigma, total = base.no_load
             outputs[at:at + size] = [
                 FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
                                  rejected, flow, process_noise=q, mismatch_variance=mismatch,
                                  operating_time=time, measurement=nan,
-                                 measurement_variance=nan, direction_offset=offset)
+                                 measurement_variance=nan, direction_offset=offset,
+                                 no_load_torque=torque, no_load_sigma=sigma,
+                                 total_efficiency=total)
                 for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
                 in itertools.islice(rows, size)]
 
@@ -907,6 +920,7 @@ class EstimatorPipeline:
         if measurement is not None:
             z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
             h, bias = measurement[3], measurement[4]
+        torque, sigma, total = self._no_load_fields()
         return FrictionEstimate(
             stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
             self._last_eta, last.innovation, last.innovation_variance, last.nis,
@@ -917,7 +931,8 @@ class EstimatorPipeline:
                                self.filter.mismatch_variance(1)),
             operating_time=at, measurement=z, measurement_variance=variance,
             direction_offset=self.filter.direction_offset, measurement_direction=h,
-            measurement_bias=bias)
+            measurement_bias=bias, no_load_torque=torque, no_load_sigma=sigma,
+            total_efficiency=total)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:

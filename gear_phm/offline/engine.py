@@ -618,7 +618,9 @@ class _Run:
             estimates, ends, statuses,
             tuple(int(stamps[end - 1]) if end else -1 for end in ends),
             bool(np.all(np.diff(stamps) > 0)),
-            tuple(self._topics(estimate_columns(estimates, history))) if write else ())
+            tuple(self._topics(estimate_columns(estimates, history,
+                                                self.pipeline.config.no_load_model)))
+            if write else ())
 
     def assess(self, estimates: Sequence[FrictionEstimate], ends: Sequence[int],
                ticks: Sequence[int], write: bool) -> Assessed:
@@ -956,17 +958,19 @@ class _Prepared:
 
 #: The estimate fields written from the estimates themselves (not :class:`EstimateHistory`).
 _FROM_ESTIMATES = ('measurement', 'measurement_variance', 'direction_offset',
-                   'measurement_direction', 'measurement_bias')
+                   'measurement_direction', 'measurement_bias', 'no_load_torque',
+                   'no_load_sigma', 'total_efficiency')
 
 
-def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
-                     ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory,
+                     no_load: bool = False) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return :func:`gear_phm.interfaces.vector3_columns` of estimates, from their ``history``.
 
     The estimator's outputs as ``(topic, stamps [ns], xyz)`` columns, in publishing order
     (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`; the diagnostics node's are
     ``vector3_columns(states, HEALTH_LAYOUT)``). The measurements and the direction offset,
-    which the history does not hold, are read from the estimates.
+    which the history does not hold, are read from the estimates; with ``no_load`` also
+    :data:`gear_phm.interfaces.NO_LOAD_LAYOUT`.
     """
     row = operator.attrgetter(*_FROM_ESTIMATES)
     measured = np.array([row(e) for e in estimates], dtype=float).reshape(
@@ -976,7 +980,7 @@ def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHis
     return [(topic, history.stamp_ns,
              np.column_stack([source[name] if name in source else getattr(history, name)
                               for name in names]).astype(float))
-            for topic, names in interfaces.ESTIMATE_LAYOUT]
+            for topic, names in interfaces.estimate_layout(no_load)]
 
 
 def _json(value: Any) -> Any:
