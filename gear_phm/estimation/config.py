@@ -109,6 +109,13 @@ class EstimatorConfig:
     no_load_reference_speed: float = param(
         0.0, 'motor speed at which the no-load torque is reported (0: the typical speed of the '
         'windows)', 'rad/s', 0.0, 1e9)
+    no_load_band_time: float = param(
+        3600.0, "operating time over which the no-load loss's healthy band is learned (a cold "
+        'start included); after it, a loss above no_load_band_factor times that band is WARN',
+        's', 0.0, 1e9)
+    no_load_band_factor: float = param(
+        1.5, 'the no-load loss is above its healthy band beyond this multiple of the highest '
+        'healthy value (WARN: seal or lubrication, never end of life)', '-', 1.0, 1e3)
     rated_load_torque: float = param(
         0.0, 'output torque of the rated point for the total efficiency (0: not reported)',
         'N m', 0.0, 1e12)

@@ -297,3 +297,51 @@ class NoLoadLearner:
         self._seek_cold = bool(state['seek_cold'])
         self.identified = bool(state['identified'])
         self.windows, self.held = int(state['windows']), int(state['held'])
+
+
+class NoLoadBand:
+    """The no-load loss's own health indicator: its healthy band, learned, then watched.
+
+    For its first ``learn_time`` [s] of operation the band is the highest no-load torque
+    identified (a cold start's included: a cold start is not a fault). After that, a torque
+    whose lower 2-sigma bound exceeds ``factor`` times that is *above its healthy band*: drag
+    that grew (a seal, the lubrication), not wear; it is reported, never end of life.
+    """
+
+    def __init__(self, learn_time: float = 3600.0, factor: float = 1.5) -> None:
+        self.learn_time = float(learn_time)
+        self.factor = float(factor)
+        self.start = math.nan       # operating time of the first identified torque [s]
+        self.highest = math.nan     # highest healthy torque [N m]
+        self.above = False
+
+    def add(self, operating: float, estimate: NoLoadEstimate) -> None:
+        """Take the estimate after an identified window at operating time ``operating`` [s]."""
+        if not (estimate.identified and math.isfinite(estimate.torque)):
+            return
+        if not math.isfinite(self.start):
+            self.start = operating
+        if operating - self.start <= self.learn_time:
+            self.highest = estimate.torque if not math.isfinite(self.highest) else max(
+                self.highest, estimate.torque)
+            return
+        self.above = estimate.torque - 2.0 * estimate.torque_sigma > self.factor * max(
+            self.highest, 0.0)
+
+    def message(self, torque: float) -> str:
+        """Return the status text when above the band ('' otherwise)."""
+        if not self.above:
+            return ''
+        return (f'no-load loss {torque:.4g} N m above its healthy band (up to '
+                f'{self.factor * self.highest:.4g} N m): drag grew (seal, lubrication), not '
+                f'wear')
+
+    def to_state(self) -> dict[str, Any]:
+        """Return the band (JSON-safe)."""
+        return {'start': encode_float(self.start), 'highest': encode_float(self.highest),
+                'above': self.above}
+
+    def from_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`to_state`; KeyError/ValueError/TypeError if malformed."""
+        start, highest = decode_float(state['start']), decode_float(state['highest'])
+        self.start, self.highest, self.above = start, highest, bool(state['above'])

@@ -23,7 +23,7 @@ import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.no_load import NoLoadLearner
+from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
                                         predicted_stacked)
 from gear_phm.estimation.powerflow import classify
@@ -221,6 +221,7 @@ class EstimatorPipeline:
         self.inertia = InertiaLearner(c.motor_inertia)
         self.no_load = NoLoadLearner(c.no_load_tolerance, c.no_load_cool_gap,
                                      c.no_load_reference_speed)
+        self.no_load_band = NoLoadBand(c.no_load_band_time, c.no_load_band_factor)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
@@ -260,7 +261,7 @@ class EstimatorPipeline:
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
             'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
             'inertia': self.inertia.to_state(), 'window': self.integrator.to_state(),
-            'no_load': self.no_load.to_state(),
+            'no_load': self.no_load.to_state(), 'no_load_band': self.no_load_band.to_state(),
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -292,9 +293,12 @@ class EstimatorPipeline:
             fresh.integrator.from_state(state['window'])
         if 'no_load' in state:              # a state without it starts the no-load part anew
             fresh.no_load.from_state(state['no_load'])
+            if 'no_load_band' in state:
+                fresh.no_load_band.from_state(state['no_load_band'])
         self.filter = fresh.filter
         self.inertia = fresh.inertia
         self.no_load = fresh.no_load
+        self.no_load_band = fresh.no_load_band
         self.integrator = fresh.integrator
         self.counts = counts
         self._carry = carried
@@ -774,6 +778,7 @@ class EstimatorPipeline:
                 self.counts['not_identifiable'] += 1
                 return []
             no_load = (correction.energy, correction.variance)
+            self.no_load_band.add(self._window_operating_time(window), self.no_load.estimate())
             result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
                                     c.model_sigma, inertia, no_load)
         if isinstance(result, str):
@@ -978,6 +983,7 @@ class EstimatorPipeline:
             'no_load_reference_speed': learned.reference_speed,
             'no_load_cold_torque': learned.cold_torque,
             'no_load_identified': learned.identified,
+            'no_load_band': self.no_load_band.message(learned.torque),
             'total_efficiency': learned.total_efficiency(eta_opposing, c.ratio,
                                                          c.rated_load_torque, c.rated_speed)}
 
@@ -1097,7 +1103,7 @@ class EstimatorPipeline:
             message += (f'; direction offset drifted {drift:+.3g} sigma since it settled '
                         f'(now {summary["direction_offset"]:.4g})')
         for problem in (summary.get('reversed_torque', ''), summary.get('ratio_check', ''),
-                        summary.get('over_unity', '')):
+                        summary.get('over_unity', ''), summary.get('no_load_band', '')):
             if problem:
                 message = problem if level == OK else f'{message}; {problem}'
                 level = WARN

@@ -163,3 +163,26 @@ def test_total_efficiency_at_the_rated_point() -> None:
     assert summary['total_efficiency'] == pytest.approx(expected, rel=0.02)
     assert summary['total_efficiency'] < eta - 0.015
     assert math.isnan(EstimatorPipeline(config()).summary()['total_efficiency'])
+
+
+def test_a_grown_drag_is_warn_and_a_cold_start_is_not() -> None:
+    drag = 0.025 * FORCE / RATIO
+    pipeline = EstimatorPipeline(config(no_load_band_time=600.0))
+    # the first run starts cold, warms up: the band holds its cold value
+    run(pipeline, drive(900.0, coulomb=drag, cold_factor=3.0, warm_time=150.0,
+                        load_range=(0.3, 1.0)))
+    assert pipeline.status('test').level == 0
+    # the next day starts cold again: not a fault
+    run(pipeline, drive(300.0, coulomb=drag, cold_factor=3.0, warm_time=150.0,
+                        load_range=(0.3, 1.0), start=900.0 + 86_400.0, seed=2))
+    status = pipeline.status('test')
+    assert status.level == 0, status.message
+    assert pipeline.summary()['u'] == pytest.approx(U, abs=0.006)
+    # a seal fault: the warm drag five times what it was
+    run(pipeline, drive(600.0, coulomb=5.0 * drag, load_range=(0.3, 1.0),
+                        start=2 * 86_400.0, seed=3))
+    status = pipeline.status('test')
+    assert status.level == 1
+    assert 'above its healthy band' in status.message
+    # drag, not wear: u stays where it was
+    assert pipeline.summary()['u'] == pytest.approx(U, abs=0.006)
