@@ -88,8 +88,10 @@ NO_LOAD_LAYOUT: Layout = (
 
 
 def estimate_layout(no_load: bool) -> Layout:
-    """Return the estimator's output layout: :data:`ESTIMATE_LAYOUT`, with ``no_load`` also
-    :data:`NO_LOAD_LAYOUT`."""
+    """Return the estimator's output layout.
+
+    :data:`ESTIMATE_LAYOUT`, with ``no_load`` also :data:`NO_LOAD_LAYOUT`.
+    """
     return ESTIMATE_LAYOUT + NO_LOAD_LAYOUT if no_load else ESTIMATE_LAYOUT
 
 

@@ -280,9 +280,10 @@ class NoLoadLearner:
         p = None if state['P'] is None else np.array(decode_floats(state['P']))
         scales, times = decode_floats(state['scales']), decode_floats(state['times'])
         cold = None if state['cold'] is None else np.array(decode_floats(state['cold']))
-        if (x is None) != (p is None) or (x is not None and (x.size != DIM or p is None
-                                                            or p.size != DIM * DIM)) \
-                or len(scales) != 2 or len(times) != 2 or (cold is not None and cold.size != 3):
+        shapes_ok = (x is None and p is None) or (
+            x is not None and p is not None and x.size == DIM and p.size == DIM * DIM)
+        if not shapes_ok or len(scales) != 2 or len(times) != 2 \
+                or (cold is not None and cold.size != 3):
             raise ValueError('no_load: malformed state')
         self.reset()
         self.torque_scale, self.speed_scale = scales

@@ -23,9 +23,9 @@ import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
                                         predicted_stacked)
+from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
@@ -772,7 +772,8 @@ class EstimatorPipeline:
                 0 if window.code == OPPOSING else 1, window.t_start, window.t_end,
                 self._window_operating_time(window),
                 window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
-                window.motor_energy_variance, window.load_energy_variance, window.motor_travel, window.motor_travel_square,
+                window.motor_energy_variance, window.load_energy_variance,
+                window.motor_travel, window.motor_travel_square,
                 window.motion)
             if not correction.identified:
                 self.counts['not_identifiable'] += 1
