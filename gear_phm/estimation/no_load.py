@@ -51,9 +51,10 @@ GAIN_SIGMA = 1.0
 #: torque of the first window [-]; of the offset d.
 NO_LOAD_SHARE = 0.3
 OFFSET_SHARE = 0.05
-#: Random-walk spectral densities per second of operation: the gains (wear) [1/s], T_0 and
+#: Random-walk spectral densities per second of operation: the gains' floor [1/s] (the
+#: gains also move by the wear rate the caller gives, :meth:`NoLoadLearner.observe`), T_0 and
 #: c_v w_typ as shares of the typical motor torque [1/s], the offset [1/s].
-GAIN_WALK = 2e-6
+GAIN_WALK = 2e-8
 NO_LOAD_WALK = 2.5e-7
 OFFSET_WALK = 2.5e-9
 #: A window whose NIS exceeds this is not fused into the no-load state; after
@@ -160,14 +161,19 @@ class NoLoadLearner:
         kf.F = np.eye(DIM)
         self.kf = kf
 
-    def _walk(self, dt: float) -> np.ndarray:
+    def _walk(self, dt: float, gain_rates: tuple[float, float]) -> np.ndarray:
         t2 = self.torque_scale ** 2
+        dt = max(dt, 0.0)
         q = np.zeros((DIM, DIM))
-        q[0, 0] = q[1, 1] = GAIN_WALK
+        # the wear the gains follow: a drift of rate r over dt adds (r dt)^2, both gains at once
+        drift = np.array(gain_rates) * dt
+        q[:2, :2] = np.outer(drift, drift) / max(dt, 1e-12)
+        q[0, 0] += GAIN_WALK
+        q[1, 1] += GAIN_WALK
         q[2:4, 2:4] = NO_LOAD_WALK * t2 * np.ones((2, 2)) + OFFSET_WALK * t2 * np.array(
             [[1.0, -1.0], [-1.0, 1.0]])
         q[4, 4] = NO_LOAD_WALK * t2 / self.speed_scale ** 2
-        return q * max(dt, 0.0)
+        return q * dt
 
     def _cool(self) -> None:
         """Start the no-load part again from its cold value (or the prior), after a gap."""
@@ -182,14 +188,16 @@ class NoLoadLearner:
     def observe(self, direction: int, t_start: float, t_end: float, operating: float,
                 motor_energy: float, load_energy: float, motor_variance: float,
                 load_variance: float, travel: float, travel_square: float,
-                motion: int) -> NoLoadCorrection:
+                motion: int, gain_rates: tuple[float, float] = (0.0, 0.0)) -> NoLoadCorrection:
         """Return the correction of one window, then learn from it.
 
         ``direction`` 0 opposing, 1 aiding; stamp times ``t_start``, ``t_end`` and the
         operating time at its end [s]; motor and load energies [J] (the motor's less any rotor
         inertia) and their variances [J^2]; ``travel`` A = int |w_m| dt [rad], ``travel_square``
-        B = int w_m^2 dt [rad^2/s], ``motion`` the sign of w_m. A window without travel is
-        returned as not identified and not learned from.
+        B = int w_m^2 dt [rad^2/s], ``motion`` the sign of w_m; ``gain_rates``: how fast wear
+        moves g_D and g_I [1/s] (from the friction filter's rate), so that the gains follow
+        the wear and the no-load part the oil. A window without travel is returned as not
+        identified and not learned from.
         """
         load = -load_energy
         values = (t_start, t_end, operating, motor_energy, load, motor_variance,
@@ -204,7 +212,7 @@ class NoLoadLearner:
             self._cool()
         kf = self.kf
         kf.Q = self._walk(operating - self._operating if math.isfinite(self._operating)
-                          else 0.0)
+                          else 0.0, gain_rates)
         kf.predict()
         scale = abs(load)
         h = np.zeros((1, DIM))

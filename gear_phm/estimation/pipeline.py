@@ -774,7 +774,7 @@ class EstimatorPipeline:
                 window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
                 window.motor_energy_variance, window.load_energy_variance,
                 window.motor_travel, window.motor_travel_square,
-                window.motion)
+                window.motion, self._gain_rates())
             if not correction.identified:
                 self.counts['not_identifiable'] += 1
                 return []
@@ -833,6 +833,16 @@ class EstimatorPipeline:
                                (result.u - update.bias, variance,
                                 operating - 0.5 * window.duration,
                                 0.5 if direction else -0.5, update.bias))]
+
+    def _gain_rates(self) -> tuple[float, float]:
+        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s]."""
+        u, rate = float(self.filter.x[0]), float(self.filter.x[1])
+        r = self.config.ratio
+        if not (math.isfinite(u) and math.isfinite(rate) and u > -1.0):
+            return 0.0, 0.0
+        # d(1/eta_D)/du = R (R + 1) / (R - u)^2, d(eta_I)/du = -R (R + 1) / (R + u)^2
+        return (abs(rate) * r * (r + 1.0) / max(r - u, 1e-6) ** 2,
+                -abs(rate) * r * (r + 1.0) / (r + u) ** 2)
 
     def _prediction_base(self) -> _PredictionBase:
         """Return what the estimates published before the next filter update are predicted from."""
