@@ -61,6 +61,8 @@ OFFSET_WALK = 2.5e-9
 #: ``GATED_RESET`` in a row the gains' covariance is reset (a step in the friction).
 GATE = 25.0
 GATED_RESET = 3
+#: Most windows one correction error is taken to be shared by.
+MAX_SHARED = 200.0
 #: Memory of the learned extra window scatter (covariance matching) [windows], and its
 #: floor [-^2]: no two windows agree better than about 0.1 % of the efficiency.
 SCATTER_MEMORY = 50.0
@@ -73,11 +75,16 @@ class NoLoadCorrection:
 
     ``energy`` [J] and its ``variance`` [J^2]; ``identified``: its std dev relative to the
     window's load energy is within the tolerance (the window may be fused into u).
+    ``shared``: how many windows in a row share its error (the no-load state's memory): to
+    the friction filter, which takes each window's error as independent, the correction
+    weighs ``shared`` times its variance, so that averaging those windows does not make u
+    surer than the no-load part is.
     """
 
     energy: float
     variance: float
     identified: bool
+    shared: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -223,6 +230,7 @@ class NoLoadLearner:
         p_theta = kf.P[2:, 2:]
         z_corr = float(phi @ kf.x[2:, 0])
         var_corr = max(float(phi @ p_theta @ phi), 0.0)
+        walk = float(phi @ kf.Q[2:, 2:] @ phi)
         self.identified = math.sqrt(var_corr) <= self.tolerance
         if not self.identified:
             self.held += 1
@@ -250,7 +258,11 @@ class NoLoadLearner:
             kf.update(np.array([[motor_energy / scale]]), R=np.array(
                 [[sensor + self.scatter]]), H=h)
         self._t_end, self._operating = t_end, operating
-        return NoLoadCorrection(z_corr * scale, var_corr * scale * scale, self.identified)
+        # the state's memory in windows, sqrt(r / q) of a random walk seen through noise r
+        shared = min(max(math.sqrt((sensor + self.scatter) / walk), 1.0), MAX_SHARED) \
+            if walk > 0.0 else MAX_SHARED
+        return NoLoadCorrection(z_corr * scale, var_corr * scale * scale, self.identified,
+                                shared)
 
     # --- reporting -------------------------------------------------------------------------
     def estimate(self) -> NoLoadEstimate:

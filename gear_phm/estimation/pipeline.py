@@ -778,7 +778,7 @@ class EstimatorPipeline:
             if not correction.identified:
                 self.counts['not_identifiable'] += 1
                 return []
-            no_load = (correction.energy, correction.variance)
+            no_load = (correction.energy, correction.shared * correction.variance)
             self.no_load_band.add(self._window_operating_time(window), self.no_load.estimate())
             result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
                                     c.model_sigma, inertia, no_load)
