@@ -71,6 +71,8 @@ def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
                  for reason in reasons)
 
 
+#: The no-load filter's gains walk by this multiple of the wear rate (:meth:`_gain_rates`).
+GAIN_RATE_MARGIN = 3.0
 #: The status message while windows are held because the no-load loss is not identified.
 NOT_IDENTIFIABLE = ('no-load loss not identifiable (the load does not vary enough to tell it '
                     'from friction): u held')
@@ -835,8 +837,12 @@ class EstimatorPipeline:
                                 0.5 if direction else -0.5, update.bias))]
 
     def _gain_rates(self) -> tuple[float, float]:
-        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s]."""
-        u, rate = float(self.filter.x[0]), float(self.filter.x[1])
+        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s].
+
+        :data:`GAIN_RATE_MARGIN` times the filter's |du/dt|: the rate lags a wear that speeds
+        up, and a gain that cannot follow the wear passes it into the no-load part.
+        """
+        u, rate = float(self.filter.x[0]), GAIN_RATE_MARGIN * float(self.filter.x[1])
         r = self.config.ratio
         if not (math.isfinite(u) and math.isfinite(rate) and u > -1.0):
             return 0.0, 0.0
