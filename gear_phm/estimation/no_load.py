@@ -45,6 +45,8 @@ from gear_phm.persistence import decode_float, decode_floats, encode_float, enco
 
 #: State size: g_D, g_I, a_+, a_-, c_v.
 DIM = 5
+#: Windows whose medians set the scales before the filter starts.
+START_WINDOWS = 8
 #: Prior std dev of each direction's gain g [-] (eta from 0 to 2 within one sigma of 1).
 GAIN_SIGMA = 1.0
 #: Prior std dev of T_0 and of c_v times the typical speed, as shares of the typical motor
@@ -148,6 +150,8 @@ class NoLoadLearner:
         self.identified = False         # the newest correction's verdict
         self.windows = 0
         self.held = 0
+        #: the first windows, kept until the scales are known (:meth:`observe`)
+        self._first: list[tuple[float, ...]] = []
 
     # --- the filter ------------------------------------------------------------------------
     def _prior(self) -> np.ndarray:
@@ -213,16 +217,39 @@ class NoLoadLearner:
                 and travel_square > 0.0 and load != 0.0):
             return NoLoadCorrection(0.0, math.inf, False)
         self.windows += 1
+        row = (direction, t_start, t_end, operating, motor_energy, load, motor_variance,
+               load_variance, travel, travel_square, motion, *gain_rates)
         if self.kf is None:
-            self._start(abs(motor_energy) / travel, travel_square / travel)
-        elif t_start - self._t_end > self.cool_gap:
+            # the scales (the prior's, the walks' and the typical speed W) are the medians of
+            # the first START_WINDOWS windows, which are then learned from in order
+            self._first.append(row)
+            self.held += 1
+            if len(self._first) < START_WINDOWS:
+                return NoLoadCorrection(0.0, math.inf, False)
+            first = np.array(self._first)
+            self._start(float(np.median(np.abs(first[:, 4]) / first[:, 8])),
+                        float(np.median(first[:, 9] / first[:, 8])))
+            for kept in self._first:
+                self._step(*kept)
+            self._first = []
+            return NoLoadCorrection(0.0, math.inf, False)
+        if t_start - self._t_end > self.cool_gap:
             self._cool()
+        return self._step(*row)
+
+    def _step(self, direction: int, t_start: float, t_end: float, operating: float,
+              motor_energy: float, load: float, motor_variance: float, load_variance: float,
+              travel: float, travel_square: float, motion: int, rate_d: float,
+              rate_i: float) -> NoLoadCorrection:
+        """Return one window's correction from the state before it, then learn from it."""
+        gain_rates = (rate_d, rate_i)
         kf = self.kf
         kf.Q = self._walk(operating - self._operating if math.isfinite(self._operating)
                           else 0.0, gain_rates)
         kf.predict()
         scale = abs(load)
         h = np.zeros((1, DIM))
+        direction = int(direction)
         h[0, direction] = math.copysign(1.0, load)
         h[0, 2 if motion >= 0 else 3] = travel / scale
         h[0, 4] = (travel_square - self.speed_scale * travel) / scale
@@ -292,7 +319,8 @@ class NoLoadLearner:
             'scatter': encode_float(self.scatter), 'gated': self.gated,
             'cold': None if self.cold is None else encode_floats(self.cold.tolist()),
             'seek_cold': self._seek_cold, 'identified': self.identified,
-            'windows': self.windows, 'held': self.held}
+            'windows': self.windows, 'held': self.held,
+            'first': [encode_floats(list(row)) for row in self._first]}
 
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
@@ -318,6 +346,9 @@ class NoLoadLearner:
         self._seek_cold = bool(state['seek_cold'])
         self.identified = bool(state['identified'])
         self.windows, self.held = int(state['windows']), int(state['held'])
+        self._first = [tuple(decode_floats(row)) for row in state.get('first', [])]
+        if any(len(row) != 13 for row in self._first):
+            raise ValueError('no_load: malformed state')
 
 
 class NoLoadBand:
