@@ -43,8 +43,9 @@ import numpy as np
 from gear_phm.estimation.filterpy_light import KalmanFilter
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
 
-#: State size: g_D, g_I, a_+, a_-, c_v.
-DIM = 5
+#: State size: g_D, g_I, a_+, a_-, c_v, dJ; the no-load part is x[NO_LOAD].
+DIM = 6
+NO_LOAD = slice(2, 5)
 #: Windows whose medians set the scales before the filter starts.
 START_WINDOWS = 8
 #: Prior std dev of each direction's gain g [-] (eta from 0 to 2 within one sigma of 1).
@@ -53,6 +54,9 @@ GAIN_SIGMA = 1.0
 #: torque of the first window [-]; of the offset d.
 NO_LOAD_SHARE = 0.3
 OFFSET_SHARE = 0.05
+#: Prior std dev of the rotor inertia left: this share of the first windows' median motor
+#: energy over their largest |K| [-].
+INERTIA_SHARE = 0.5
 #: Random-walk spectral densities per second of operation: the gains' floor [1/s] (the
 #: gains also move by the wear rate the caller gives, :meth:`NoLoadLearner.observe`), T_0 and
 #: c_v w_typ as shares of the typical motor torque [1/s], the offset [1/s].
@@ -141,6 +145,7 @@ class NoLoadLearner:
         #: typical motor torque [N m] and speed [rad/s] (scales of the prior and walks)
         self.torque_scale = math.nan
         self.speed_scale = math.nan
+        self.inertia_scale = math.nan   # prior std dev of the rotor inertia left [kg m^2]
         self._t_end = math.nan          # stamp time of the newest window's end [s]
         self._operating = math.nan      # operating time of the newest window [s]
         self.scatter = SCATTER_FLOOR    # learned extra variance of z [-^2]
@@ -162,12 +167,13 @@ class NoLoadLearner:
         p[2:4, 2:4] = t_sigma ** 2 * np.ones((2, 2)) + d_sigma ** 2 * np.array(
             [[1.0, -1.0], [-1.0, 1.0]])
         p[4, 4] = (NO_LOAD_SHARE * self.torque_scale / self.speed_scale) ** 2
+        p[5, 5] = self.inertia_scale ** 2
         return p
 
-    def _start(self, torque: float, speed: float) -> None:
-        self.torque_scale, self.speed_scale = torque, speed
+    def _start(self, torque: float, speed: float, inertia: float) -> None:
+        self.torque_scale, self.speed_scale, self.inertia_scale = torque, speed, inertia
         kf = KalmanFilter(dim_x=DIM, dim_z=1)
-        kf.x = np.array([[1.0], [1.0], [0.0], [0.0], [0.0]])
+        kf.x = np.array([[1.0], [1.0], [0.0], [0.0], [0.0], [0.0]])
         kf.P = self._prior()
         kf.F = np.eye(DIM)
         self.kf = kf
@@ -189,17 +195,18 @@ class NoLoadLearner:
     def _cool(self) -> None:
         """Start the no-load part again from its cold value (or the prior), after a gap."""
         prior = self._prior()
-        self.kf.P[2:, :] = 0.0
-        self.kf.P[:, 2:] = 0.0
-        self.kf.P[2:, 2:] = prior[2:, 2:]
-        self.kf.x[2:, 0] = 0.0 if self.cold is None else self.cold
+        self.kf.P[NO_LOAD, :] = 0.0
+        self.kf.P[:, NO_LOAD] = 0.0
+        self.kf.P[NO_LOAD, NO_LOAD] = prior[NO_LOAD, NO_LOAD]
+        self.kf.x[NO_LOAD, 0] = 0.0 if self.cold is None else self.cold
         self._seek_cold = self.cold is None
 
     # --- per window ------------------------------------------------------------------------
     def observe(self, direction: int, t_start: float, t_end: float, operating: float,
                 motor_energy: float, load_energy: float, motor_variance: float,
                 load_variance: float, travel: float, travel_square: float,
-                motion: int, gain_rates: tuple[float, float] = (0.0, 0.0)) -> NoLoadCorrection:
+                motion: int, gain_rates: tuple[float, float] = (0.0, 0.0),
+                kinetic: float = 0.0) -> NoLoadCorrection:
         """Return the correction of one window, then learn from it.
 
         ``direction`` 0 opposing, 1 aiding; stamp times ``t_start``, ``t_end`` and the
@@ -207,8 +214,10 @@ class NoLoadLearner:
         inertia) and their variances [J^2]; ``travel`` A = int |w_m| dt [rad], ``travel_square``
         B = int w_m^2 dt [rad^2/s], ``motion`` the sign of w_m; ``gain_rates``: how fast wear
         moves g_D and g_I [1/s] (from the friction filter's rate), so that the gains follow
-        the wear and the no-load part the oil. A window without travel is returned as not
-        identified and not learned from.
+        the wear and the no-load part the oil; ``kinetic`` K = (w_m,end^2 - w_m,start^2) / 2
+        [rad^2/s^2]: the rotor inertia dJ left in the motor energy costs dJ K, learned as a
+        nuisance (windows of a ramp would otherwise pass it into the no-load part). A window
+        without travel is returned as not identified and not learned from.
         """
         load = -load_energy
         values = (t_start, t_end, operating, motor_energy, load, motor_variance,
@@ -218,7 +227,7 @@ class NoLoadLearner:
             return NoLoadCorrection(0.0, math.inf, False)
         self.windows += 1
         row = (direction, t_start, t_end, operating, motor_energy, load, motor_variance,
-               load_variance, travel, travel_square, motion, *gain_rates)
+               load_variance, travel, travel_square, motion, *gain_rates, kinetic)
         if self.kf is None:
             # the scales (the prior's, the walks' and the typical speed W) are the medians of
             # the first START_WINDOWS windows, which are then learned from in order
@@ -227,8 +236,11 @@ class NoLoadLearner:
             if len(self._first) < START_WINDOWS:
                 return NoLoadCorrection(0.0, math.inf, False)
             first = np.array(self._first)
+            largest = float(np.max(np.abs(first[:, 13])))
             self._start(float(np.median(np.abs(first[:, 4]) / first[:, 8])),
-                        float(np.median(first[:, 9] / first[:, 8])))
+                        float(np.median(first[:, 9] / first[:, 8])),
+                        INERTIA_SHARE * float(np.median(np.abs(first[:, 4]))) / largest
+                        if largest > 0.0 else 0.0)
             for kept in self._first:
                 self._step(*kept)
             self._first = []
@@ -240,7 +252,7 @@ class NoLoadLearner:
     def _step(self, direction: int, t_start: float, t_end: float, operating: float,
               motor_energy: float, load: float, motor_variance: float, load_variance: float,
               travel: float, travel_square: float, motion: int, rate_d: float,
-              rate_i: float) -> NoLoadCorrection:
+              rate_i: float, kinetic: float) -> NoLoadCorrection:
         """Return one window's correction from the state before it, then learn from it."""
         gain_rates = (rate_d, rate_i)
         kf = self.kf
@@ -253,16 +265,17 @@ class NoLoadLearner:
         h[0, direction] = math.copysign(1.0, load)
         h[0, 2 if motion >= 0 else 3] = travel / scale
         h[0, 4] = (travel_square - self.speed_scale * travel) / scale
-        phi = h[0, 2:]
-        p_theta = kf.P[2:, 2:]
-        z_corr = float(phi @ kf.x[2:, 0])
+        h[0, 5] = kinetic / scale
+        phi = h[0, NO_LOAD]
+        p_theta = kf.P[NO_LOAD, NO_LOAD]
+        z_corr = float(phi @ kf.x[NO_LOAD, 0])
         var_corr = max(float(phi @ p_theta @ phi), 0.0)
-        walk = float(phi @ kf.Q[2:, 2:] @ phi)
+        walk = float(phi @ kf.Q[NO_LOAD, NO_LOAD] @ phi)
         self.identified = math.sqrt(var_corr) <= self.tolerance
         if not self.identified:
             self.held += 1
         elif self._seek_cold:
-            self.cold = kf.x[2:, 0].copy()
+            self.cold = kf.x[NO_LOAD, 0].copy()
             self._seek_cold = False
         gain = float(kf.x[direction, 0])
         sensor = (motor_variance + gain * gain * load_variance) / (scale * scale)
@@ -297,12 +310,12 @@ class NoLoadLearner:
         if self.kf is None:
             nan = math.nan
             return NoLoadEstimate(nan, nan, nan, self.reference_speed, nan, nan, False, nan)
-        a_pos, a_neg, viscous = (float(v) for v in self.kf.x[2:, 0])
+        a_pos, a_neg, viscous = (float(v) for v in self.kf.x[NO_LOAD, 0])
         speed = self.reference_speed if self.reference_speed > 0.0 else self.speed_scale
         at_typical, offset = 0.5 * (a_pos + a_neg), 0.5 * (a_pos - a_neg)
         coulomb = at_typical - viscous * self.speed_scale
         phi = np.array([0.5, 0.5, speed - self.speed_scale])
-        sigma = math.sqrt(max(float(phi @ self.kf.P[2:, 2:] @ phi), 0.0))
+        sigma = math.sqrt(max(float(phi @ self.kf.P[NO_LOAD, NO_LOAD] @ phi), 0.0))
         cold = math.nan if self.cold is None else float(
             0.5 * (self.cold[0] + self.cold[1]) + self.cold[2] * (speed - self.speed_scale))
         return NoLoadEstimate(coulomb, viscous, offset, speed, coulomb + viscous * speed,
@@ -314,7 +327,8 @@ class NoLoadLearner:
         return {
             'x': None if kf is None else encode_floats(kf.x[:, 0].tolist()),
             'P': None if kf is None else encode_floats(kf.P.ravel().tolist()),
-            'scales': encode_floats([self.torque_scale, self.speed_scale]),
+            'scales': encode_floats([self.torque_scale, self.speed_scale,
+                                     self.inertia_scale]),
             'times': encode_floats([self._t_end, self._operating]),
             'scatter': encode_float(self.scatter), 'gated': self.gated,
             'cold': None if self.cold is None else encode_floats(self.cold.tolist()),
@@ -330,13 +344,13 @@ class NoLoadLearner:
         cold = None if state['cold'] is None else np.array(decode_floats(state['cold']))
         shapes_ok = (x is None and p is None) or (
             x is not None and p is not None and x.size == DIM and p.size == DIM * DIM)
-        if not shapes_ok or len(scales) != 2 or len(times) != 2 \
+        if not shapes_ok or len(scales) != 3 or len(times) != 2 \
                 or (cold is not None and cold.size != 3):
             raise ValueError('no_load: malformed state')
         self.reset()
-        self.torque_scale, self.speed_scale = scales
+        self.torque_scale, self.speed_scale, self.inertia_scale = scales
         if x is not None and p is not None:
-            self._start(self.torque_scale, self.speed_scale)
+            self._start(self.torque_scale, self.speed_scale, self.inertia_scale)
             self.kf.x = x.reshape(DIM, 1)
             self.kf.P = p.reshape(DIM, DIM)
         self._t_end, self._operating = times
@@ -347,7 +361,7 @@ class NoLoadLearner:
         self.identified = bool(state['identified'])
         self.windows, self.held = int(state['windows']), int(state['held'])
         self._first = [tuple(decode_floats(row)) for row in state.get('first', [])]
-        if any(len(row) != 13 for row in self._first):
+        if any(len(row) != 14 for row in self._first):
             raise ValueError('no_load: malformed state')
 
 

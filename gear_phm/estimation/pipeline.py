@@ -776,7 +776,7 @@ class EstimatorPipeline:
                 window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
                 window.motor_energy_variance, window.load_energy_variance,
                 window.motor_travel, window.motor_travel_square,
-                window.motion, self._gain_rates())
+                window.motion, self._gain_rates(), window.motor_kinetic)
             if not correction.identified:
                 self.counts['not_identifiable'] += 1
                 return []
