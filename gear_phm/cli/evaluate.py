@@ -18,8 +18,8 @@ A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` bes
 ``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
 ``--eta-opposing-min``, its wear onset that of ``--t-start`` (t_P = onset), its
 ``end_of_life_s`` the true end of life (when the options give its u_eol), and the
-per-life acceptance scores are added (``acceptance``); a healthy life, which has no end of life, is scored
-on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
+per-life acceptance scores are added (``acceptance``); a healthy life, which has no end of
+life, is scored on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 

@@ -9,8 +9,8 @@ is the latest one made at or before t_lambda.
 Beyond Saxena's: how early the RUL is finite (:func:`finite_from`), how often its p5-p95 band
 holds the true RUL (:func:`band_coverage`) and the health-level transitions of a run
 (:func:`level_transitions`), the acceptance measures of docs/prognostics.md; and the
-per-life acceptance scores of a random life (:func:`acceptance`, :func:`healthy_acceptance`), with t_start
-its wear onset.
+per-life acceptance scores of a random life (:func:`acceptance`,
+:func:`healthy_acceptance`), with t_start its wear onset.
 """
 from __future__ import annotations
 
