@@ -1,4 +1,4 @@
-"""Regenerate the parameter tables of docs/parameters.md from the nodes' own parameter declarations.
+"""Regenerate the parameter tables of docs/parameters.md from the nodes' declarations.
 
 Each node class is constructed in this process with its default parameters, and its
 declarations are read back through rclpy's public API (``list_parameters``,
