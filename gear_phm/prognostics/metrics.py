@@ -245,7 +245,7 @@ def level_transitions(t: ArrayLike, levels: ArrayLike, t_eol: float,
 
 def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
                 t_start: float | None = None) -> dict[str, Any]:
-    """The acceptance check of a wear life's levels, JSON-ready.
+    """Return the acceptance check of a wear life's levels, JSON-ready.
 
     ``sequence``: the transitions as 'FROM>TO' level names; ``passed`` when they are
     exactly OK -> WARN then WARN -> ERROR, no state before ``onset`` [s] is WARN or ERROR and
@@ -269,7 +269,7 @@ def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
 def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
                t_start: float, levels: tuple[ArrayLike, ArrayLike] | None = None,
                alpha: float = ALPHA) -> dict[str, Any]:
-    """The acceptance scores of one wear life from t_start = its onset [s], JSON-ready.
+    """Score one wear life for acceptance from t_start = its onset [s], JSON-ready.
 
     ``t``, ``median``, ``p5``, ``p95``: every prediction (after t_eol too: ignored);
     ``levels``: (stamps [s], level codes) of the health states, None without them.
@@ -302,7 +302,7 @@ def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t
 
 
 def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> dict[str, Any]:
-    """The acceptance score of a healthy life: every RUL inf and every level OK, JSON-ready."""
+    """Score a healthy life for acceptance: every RUL inf and every level OK, JSON-ready."""
     values = np.asarray(median, dtype=float).ravel()
     finite = int(np.isfinite(values).sum())
     codes = [] if levels is None else sorted({int(c) for c in np.asarray(levels).ravel()})
