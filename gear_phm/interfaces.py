@@ -47,7 +47,7 @@ CLOCK = '/clock'
 
 
 def drive_topic(drive: str, topic: str) -> str:
-    """Return one drive's topic of many (issue 25).
+    """Return one drive's topic of many.
 
     ``gear_phm/friction`` -> ``gear_phm/<drive>/friction``, ``gear_phm/truth/friction`` ->
     ``gear_phm/<drive>/truth/friction``.
@@ -87,7 +87,7 @@ HEALTH_LAYOUT: Layout = (
 
 #: Estimator outputs, in publishing order.
 ESTIMATOR_TOPICS = tuple(topic for topic, _ in ESTIMATE_LAYOUT)
-#: The estimator outputs of recordings made before OPERATING_TIME existed (issue 13).
+#: The estimator outputs of recordings made before OPERATING_TIME existed.
 LEGACY_ESTIMATOR_TOPICS = ESTIMATOR_TOPICS[:5]
 #: The estimator outputs an update cannot be rebuilt without.
 REQUIRED_ESTIMATOR_TOPICS = frozenset((FRICTION, FRICTION_COVARIANCE))

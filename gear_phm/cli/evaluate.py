@@ -17,9 +17,9 @@ before the true end of life. Prints the metrics and writes them as JSON (``--out
 A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` beside it: its
 ``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
 ``--eta-opposing-min``, its wear onset that of ``--t-start`` (t_P = onset), its
-``end_of_life_s`` the true end of life (when the options give its u_eol), and issue 23's
-per-life scores are added (``acceptance``); a healthy life, which has no end of life, is scored
-on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
+``end_of_life_s`` the true end of life (when the options give its u_eol), and the
+per-life acceptance scores are added (``acceptance``); a healthy life, which has no end of
+life, is scored on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 
@@ -498,7 +498,7 @@ def _healthy(args: argparse.Namespace, bag: Path, output: Path, median: np.ndarr
 
 
 def _print_acceptance(scores: dict[str, Any]) -> None:
-    """Print issue 23's per-life scores (docs/prognostics.md)."""
+    """Print the per-life acceptance scores (docs/prognostics.md)."""
     checks = ', '.join(f'{c["lam"]:g} {"PASS" if c["passed"] else "FAIL"}'
                        for c in scores['alpha_lambda'])
     band, below, finite = scores['band'], scores['not_optimistic'], scores['finite']

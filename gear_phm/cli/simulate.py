@@ -56,7 +56,7 @@ LIFE_FILE = 'life.json'
 #: Default of --duration (the random life draws its own).
 DURATION = 120.0
 #: Every stamp is before this time [s since the epoch]: builtin_interfaces/Time's seconds are
-#: an int32 (2038-01-19T03:14:08Z).
+#: an int32 (2**31 s: 03:14:08 UTC on 19 January 2038).
 STAMP_LIMIT = float(2**31)
 #: Highest --rate [Hz]: stamps are integer nanoseconds, a faster rate would repeat them.
 RATE_LIMIT = 1e9
