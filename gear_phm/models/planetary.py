@@ -114,8 +114,9 @@ class PlanetaryGearSet:
         """Return the sun-planet (external) and planet-ring (internal) meshes, carrier held."""
         return (SpurGear(self.z_sun, self.z_planet, self.module, self.pressure_angle,
                          self.addendum, self.friction),
-                InternalGear(self.z_planet, cast(ArrayLike, self.z_ring), self.module, self.pressure_angle,
-                             self.addendum, self.friction, self.ring_addendum))
+                InternalGear(self.z_planet, cast(ArrayLike, self.z_ring), self.module,
+                             self.pressure_angle, self.addendum, self.friction,
+                             self.ring_addendum))
 
     @property
     def k(self) -> np.ndarray | float:
