@@ -39,6 +39,7 @@ def _bounded(convert: type, low: float, high: float | None = None) -> Callable[[
 _positive_int = _bounded(int, 1)
 _seed = _bounded(int, 0)
 _bearing_fraction = _bounded(float, 0.0, 10.0)
+_tooth_friction = _bounded(float, 0.0, 2.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,6 +56,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='upper end of the uniform bearing friction radius / pitch radius '
                              f'range (default {SamplingRanges().bearing_fraction[1]:g}; values '
                              'near 1 give irreversible gears)')
+    parser.add_argument('--max-tooth-friction', type=_tooth_friction, default=None,
+                        metavar='F',
+                        help='upper end of the uniform tooth friction coefficient range of '
+                             f'the gears (default {SamplingRanges().tooth_friction[1]:g})')
     parser.add_argument('--architecture', choices=(*ARCHITECTURES, 'all'), default=None,
                         help='compare the simplified model with the reference model of this '
                              'architecture (all: each into a subdirectory) and write '
@@ -73,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
     ranges = SamplingRanges()
     if args.max_bearing_fraction is not None:
         ranges = replace(ranges, bearing_fraction=(0.0, args.max_bearing_fraction))
+    if args.max_tooth_friction is not None:
+        ranges = replace(ranges, tooth_friction=(0.0, args.max_tooth_friction))
     if args.architecture is not None:
         return _run_architectures(args, out, ranges)
     try:

@@ -49,7 +49,7 @@ class ArchitectureRanges:
     helix_angle_deg: helical stages (the rest of each stage as :class:`SamplingRanges`).
     stages, stage_ratio, stage_bearing_fraction: the multi-stage train (each stage spur or
     helical, even odds; the rest as :class:`SamplingRanges`, bearings at most a quarter of the
-    pitch radius so that the trains of up to four stages still run).
+    pitch radius, or the spur's bound if lower, so that trains of four stages still run).
     planetary_*: teeth log-uniform, rounded; ring = sun + 2 planet, full-depth teeth;
     configuration uniform among the six; tooth friction as :class:`SamplingRanges`.
     worm_*: starts z1 uniform integers, wheel teeth z2 uniform integers, diameter quotient
@@ -117,7 +117,9 @@ def sample_multistage(count: int, seed: int, ranges: SamplingRanges,
     for slot in range(more.stages[1]):
         drawn = sample_reference_gears(
             count, seed + 1000 * (slot + 1),
-            replace(ranges, bearing_fraction=more.stage_bearing_fraction), more.stage_ratio)
+            replace(ranges, bearing_fraction=(more.stage_bearing_fraction[0], min(
+                more.stage_bearing_fraction[1], ranges.bearing_fraction[1]))),
+            more.stage_ratio)
         helical = rng.random(count) < 0.5
         helix = np.where(helical, rng.uniform(*more.helix_angle_deg, count), 0.0)
         eta_d, eta_i = (np.asarray(x, dtype=float) for x in _helical_of(drawn, helix)

@@ -121,3 +121,25 @@ def test_unknown_architecture_exits_2_and_writes_nothing(tmp_path, capsys) -> No
     assert info.value.code == 2
     assert "invalid choice: 'bevel'" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize('value', ['-0.1', '3', 'x'])
+def test_bad_tooth_friction_bound_exits_2(tmp_path, capsys, value: str) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(['paper', '--out', str(tmp_path / 'x'), '--max-tooth-friction', value])
+    assert info.value.code == 2
+    assert '--max-tooth-friction' in capsys.readouterr().err
+    assert not (tmp_path / 'x').exists()
+
+
+def test_tooth_friction_bound_reaches_the_gear_samples(tmp_path) -> None:
+    out = tmp_path / 'helical'
+    assert main(['paper', '--out', str(out), '--architecture', 'helical', '--samples', '30',
+                 '--max-tooth-friction', '0.05', '--max-bearing-fraction', '0.05']) == 0
+    with (out / 'samples.csv').open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert max(float(row['tooth_friction']) for row in rows) <= 0.05
+    assert max(float(row['bearing_fraction_1']) for row in rows) <= 0.05
+    summary = json.loads((out / 'summary.json').read_text())
+    assert summary['sampling_ranges']['tooth_friction'] == [0.0, 0.05]
+    assert summary['e_tot']['p95'] < 1e-3          # small losses: the lever holds closely
