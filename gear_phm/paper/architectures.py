@@ -22,14 +22,15 @@ from matplotlib.figure import Figure
 import numpy as np
 
 from gear_phm.models import (BallScrew, HelicalGear, LeadScrew, PlanetaryGearSet, RollerScrew,
-                             series_efficiencies, WormGear)
+                             series_efficiencies, u_from_eta_aiding, u_from_eta_opposing,
+                             WormGear)
 from gear_phm.models.internal_gear import interference_free
 from gear_phm.models.planetary import MEMBERS
 from gear_phm.models.spur_gear import min_teeth
-from gear_phm.paper.reproduce import (compare_with_lever, FIGURE_FILES, map_panel,
-                                      parity_panel, plot_error_histogram, quantile_stats,
-                                      reproduce, sample_reference_gears, SamplingRanges,
-                                      summarize, surface_grid, write_csv)
+from gear_phm.paper.reproduce import (compare_with_lever, evaluate_samples, FIGURE_FILES,
+                                      map_panel, parity_panel, plot_error_histogram,
+                                      quantile_stats, reproduce, sample_reference_gears,
+                                      SamplingRanges, summarize, surface_grid, write_csv)
 
 ARCHITECTURES = ('spur', 'helical', 'multistage', 'planetary', 'worm', 'screw')
 #: The six planetary configurations (fixed, driving), index = the ``configuration`` column.
@@ -39,7 +40,8 @@ SCREW_KINDS = ('lead', 'ball', 'roller')
 LEVER_COLUMNS = ('ratio', 'eta_opposing', 'eta_aiding', 'eta_aiding_simplified',
                  'eta_opposing_simplified', 'error_aiding', 'error_opposing', 'e_tot')
 TABLE_COLUMNS = ('architecture', 'samples', 'ratio_p5', 'ratio_p95', 'irreversible_fraction',
-                 'no_image_on_curve', 'e_tot_median', 'e_tot_p95', 'abs_error_aiding_p95')
+                 'no_image_on_curve', 'e_tot_median', 'e_tot_p95', 'abs_error_aiding_p95',
+                 'abs_offset_median', 'abs_offset_p95')
 
 
 @dataclass(frozen=True)
@@ -311,12 +313,38 @@ def plot_architecture(arch: Architecture, table: Table, path: Path) -> None:
     fig.savefig(path, dpi=100)
 
 
+def direction_offsets(table: Table) -> np.ndarray:
+    """Offset d = u(eta_I) - u(eta_D) [-] of each sample (eq 13 both ways); NaN if undefined.
+
+    What the estimator learns as its direction offset: 0 on the lever curve.
+    """
+    offset = np.full(table['ratio'].shape, np.nan)
+    defined = np.isfinite(table['eta_opposing']) & np.isfinite(table['eta_aiding'])
+    ratio = table['ratio'][defined]
+    offset[defined] = (np.asarray(u_from_eta_aiding(table['eta_aiding'][defined], ratio))
+                       - np.asarray(u_from_eta_opposing(table['eta_opposing'][defined], ratio)))
+    return offset
+
+
+def offset_summary(table: Table) -> dict[str, Any]:
+    """Statistics of the direction offset d and of |d| (see :func:`direction_offsets`)."""
+    offset = direction_offsets(table)
+    finite = offset[np.isfinite(offset)]
+    return {'direction_offset': quantile_stats(offset),
+            'abs_direction_offset': quantile_stats(np.abs(offset)),
+            'abs_direction_offset_irreversible': quantile_stats(
+                np.abs(offset[table['eta_aiding'] < 0.0])),
+            'direction_offset_positive_fraction': float(np.mean(finite > 0.0))
+            if finite.size else 0.0}
+
+
 def summarize_architecture(table: Table) -> dict[str, Any]:
-    """Return :func:`summarize`'s statistics and e_tot split by the sign of eta_I."""
+    """Return :func:`summarize`'s statistics, e_tot by the sign of eta_I, the offsets."""
     summary = summarize(table)
     irreversible = table['eta_aiding'] < 0.0
     summary['e_tot_reversible'] = quantile_stats(table['e_tot'][~irreversible])
     summary['e_tot_irreversible'] = quantile_stats(table['e_tot'][irreversible])
+    summary.update(offset_summary(table))
     return summary
 
 
@@ -331,8 +359,10 @@ def run_architecture(name: str, out_dir: Path, seed: int, samples: int,
                      ranges: SamplingRanges = SamplingRanges(),
                      more: ArchitectureRanges = ArchitectureRanges()) -> dict[str, Any]:
     """Write one architecture's figures, samples.csv and summary.json; return the summary."""
-    if name == 'spur':
-        return reproduce(out_dir, seed=seed, samples=samples, ranges=ranges)
+    if name == 'spur':        # the paper's files as they are; the offsets for the table
+        summary = reproduce(out_dir, seed=seed, samples=samples, ranges=ranges)
+        return {**summary, **offset_summary(
+            evaluate_samples(sample_reference_gears(samples, seed, ranges)))}
     arch = SAMPLED[name]
     out_dir.mkdir(parents=True, exist_ok=True)
     table = arch.sampler(samples, seed, ranges, more)
@@ -354,7 +384,9 @@ def table_row(name: str, summary: dict[str, Any]) -> dict[str, float | str]:
             'irreversible_fraction': summary['irreversible_fraction'],
             'no_image_on_curve': float(summary['no_image_on_curve']),
             'e_tot_median': summary['e_tot']['median'], 'e_tot_p95': summary['e_tot']['p95'],
-            'abs_error_aiding_p95': summary['abs_error_aiding']['p95']}
+            'abs_error_aiding_p95': summary['abs_error_aiding']['p95'],
+            'abs_offset_median': summary['abs_direction_offset']['median'],
+            'abs_offset_p95': summary['abs_direction_offset']['p95']}
 
 
 def _cell(value: float | str) -> str:
