@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gear_phm.models._validation import ModelError
+from gear_phm.models._validation import ModelError, result
 
 
 def friction_angle(friction: np.ndarray, normal_angle: np.ndarray) -> np.ndarray:
@@ -45,3 +45,23 @@ def thread_efficiencies(lead_angle: np.ndarray, friction_angle: np.ndarray,
     eta_d: np.ndarray = tan_lead / np.tan(total)
     eta_i: np.ndarray = np.tan(lead_angle - friction_angle) / tan_lead
     return eta_d, eta_i
+
+
+class ThreadDrive:
+    """What the worm and the screws share, from their lead and friction angles."""
+
+    def _angles(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lead angle, friction angle phi') [rad]."""
+        raise NotImplementedError
+
+    @property
+    def self_locking(self) -> np.ndarray | bool:
+        """Tell where the lead angle <= phi': the load cannot back-drive it (eta_I <= 0)."""
+        lead, friction = self._angles()
+        locking = lead <= friction
+        return bool(locking) if locking.ndim == 0 else locking
+
+    def efficiencies(self) -> tuple[np.ndarray | float, np.ndarray | float]:
+        """(eta_opposing, eta_aiding) [-]: the thread driving, then driven. eta_I may be <= 0."""
+        eta_d, eta_i = thread_efficiencies(*self._angles())
+        return result(eta_d), result(eta_i)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models._helix import friction_angle, thread_efficiencies
+from gear_phm.models._helix import friction_angle, thread_efficiencies, ThreadDrive
 from gear_phm.models._validation import (in_half_open_interval, in_open_interval, non_negative,
                                          positive, result, unwrap)
 
@@ -50,8 +50,12 @@ def _normal_flank_angle(flank_angle: np.ndarray, lead_angle: np.ndarray) -> np.n
 
 
 @dataclass(frozen=True)
-class _Screw:
-    """Common part of the screws: lead, diameter, flank angle from the axis, friction."""
+class _Screw(ThreadDrive):
+    """Common part of the screws: lead, diameter, flank angle from the axis, friction.
+
+    ``efficiencies()``: screw driving the nut, nut driving the screw; ``self_locking`` where
+    lambda <= phi'.
+    """
 
     lead: ArrayLike
     diameter: ArrayLike
@@ -78,25 +82,15 @@ class _Screw:
         alpha_n = _normal_flank_angle(self._flank_angle(), np.asarray(self.lead_angle))
         return result(friction_angle(self._friction(), alpha_n))
 
-    @property
-    def self_locking(self) -> np.ndarray | bool:
-        """Tell where lambda <= phi': the load cannot back-drive the screw (eta_I <= 0)."""
-        locking = np.asarray(self.lead_angle) <= np.asarray(self.friction_angle)
-        return bool(locking) if locking.ndim == 0 else locking
-
-    def efficiencies(self) -> tuple[np.ndarray | float, np.ndarray | float]:
-        """(eta_opposing, eta_aiding) [-]: screw driving the nut, nut driving the screw."""
-        eta_d, eta_i = thread_efficiencies(np.asarray(self.lead_angle),
-                                           np.asarray(self.friction_angle))
-        return result(eta_d), result(eta_i)
+    def _angles(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self.lead_angle), np.asarray(self.friction_angle)
 
     def _check(self, friction_name: str) -> None:
         lead = positive('lead', self.lead)
         diameter = positive('diameter', self.diameter)
         for name, value in (('lead', lead), ('diameter', diameter)):
             object.__setattr__(self, name, unwrap(value))
-        thread_efficiencies(np.asarray(self.lead_angle), np.asarray(self.friction_angle),
-                            friction_name)
+        thread_efficiencies(*self._angles(), friction_name)
 
 
 @dataclass(frozen=True)

@@ -20,19 +20,21 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models._helix import friction_angle, thread_efficiencies
+from gear_phm.models._helix import friction_angle, thread_efficiencies, ThreadDrive
 from gear_phm.models._validation import (at_least, in_open_interval, non_negative, result,
                                          unwrap)
 
 
 @dataclass(frozen=True)
-class WormGear:
+class WormGear(ThreadDrive):
     """One worm and wheel; every field may be a numpy array (broadcast, for Monte Carlo).
 
     lead_angle: gamma [rad] in (0, pi/2), at the worm's reference diameter.
     starts: number of threads z1 [-] (>= 1). wheel_teeth: z2 [-] (>= 1).
     normal_pressure_angle: alpha_n [rad] in (0, pi/2). friction: Coulomb coefficient mu [-]
     (>= 0) of the sliding between thread and tooth.
+    ``efficiencies()``: worm driving the wheel, wheel driving the worm; ``self_locking`` where
+    gamma <= phi'.
     Raises ModelError naming the field; ``friction`` also when gamma + phi' >= pi/2.
     """
 
@@ -65,14 +67,5 @@ class WormGear:
         return result(friction_angle(np.asarray(self.friction),
                                      np.asarray(self.normal_pressure_angle)))
 
-    @property
-    def self_locking(self) -> np.ndarray | bool:
-        """Tell where gamma <= phi': the wheel cannot drive the worm (eta_I <= 0)."""
-        locking = np.asarray(self.lead_angle) <= np.asarray(self.friction_angle)
-        return bool(locking) if locking.ndim == 0 else locking
-
-    def efficiencies(self) -> tuple[np.ndarray | float, np.ndarray | float]:
-        """(eta_opposing, eta_aiding) [-]: worm driving, wheel driving. eta_I may be <= 0."""
-        eta_d, eta_i = thread_efficiencies(np.asarray(self.lead_angle),
-                                           np.asarray(self.friction_angle))
-        return result(eta_d), result(eta_i)
+    def _angles(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self.lead_angle), np.asarray(self.friction_angle)

@@ -28,9 +28,10 @@ from gear_phm.models.internal_gear import interference_free
 from gear_phm.models.planetary import MEMBERS
 from gear_phm.models.spur_gear import min_teeth
 from gear_phm.paper.reproduce import (compare_with_lever, evaluate_samples, FIGURE_FILES,
-                                      map_panel, parity_panel, plot_error_histogram,
-                                      quantile_stats, reproduce, sample_reference_gears,
-                                      SamplingRanges, summarize, surface_grid, write_csv)
+                                      log_uniform, map_panel, parity_panel,
+                                      plot_error_histogram, quantile_stats, rejection_sample,
+                                      reproduce, sample_reference_gears, SamplingRanges,
+                                      summarize, surface_grid, write_csv)
 
 ARCHITECTURES = ('spur', 'helical', 'multistage', 'planetary', 'worm', 'screw')
 #: The six planetary configurations (fixed, driving), index = the ``configuration`` column.
@@ -85,10 +86,6 @@ Table = dict[str, np.ndarray]
 Sampler = Callable[[int, int, SamplingRanges, ArchitectureRanges], Table]
 
 
-def _log_uniform(rng: np.random.Generator, bounds: tuple[float, float], n: int) -> np.ndarray:
-    return np.exp(rng.uniform(math.log(bounds[0]), math.log(bounds[1]), n))
-
-
 def _helical_of(drawn: Table, helix_deg: np.ndarray) -> HelicalGear:
     return HelicalGear(drawn['z1'], drawn['z2'], drawn['module_m'],
                        np.deg2rad(drawn['pressure_angle_deg']), np.deg2rad(helix_deg),
@@ -141,23 +138,18 @@ def sample_multistage(count: int, seed: int, ranges: SamplingRanges,
 def _planetary_stage(rng: np.random.Generator, count: int, ranges: SamplingRanges,
                      more: ArchitectureRanges) -> Table:
     """``count`` valid random planetary sets (teeth, angle, module, friction, configuration)."""
-    kept: dict[str, list[np.ndarray]] = {}
-    total = 0
-    while total < count:
-        batch = max(64, 2 * (count - total))
+    def draw(batch: int) -> tuple[Table, np.ndarray]:
         theta = np.deg2rad(rng.uniform(*more.planetary_pressure_angle_deg, batch))
-        z_sun = np.round(_log_uniform(rng, more.planetary_sun, batch))
-        z_planet = np.round(_log_uniform(rng, more.planetary_planet, batch))
+        z_sun = np.round(log_uniform(rng, more.planetary_sun, batch))
+        z_planet = np.round(log_uniform(rng, more.planetary_planet, batch))
         columns = {'z_sun': z_sun, 'z_planet': z_planet, 'pressure_angle_deg': np.rad2deg(theta),
                    'module_m': rng.uniform(*ranges.module, batch),
                    'tooth_friction': rng.uniform(*ranges.tooth_friction, batch),
                    'configuration': rng.integers(0, len(CONFIGURATIONS), batch).astype(float)}
         ok = ((z_sun >= min_teeth(theta)) & (z_planet >= min_teeth(theta))
               & interference_free(z_planet, z_sun + 2 * z_planet, theta))
-        for name, values in columns.items():
-            kept.setdefault(name, []).append(values[ok])
-        total += int(np.count_nonzero(ok))
-    return {name: np.concatenate(parts)[:count] for name, parts in kept.items()}
+        return columns, ok
+    return rejection_sample(count, draw)
 
 
 def _planetary_efficiencies(stage: Table) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -223,8 +215,8 @@ def sample_screw(count: int, seed: int, ranges: SamplingRanges,
     """Lead, ball and roller screws (even odds); R = 2 pi / lead in rad/m."""
     rng = np.random.default_rng([seed, 5])
     kind = rng.integers(0, len(SCREW_KINDS), count)
-    diameter = _log_uniform(rng, more.screw_diameter_m, count)
-    lead = diameter * _log_uniform(rng, more.screw_lead_over_diameter, count)
+    diameter = log_uniform(rng, more.screw_diameter_m, count)
+    lead = diameter * log_uniform(rng, more.screw_lead_over_diameter, count)
     rolling_angle = rng.uniform(*more.rolling_contact_angle_deg, count)
     sliding = rng.uniform(*more.lead_screw_friction, count)
     rolling = rng.uniform(*more.rolling_friction, count)

@@ -8,6 +8,7 @@ model, :func:`summarize` reduces them to statistics and :func:`reproduce` writes
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 import csv
 from dataclasses import asdict, dataclass
 import json
@@ -54,7 +55,8 @@ class SamplingRanges:
     bearing_fraction: tuple[float, float] = (0.0, 1.0)     # rho_i / r_p,i [-]
 
 
-def _log_uniform(rng: np.random.Generator, bounds: tuple[float, float], n: int) -> np.ndarray:
+def log_uniform(rng: np.random.Generator, bounds: tuple[float, float], n: int) -> np.ndarray:
+    """Return ``n`` draws log-uniform in ``bounds``."""
     return np.exp(rng.uniform(math.log(bounds[0]), math.log(bounds[1]), n))
 
 
@@ -68,13 +70,11 @@ def sample_reference_gears(count: int, seed: int, ranges: SamplingRanges = Sampl
     if count < 1:
         raise ValueError(f'count must be >= 1, got {count!r}')
     rng = np.random.default_rng(seed)
-    kept: dict[str, list[np.ndarray]] = {}
-    total = 0
-    while total < count:
-        batch = max(64, 2 * (count - total))
+
+    def draw(batch: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
         theta = np.deg2rad(rng.uniform(*ranges.pressure_angle_deg, batch))
-        z1 = np.round(_log_uniform(rng, ranges.teeth_1, batch))
-        z2 = np.round(_log_uniform(rng, ranges.teeth_2, batch))
+        z1 = np.round(log_uniform(rng, ranges.teeth_1, batch))
+        z2 = np.round(log_uniform(rng, ranges.teeth_2, batch))
         module = rng.uniform(*ranges.module, batch)
         friction = rng.uniform(*ranges.tooth_friction, batch)
         fraction_1 = rng.uniform(*ranges.bearing_fraction, batch)
@@ -83,13 +83,24 @@ def sample_reference_gears(count: int, seed: int, ranges: SamplingRanges = Sampl
         z_min = min_teeth(theta)
         ok = ((z1 >= z_min) & (z2 >= z_min)
               & (ratio >= ratio_range[0]) & (ratio <= ratio_range[1]))
-        columns = {
+        return {
             'z1': z1, 'z2': z2, 'module_m': module, 'pressure_angle_deg': np.rad2deg(theta),
             'addendum_m': module, 'tooth_friction': friction,
             'bearing_fraction_1': fraction_1, 'bearing_fraction_2': fraction_2,
             'bearing_radius_1_m': fraction_1 * module * z1 / 2,
             'bearing_radius_2_m': fraction_2 * module * z2 / 2,
-        }
+        }, ok
+    return rejection_sample(count, draw)
+
+
+def rejection_sample(count: int,
+                     draw: Callable[[int], tuple[dict[str, np.ndarray], np.ndarray]]
+                     ) -> dict[str, np.ndarray]:
+    """Keep the accepted rows of ``draw(batch)`` (columns, accepted mask) until ``count``."""
+    kept: dict[str, list[np.ndarray]] = {}
+    total = 0
+    while total < count:
+        columns, ok = draw(max(64, 2 * (count - total)))
         for name, values in columns.items():
             kept.setdefault(name, []).append(values[ok])
         total += int(np.count_nonzero(ok))
