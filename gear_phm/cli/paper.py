@@ -9,9 +9,12 @@ import argparse
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 from gear_phm.cli.main import CliError
+
+if TYPE_CHECKING:
+    from gear_phm.paper.reproduce import SamplingRanges
 
 HELP = 'reproduce the paper figures (simplified vs spur-gear model) with statistics'
 
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_architectures(args: argparse.Namespace, out: Path, ranges: Any) -> int:
+def _run_architectures(args: argparse.Namespace, out: Path, ranges: SamplingRanges) -> int:
     """Run --architecture NAME (or all), print the table."""
     from gear_phm.paper.architectures import ARCHITECTURES, figure_files, run
     names = ARCHITECTURES if args.architecture == 'all' else (args.architecture,)

@@ -228,10 +228,8 @@ def sample_screw(count: int, seed: int, ranges: SamplingRanges,
         chosen = kind == index
         if not chosen.any():
             continue
-        screw = (LeadScrew(lead[chosen], diameter[chosen], np.deg2rad(angle[chosen]),
-                           friction[chosen]) if model is LeadScrew else
-                 model(lead[chosen], diameter[chosen], np.deg2rad(angle[chosen]),
-                       friction[chosen]))
+        screw = model(lead[chosen], diameter[chosen], np.deg2rad(angle[chosen]),
+                      friction[chosen])
         columns['eta_d'][chosen], columns['eta_i'][chosen] = screw.efficiencies()
         columns['lead_angle_deg'][chosen] = np.rad2deg(screw.lead_angle)
         columns['friction_angle_deg'][chosen] = np.rad2deg(screw.friction_angle)
