@@ -15,12 +15,17 @@ from gear_phm.models import LeadScrew, PlanetaryGearSet, total_squared_error, Wo
 SAMPLES = 24
 
 
-@pytest.fixture(scope='module')
-def all_run(tmp_path_factory) -> tuple[Path, int, str]:
-    out = tmp_path_factory.mktemp('architectures') / 'out'
+@pytest.mark.long(10)
+def test_all_architectures(tmp_path) -> None:
+    """One run of every architecture (the plots dominate), checked three ways below."""
+    out = tmp_path / 'out'
     status = main(['paper', '--out', str(out), '--architecture', 'all', '--samples',
                    str(SAMPLES), '--seed', '11'])
-    return out, status, (out / 'table.md').read_text() if status == 0 else ''
+    assert status == 0
+    run = (out, status, (out / 'table.md').read_text())
+    check_every_architecture_has_its_figures_samples_and_summary(run)
+    check_table_numbers_are_finite_and_consistent(run)
+    check_samples_are_the_reference_models(run)
 
 
 def _table(out: Path) -> list[dict[str, str]]:
@@ -28,7 +33,7 @@ def _table(out: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(stream))
 
 
-def test_every_architecture_has_its_figures_samples_and_summary(all_run) -> None:
+def check_every_architecture_has_its_figures_samples_and_summary(all_run) -> None:
     from gear_phm.paper.architectures import ARCHITECTURES, figure_files
     out, status, _ = all_run
     assert status == 0
@@ -43,7 +48,7 @@ def test_every_architecture_has_its_figures_samples_and_summary(all_run) -> None
             assert len(list(csv.DictReader(stream))) == SAMPLES
 
 
-def test_table_numbers_are_finite_and_consistent(all_run) -> None:
+def check_table_numbers_are_finite_and_consistent(all_run) -> None:
     from gear_phm.paper.architectures import ARCHITECTURES, TABLE_COLUMNS
     out, _, markdown = all_run
     rows = _table(out)
@@ -64,7 +69,7 @@ def test_table_numbers_are_finite_and_consistent(all_run) -> None:
     assert float(screw['ratio_p5']) > 50.0
 
 
-def test_samples_are_the_reference_models(all_run) -> None:
+def check_samples_are_the_reference_models(all_run) -> None:
     out, _, _ = all_run
     with (out / 'worm' / 'samples.csv').open() as stream:
         for row in csv.DictReader(stream):
