@@ -28,11 +28,10 @@ import numpy as np
 from gear_phm.bagio import BagError
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import option_type
-from gear_phm.interfaces import drive_topic, TRUTH_EFFICIENCY, TRUTH_FRICTION
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, RATIO
 from gear_phm.simulation import (config_from_parameters, PARAMETERS, REACHING_KINDS,
                                  SimulationConfig, Wear)
-from gear_phm.simulation.lives import LIFE_FILE, random_life
+from gear_phm.simulation.lives import LIFE_FILE, PRIORS, random_life
 from gear_phm.simulation.recording import (check_end, Drive, Fleet, STAMP_LIMIT, write_drives,
                                            write_fleet, write_simulation)
 from gear_phm.staging import Staged
@@ -72,6 +71,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'the simulation options below apply to each drive that does not '
                              "set its own (seed: --seed + the drive's index). Truth on "
                              'gear_phm/<drive>/truth/...')
+    parser.add_argument('--prior', choices=PRIORS, default=PRIORS[0],
+                        help="the prior of --random-life: paper (the paper's physics) or "
+                             'bench (every real-gearbox effect on: no-load drag and oil '
+                             'warming, varying loads, sensor errors, encoders, cold restarts; '
+                             'docs/lives.md) (paper)')
     parser.add_argument('--random-life', type=int, default=None, metavar='SEED',
                         help='draw a whole life from the documented prior (docs/lives.md): '
                              'plant, ratio, duty cycle, noise, wear law, onset, running-in, '
@@ -95,7 +99,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             '--wear-rate (0.2)')
     group = parser.add_argument_group("simulation parameters (as the publisher node's)")
     for spec in PARAMETERS:
-        group.add_argument('--' + spec.name.replace('_', '-'), dest=spec.name,
+        option = '--' + spec.name.replace('_', '-')
+        if spec.kind is bool:
+            group.add_argument(option, dest=spec.name, action='store_true',
+                               help=spec.description)
+            continue
+        group.add_argument(option, dest=spec.name,
                            type=option_type(spec) if spec.kind is not str else str,
                            default=spec.default, help=f'{spec.text} ({spec.default})')
 
@@ -135,7 +144,7 @@ def _drive_configs(args: argparse.Namespace) -> list[Drive]:
     except TransmissionsError as exc:
         raise CliError(str(exc)) from None
     shared = {spec.name: getattr(args, spec.name) for spec in PARAMETERS}
-    configs = []
+    configs: list[Drive] = []
     for index, drive in enumerate(drives):
         values = drive.simulation_values(shared, index)
         try:
@@ -143,9 +152,7 @@ def _drive_configs(args: argparse.Namespace) -> list[Drive]:
         except ValueError as exc:
             raise CliError(f'drive {drive.name}: {exc}') from None
         _check_jam(config, args.duration, f'drive {drive.name}: ')
-        configs.append((config, (drive.motor_joint, drive.load_joint),
-                        (drive_topic(drive.name, TRUTH_FRICTION),
-                         drive_topic(drive.name, TRUTH_EFFICIENCY))))
+        configs.append((config, (drive.motor_joint, drive.load_joint), drive.name))
     return configs
 
 
@@ -195,6 +202,8 @@ def _check(args: argparse.Namespace) -> None:
         raise CliError(f'--gap-spread must be >= 0, got {args.gap_spread!r}')
     elif not (math.isfinite(args.unit_spread) and args.unit_spread >= 0):
         raise CliError(f'--unit-spread must be >= 0, got {args.unit_spread!r}')
+    if args.random_life is None and args.prior != PRIORS[0]:
+        raise CliError(f'--prior {args.prior}: for --random-life only')
     if args.random_life is None:
         if not args.fleet:
             _check_end(args.start_time + args.duration, '--start-time + --duration')
@@ -233,7 +242,7 @@ def _write_random_life(out: Path, args: argparse.Namespace) -> int:
     if args.random_life < 0:
         raise CliError(f'--random-life must be an integer >= 0, got {args.random_life}')
     try:
-        life = random_life(args.random_life, args.rate)
+        life = random_life(args.random_life, args.rate, args.prior)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     _check_end(args.start_time + life.duration,

@@ -19,10 +19,12 @@ import numpy as np
 
 from gear_phm import stopping
 from gear_phm.bagio import Rosbag2McapWriter
-from gear_phm.bagio.batch_writer import vector3_stamped_rows
+from gear_phm.bagio.batch_writer import stamped_float64_rows
 from gear_phm.codec import joint_state_rows
-from gear_phm.interfaces import (JOINT_STATE_TYPE, JOINT_STATES, TRUTH_EFFICIENCY,
-                                 TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.interfaces import (BASIC_TRUTH_TOPICS, drive_topic, JOINT_STATE_TYPE,
+                                 JOINT_STATES, OIL_TEMPERATURE, TEMPERATURE_FIELDS,
+                                 TEMPERATURE_TYPE, TRUTH_LAYOUT, TRUTH_NO_LOAD, TRUTH_OIL,
+                                 VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
 from gear_phm.simulation.simulator import SimulationConfig, SimulationResult, Simulator
 
@@ -37,8 +39,11 @@ PROJECT_AFTER = 4 << 20
 STAMP_LIMIT = float(2**31)
 
 #: One drive of :func:`write_drives`: its configuration, its (motor, load) joint names and its
-#: (friction, efficiency) truth topics.
-Drive = tuple[SimulationConfig, tuple[str, str], tuple[str, str]]
+#: name (None: the only drive).
+Drive = tuple[SimulationConfig, tuple[str, str], str | None]
+#: A truth topic: its name, its message type and the SimulationResult arrays its float64
+#: fields hold ('': 0), from :data:`gear_phm.interfaces.TRUTH_LAYOUT`.
+TruthTopic = tuple[str, str, tuple[str, ...]]
 
 
 @dataclass(frozen=True)
@@ -65,16 +70,34 @@ def check_end(end: float, what: str) -> None:
         raise ValueError(msg)
 
 
+def truth_topics(config: SimulationConfig, drive: str | None = None) -> list[TruthTopic]:
+    """Return the truth topics written for a drive of ``config`` (``drive``: of many, or None).
+
+    The friction and efficiency truth always; the no-load and oil truth with
+    ``config.extended_truth``; the oil temperature with ``config.publish_temperature``.
+    """
+    layout = dict(TRUTH_LAYOUT)
+    bases = BASIC_TRUTH_TOPICS + ((TRUTH_NO_LOAD, TRUTH_OIL) if config.extended_truth else ())
+    topics: list[TruthTopic] = [(_topic(base, drive), VECTOR3_STAMPED_TYPE, layout[base])
+                                for base in bases]
+    if config.publish_temperature:
+        topics.append((_topic(OIL_TEMPERATURE, drive), TEMPERATURE_TYPE, TEMPERATURE_FIELDS))
+    return topics
+
+
+def _topic(topic: str, drive: str | None) -> str:
+    return topic if drive is None else drive_topic(drive, topic)
+
+
 def write_chunk(writer: Rosbag2McapWriter, results: Sequence[SimulationResult],
                 stamps_ns: np.ndarray, first_index: int, names: Sequence[str],
-                truth_every: int, truth_topics: Sequence[tuple[str, str]] = (
-                    (TRUTH_FRICTION, TRUTH_EFFICIENCY),)) -> None:
+                truth_every: int, topics: Sequence[Sequence[TruthTopic]]) -> None:
     """Write one chunk of samples, packed as CDR rows at once.
 
     Per sample one JointState of every drive's joints (``names``: motor then load of each
-    result), then (every ``truth_every``-th sample of the run) each drive's two truth
-    Vector3Stamped (``truth_topics``, one pair per result): for one drive the order the
-    message-by-message writer had.
+    result), then (every ``truth_every``-th sample of the run) each drive's truth
+    (``topics``: :func:`truth_topics` of each result; the basic truth of every drive first,
+    then the rest): for one drive the order the message-by-message writer had.
     """
     joints = joint_state_rows(
         stamps_ns, names,
@@ -85,13 +108,13 @@ def write_chunk(writer: Rosbag2McapWriter, results: Sequence[SimulationResult],
     head = min(m, -first_index % k)            # samples before the chunk's first truth sample
     truth = np.arange(head, m, k)
     zero = np.zeros(len(truth))
-    truth_rows = []
-    for result, (friction_topic, efficiency_topic) in zip(results, truth_topics):
-        truth_rows.append((friction_topic, vector3_stamped_rows(stamps_ns[truth], np.column_stack(
-            (result.u[truth], result.friction[truth], zero)))))
-        truth_rows.append((efficiency_topic, vector3_stamped_rows(
-            stamps_ns[truth], np.column_stack((result.eta_opposing[truth],
-                                               result.eta_aiding[truth], zero)))))
+    basic = [(result, topic, fields) for result, drive in zip(results, topics)
+             for topic, _, fields in drive[:len(BASIC_TRUTH_TOPICS)]]
+    extended = [(result, topic, fields) for result, drive in zip(results, topics)
+                for topic, _, fields in drive[len(BASIC_TRUTH_TOPICS):]]
+    truth_rows = [(topic, stamped_float64_rows(stamps_ns[truth], np.column_stack(
+        [getattr(result, name)[truth] if name else zero for name in fields])))
+        for result, topic, fields in basic + extended]
     if head:                                   # one group: a run of joint states
         writer.write_groups([(JOINT_STATES, stamps_ns[None, :head], joints[None, :head])])
     periods = (m - head) // k                  # groups of k samples, the first with truth
@@ -117,8 +140,8 @@ def write_simulation(out: Path, config: SimulationConfig, duration: float, rate:
     that continues a life after idle time. Returns the number of samples. Deterministic: no
     wall-clock flushes, fixed stamps.
     """
-    return write_drives(out, [(config, names, (TRUTH_FRICTION, TRUTH_EFFICIENCY))], duration,
-                        rate, start_time, truth_every, compression, operating_offset)
+    return write_drives(out, [(config, names, None)], duration, rate, start_time, truth_every,
+                        compression, operating_offset)
 
 
 def write_drives(out: Path, drives: Sequence[Drive],
@@ -126,37 +149,53 @@ def write_drives(out: Path, drives: Sequence[Drive],
                  compression: str | None = 'zstd', operating_offset: float = 0.0) -> int:
     """Simulate drives in one JointState stream into the rosbag2 directory ``out``.
 
-    ``drives``: per drive its configuration, its (motor, load) joint names and its (friction,
-    efficiency) truth topics. Each drive has its own simulator; all share the stamps. Returns
-    the number of samples (JointState messages); see :func:`write_simulation`.
+    ``drives``: per drive its configuration, its (motor, load) joint names and its name
+    (None: the only drive, truth on ``gear_phm/truth/...``; else on
+    ``gear_phm/<drive>/truth/...``). Each drive has its own simulator; all share the stamps
+    and must share their idle gap, whose samples are not written. Returns the number of
+    samples (JointState messages); see :func:`write_simulation`.
 
-    Raises OSError (ENOSPC) as soon as the bag's size, projected from what has been written,
-    exceeds the free space of ``out``'s file system: a long run is refused in its first
-    megabytes, not when the disk is full.
+    Raises ValueError if the drives' idle gaps differ, and OSError (ENOSPC) as soon as the
+    bag's size, projected from what has been written, exceeds the free space of ``out``'s
+    file system: a long run is refused in its first megabytes, not when the disk is full.
     """
+    gaps = {config.idle_gap for config, _, _ in drives}
+    if len(gaps) > 1:
+        msg = 'the drives of one stream must share their idle gap (idle_gap_at, ' \
+              'idle_gap_duration)'
+        raise ValueError(msg)
+    gap = gaps.pop()
     count = int(math.floor(duration * rate + 1e-9))
     start_ns = int(round(start_time * 1e9))
     simulators = [Simulator(config) for config, _, _ in drives]
     names = [name for _, pair, _ in drives for name in pair]
-    truth_topics = [topics for _, _, topics in drives]
+    topics = [truth_topics(config, drive) for config, _, drive in drives]
+    written = 0
     with Rosbag2McapWriter(out, compression=compression, flush_period_s=None,
                            batch=True) as writer:
         writer.add_topic(JOINT_STATES, JOINT_STATE_TYPE)
-        for topic in (topic for pair in truth_topics for topic in pair):
-            writer.add_topic(topic, VECTOR3_STAMPED_TYPE)
+        for part in (slice(0, len(BASIC_TRUTH_TOPICS)), slice(len(BASIC_TRUTH_TOPICS), None)):
+            for topic, kind, _ in (entry for drive in topics for entry in drive[part]):
+                writer.add_topic(topic, kind)
         for first in range(0, count, CHUNK):
             stopping.check()            # a signal's stop that was swallowed
             index = np.arange(first, min(first + CHUNK, count))
             # integer-nanosecond stamps, no accumulated rounding: stamp_k = start + k/rate
             stamps_ns = start_ns + np.round(index * (1e9 / rate)).astype(np.int64)
             times = operating_offset + (stamps_ns - start_ns) * 1e-9
+            if gap.enabled:
+                running = ~gap.idle(times)
+                stamps_ns, times = stamps_ns[running], times[running]
+                if not times.size:
+                    continue
             with np.errstate(over='ignore', invalid='ignore'):  # refused by check_finite
                 results = [simulator.sample(times) for simulator in simulators]
             for (_, joints, _), result in zip(drives, results):
                 check_finite(result, joints if len(drives) > 1 else None)
-            write_chunk(writer, results, stamps_ns, first, names, truth_every, truth_topics)
+            write_chunk(writer, results, stamps_ns, written, names, truth_every, topics)
+            written += len(stamps_ns)
             check_space(out, first + index.size, count)
-    return count
+    return written
 
 
 #: The fields of a SimulationResult that are written.
@@ -208,6 +247,8 @@ def write_fleet(out: Path, config: SimulationConfig, fleet: Fleet, duration: flo
     rng = np.random.default_rng(config.seed)
     gap_rng = np.random.default_rng([config.seed, 1])     # leaves the units' draws unchanged
     total = 0
+    # each recording starts from the oil's initial temperature (the gap between recordings
+    # is not simulated); the plant's clock is the operating time
     for unit in range(fleet.units):
         spread = fleet.unit_spread
         # an overflow to inf is refused below (Wear, check_end), with the option to blame
@@ -231,7 +272,8 @@ def write_fleet(out: Path, config: SimulationConfig, fleet: Fleet, duration: flo
         for k, start in enumerate(starts):
             # the unit's stochastic wear path runs on across its recordings
             recording = replace(unit_config, seed=config.seed * 10_000 + unit * 100 + k,
-                                wear_seed=config.seed * 10_000 + unit * 100)
+                                wear_seed=config.seed * 10_000 + unit * 100,
+                                oil=replace(config.oil, start=k * duration))
             total += write_simulation(
                 folder / f'rec_{k:03d}', recording, duration, rate, start,
                 names, truth_every, compression,
