@@ -33,7 +33,7 @@ class IdleGap:
 
     @property
     def enabled(self) -> bool:
-        """True if the gap lasts longer than 0 s."""
+        """Return True if the gap lasts longer than 0 s."""
         return self.duration > 0.0
 
     def operating_time(self, t: ArrayLike) -> np.ndarray:

@@ -57,7 +57,7 @@ class LoadVariation:
 
     @property
     def enabled(self) -> bool:
-        """True unless the scale is 1 throughout."""
+        """Return True unless the scale is 1 throughout."""
         return self.scale_min != 1.0 or self.scale_max != 1.0 or self.modulation > 0.0
 
     def scale(self, s: ArrayLike, period: float, seed: int) -> np.ndarray:

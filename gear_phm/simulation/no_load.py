@@ -33,7 +33,7 @@ class NoLoadLoss:
 
     @property
     def enabled(self) -> bool:
-        """True if there is any drag."""
+        """Return True if there is any drag."""
         return self.coulomb > 0.0 or self.viscous > 0.0
 
     def parts(self, factor: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

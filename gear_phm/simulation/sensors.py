@@ -71,7 +71,7 @@ class Sensors:
 
     @property
     def encoders(self) -> bool:
-        """True if a position encoder quantises a position."""
+        """Return True if a position encoder quantises a position."""
         return bool(self.encoder_counts_motor or self.encoder_counts_load)
 
     def measure(self, truth: np.ndarray, rng: np.random.Generator,
