@@ -80,7 +80,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='draw a whole life from the documented prior (docs/lives.md): '
                              'plant, ratio, duty cycle, noise, wear law, onset, running-in, '
                              'stochastic wear, eta_opposing_min and a length of 300-30000 s; '
-                             'writes life.json in --out and prints it. Takes --rate, '
+                             'writes life.json in --out and prints it. Takes --prior, --rate, '
                              '--start-time, joint names, --truth-every, --compression only')
     fleet = parser.add_argument_group(
         'fleet: --out becomes a tree of unit folders, each with --recordings bags of '

@@ -239,12 +239,11 @@ class PublisherNode(Node):
         """Return the extended truth publishers of a simulation with a real-gearbox effect on."""
         configs = getattr(self.source, 'configs', None) or (
             [self.source.config] if isinstance(self.source, SimulateSource) else [])
-        extended = any(c.extended_truth for c in configs)
-        temperature = any(c.publish_temperature for c in configs)
-        if not (extended or temperature):
+        if not any(c.extended_truth or c.publish_temperature for c in configs):
             return []
         drives: list[str | None] = [d.name for d in self.drives] if self.drives else [None]
-        return [ExtendedTruthPublisher(self, extended, temperature, drive) for drive in drives]
+        return [ExtendedTruthPublisher(self, c.extended_truth, c.publish_temperature, drive)
+                for c, drive in zip(configs, drives)]
 
     def _publish_extended(self, sample: Sample, stamp_ns: int) -> None:
         """Publish each drive's extended truth of ``sample``."""
