@@ -38,7 +38,6 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.cli.simulate import LIFE_FILE
 from gear_phm.codec import decode_vector3_stamped_buffer
 from gear_phm.interfaces import (drive_topic, field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT,
                                  HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
@@ -47,6 +46,7 @@ from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
                                           evaluate, finite_from, healthy_acceptance, LAMBDAS,
                                           level_transitions, true_end_of_life_index)
+from gear_phm.simulation.lives import LIFE_FILE
 from gear_phm.staging import write_atomic
 from gear_phm.status import ERROR, LEVEL_NAMES
 from gear_phm.transmissions import load_transmissions, TransmissionsError
