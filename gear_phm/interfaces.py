@@ -32,6 +32,9 @@ if TYPE_CHECKING:
 JOINT_STATES = 'joint_states'
 TRUTH_FRICTION = 'gear_phm/truth/friction'
 TRUTH_EFFICIENCY = 'gear_phm/truth/efficiency'
+TRUTH_NO_LOAD = 'gear_phm/truth/no_load'
+TRUTH_OIL = 'gear_phm/truth/oil'
+OIL_TEMPERATURE = 'oil_temperature'
 FRICTION = 'gear_phm/friction'
 FRICTION_COVARIANCE = 'gear_phm/friction_covariance'
 EFFICIENCY = 'gear_phm/efficiency'
@@ -48,7 +51,7 @@ CLOCK = '/clock'
 
 
 def drive_topic(drive: str, topic: str) -> str:
-    """Return one drive's topic of many (issue 25).
+    """Return one drive's topic of many.
 
     ``gear_phm/friction`` -> ``gear_phm/<drive>/friction``, ``gear_phm/truth/friction`` ->
     ``gear_phm/<drive>/truth/friction``.
@@ -61,6 +64,7 @@ JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'
 VECTOR3_STAMPED_TYPE = 'geometry_msgs/msg/Vector3Stamped'
 DIAGNOSTIC_ARRAY_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
 CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
+TEMPERATURE_TYPE = 'sensor_msgs/msg/Temperature'
 
 # --- which field of which Vector3Stamped holds what -------------------------------------------
 #: A layout: topics in publishing order, each with the record attributes its x, y, z hold.
@@ -102,9 +106,28 @@ HEALTH_LAYOUT: Layout = (
     (HEALTH_EFFICIENCY, ('eta_opposing', 'eta_aiding', 'level')),
 )
 
+#: The simulator's truth, geometry_msgs/Vector3Stamped, and the
+#: :class:`~gear_phm.simulation.SimulationResult` arrays its x, y, z hold ('': 0). The first
+#: two always; the no-load and oil truth when a real-gearbox effect of the plant is on
+#: (``SimulationConfig.extended_truth``): no_load_torque [N m] (T_0 sign(w_m) + c_v w_m at
+#: the speed and oil temperature), no_load_coulomb T_0 [N m], no_load_viscous c_v
+#: [N m s/rad]; oil_temperature [degC], drag_factor [-] (drag over the warm drag),
+#: load_scale [-] (the air load over the nominal one).
+TRUTH_LAYOUT: Layout = (
+    (TRUTH_FRICTION, ('u', 'friction', '')),
+    (TRUTH_EFFICIENCY, ('eta_opposing', 'eta_aiding', '')),
+    (TRUTH_NO_LOAD, ('no_load_torque', 'no_load_coulomb', 'no_load_viscous')),
+    (TRUTH_OIL, ('oil_temperature', 'drag_factor', 'load_scale')),
+)
+#: The truth topics written for every run (the rest of TRUTH_LAYOUT: extended truth only).
+BASIC_TRUTH_TOPICS = (TRUTH_FRICTION, TRUTH_EFFICIENCY)
+#: sensor_msgs/Temperature on OIL_TEMPERATURE (``publish_temperature``): ``temperature`` is
+#: the true oil temperature [degC], ``variance`` 0.
+TEMPERATURE_FIELDS = ('oil_temperature', '')
+
 #: Estimator outputs, in publishing order.
 ESTIMATOR_TOPICS = tuple(topic for topic, _ in ESTIMATE_LAYOUT)
-#: The estimator outputs of recordings made before OPERATING_TIME existed (issue 13).
+#: The estimator outputs of recordings made before OPERATING_TIME existed.
 LEGACY_ESTIMATOR_TOPICS = ESTIMATOR_TOPICS[:5]
 #: The estimator outputs an update cannot be rebuilt without.
 REQUIRED_ESTIMATOR_TOPICS = frozenset((FRICTION, FRICTION_COVARIANCE))

@@ -36,7 +36,7 @@ from gear_phm.errors import GearPhmError
 from gear_phm.staging import write_atomic
 
 #: Version of the document layout; a file with another version is set aside. 2: the filter
-#: and the RUL history run on operating time (issue 13), not on stamp time as in 1.
+#: and the RUL history run on operating time, not on stamp time as in 1.
 SCHEMA = 2
 #: Relative tolerance of a float identity value (e.g. the ratio).
 IDENTITY_RTOL = 1e-9

@@ -16,8 +16,8 @@ from typing import Any
 import pytest
 
 from gear_phm import stopping
-from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
+from gear_phm.simulation import recording
 from helpers.processes import signalled_when, signalled_when_staged
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
@@ -42,7 +42,7 @@ def test_a_run_too_large_for_the_disk_is_refused_early_and_leaves_nothing(
 def test_a_write_failing_midway_leaves_no_half_written_bag(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    write_chunk = simulate_module._write_chunk
+    write_chunk = recording.write_chunk
     chunks = []
 
     def failing(*args: Any) -> None:
@@ -50,7 +50,7 @@ def test_a_write_failing_midway_leaves_no_half_written_bag(
         if len(chunks) == 3:
             raise OSError(28, 'No space left on device')
         write_chunk(*args)
-    monkeypatch.setattr(simulate_module, '_write_chunk', failing)
+    monkeypatch.setattr(recording, 'write_chunk', failing)
     (tmp_path / 'x').mkdir()                                # an empty --out is allowed
     assert gear_phm(['simulate', '--out', str(tmp_path / 'x'), '--duration', '700']) == 2
     assert len(chunks) == 3                                 # two chunks were written

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gear_phm.cli.simulate import write_simulation
 from gear_phm.interfaces import COUNTS, EFFICIENCY, FRICTION
 from gear_phm.models.lever import eta_aiding, eta_opposing
 from gear_phm.simulation import config_from_parameters
+from gear_phm.simulation.recording import write_simulation
 from helpers.live import Driver
 from helpers.processes import spawn, stop
 

@@ -11,9 +11,9 @@ import pytest
 
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.cli.main import main
-from gear_phm.cli.simulate import LIFE_FILE
 from gear_phm.interfaces import HEALTH_EFFICIENCY, HEALTH_RUL, TRUTH_FRICTION, Vector3Out
 from gear_phm.prognostics import end_of_life_u, HealthConfig
+from gear_phm.simulation.lives import LIFE_FILE
 
 
 def _write(directory: Path, topic: str, rows) -> None:

@@ -1,4 +1,4 @@
-"""The README's parameter tables and config/*.yaml against the nodes' own declarations.
+"""The parameter tables (docs/parameters.md) and config/*.yaml against the nodes' own declarations.
 
 docs/generate_parameter_tables.py constructs each node class in its own process (no graph)
 and reads the declarations back through rclpy's public API.
@@ -49,8 +49,8 @@ def test_readme_parameter_tables_are_current() -> None:
 
 
 def test_check_names_a_stale_row(tmp_path: Path) -> None:
-    readme = tmp_path / 'README.md'
-    text = (REPO / 'README.md').read_text(encoding='utf-8')
+    readme = tmp_path / 'parameters.md'
+    text = (REPO / 'docs' / 'parameters.md').read_text(encoding='utf-8')
     stale, count = re.subn(r'^\| `process_noise` \| `[^`]*` ', '| `process_noise` | `1e-99` ',
                            text, flags=re.M)
     assert count == 1
@@ -93,12 +93,12 @@ def test_config_file_documents_every_declared_parameter(declarations: dict, node
 
 
 def test_readme_lists_exactly_the_diagnostics_keys_and_explains_the_new_ones() -> None:
-    """The /diagnostics paragraph names STATUS_KEYS in order.
+    """The /diagnostics paragraph of docs/usage.md names STATUS_KEYS in order.
 
-    The time-base keys have a bullet each (issue 13).
+    The time-base keys have a bullet each.
     """
     from gear_phm.interfaces import STATUS_KEYS
-    text = (REPO / 'README.md').read_text(encoding='utf-8')
+    text = (REPO / 'docs' / 'usage.md').read_text(encoding='utf-8')
     start = text.index('Its KeyValue keys are exactly:')
     sentence = text[start:text.index('. Numbers', start)]
     assert tuple(re.findall(r'`(\w+)`', sentence)) == STATUS_KEYS

@@ -13,12 +13,12 @@ import pytest
 import yaml
 
 from gear_phm.bagio import BagReader, Rosbag2McapWriter, TYPESTORE
-from gear_phm.cli import simulate as simulate_module
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.codec import decode_joint_states, joint_state_rows
 from gear_phm.interfaces import stamp_to_ns, Vector3Out
 from gear_phm.models import eta_opposing, u_from_eta_opposing
-from gear_phm.simulation import DutyCycle, sample_times, simulate, SimulationConfig, Wear
+from gear_phm.simulation import (DutyCycle, recording, sample_times, simulate, SimulationConfig,
+                                 Wear)
 from helpers.bags import (ALL_SAMPLES_MAX_BYTES, bag_content, bag_differences, SAMPLE_MAX_BYTES,
                           SAMPLES)
 
@@ -221,7 +221,7 @@ def test_a_non_finite_sample_is_never_written(tmp_path: Path) -> None:
     """The final guard: a configuration beyond float64 (built without the CLI's ranges)."""
     config = SimulationConfig(duty_cycle=DutyCycle(travel=1e308))
     with pytest.raises(ValueError, match=r'^the simulation gave position_motor = inf at t = '):
-        simulate_module.write_simulation(tmp_path / 'x', config, 10.0, 10.0)
+        recording.write_simulation(tmp_path / 'x', config, 10.0, 10.0)
 
 
 def test_integer_options_take_an_integral_float(tmp_path: Path,
@@ -423,9 +423,9 @@ def test_block_writes_equal_the_message_by_message_writer(
     chunks that split truth periods and MCAP chunks that split groups of messages.
     """
     config = SimulationConfig(wear=Wear.reaching('exponential', 0.05, 0.3, 8.0), seed=3)
-    monkeypatch.setattr(simulate_module, 'CHUNK', chunk)
-    count = simulate_module.write_simulation(tmp_path / 'blocks', config, 8.0, 1000.0,
-                                             start_time=12.5, truth_every=truth_every)
+    monkeypatch.setattr(recording, 'CHUNK', chunk)
+    count = recording.write_simulation(tmp_path / 'blocks', config, 8.0, 1000.0,
+                                       start_time=12.5, truth_every=truth_every)
     _reference_simulation(tmp_path / 'reference', config, count, 1000.0, 12_500_000_000,
                           truth_every)
     blocks, reference = bag_content(tmp_path / 'blocks'), bag_content(tmp_path / 'reference')

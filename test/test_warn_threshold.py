@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gear_phm.cli.simulate import write_simulation
 from gear_phm.models.lever import eta_opposing
 from gear_phm.offline import analyze_bag
 from gear_phm.simulation import config_from_parameters
+from gear_phm.simulation.recording import write_simulation
 from gear_phm.status import OK, WARN
 
 RATIO = 12.0

@@ -317,11 +317,22 @@ def vector3_stamped_rows(stamps_ns: np.ndarray, xyz: np.ndarray,
     An (N, L) uint8 array: row by row, the bytes of
     :func:`gear_phm.interfaces.vector3_stamped_cdr`.
     """
+    return stamped_float64_rows(stamps_ns, xyz, frame_id)
+
+
+def stamped_float64_rows(stamps_ns: np.ndarray, values: np.ndarray,
+                         frame_id: str = '') -> np.ndarray:
+    """Return the little-endian CDR payloads of N messages of a header and K float64.
+
+    ``values`` (N, K): geometry_msgs/Vector3Stamped (x, y, z) or sensor_msgs/Temperature
+    (temperature, variance). An (N, L) uint8 array.
+    """
+    values = np.asarray(values, dtype=float)
     frame = frame_id.encode() + b'\0'
     padding = (-(12 + len(frame))) % 8               # float64 alignment from the CDR origin
     dtype = np.dtype([('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4'),
                       ('frame_length', '<u4'), ('frame', f'V{len(frame) + padding}'),
-                      ('xyz', '<f8', (3,))])
+                      ('values', '<f8', (values.shape[1],))])
     stamps = np.asarray(stamps_ns, dtype=np.int64)
     sec, nanosec = np.divmod(stamps, 1_000_000_000)
     if len(sec) and (sec.min() < -2**31 or sec.max() >= 2**31):
@@ -332,5 +343,5 @@ def vector3_stamped_rows(stamps_ns: np.ndarray, xyz: np.ndarray,
     rows['nanosec'] = nanosec
     rows['frame_length'] = len(frame)
     rows['frame'] = np.void(frame + b'\0' * padding)
-    rows['xyz'] = xyz
+    rows['values'] = values
     return rows.view(np.uint8).reshape(len(stamps), dtype.itemsize)

@@ -17,9 +17,9 @@ before the true end of life. Prints the metrics and writes them as JSON (``--out
 A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` beside it: its
 ``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
 ``--eta-opposing-min``, its wear onset that of ``--t-start`` (t_P = onset), its
-``end_of_life_s`` the true end of life (when the options give its u_eol), and issue 23's
-per-life scores are added (``acceptance``); a healthy life, which has no end of life, is scored
-on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
+``end_of_life_s`` the true end of life (when the options give its u_eol), and the
+per-life acceptance scores are added (``acceptance``); a healthy life, which has no end of
+life, is scored on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 
@@ -38,7 +38,6 @@ import numpy as np
 from gear_phm.bagio import BagError, BagReader
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.cli.simulate import LIFE_FILE
 from gear_phm.codec import decode_vector3_stamped_buffer
 from gear_phm.interfaces import (drive_topic, field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT,
                                  HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
@@ -47,6 +46,7 @@ from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
                                           evaluate, finite_from, healthy_acceptance, LAMBDAS,
                                           level_transitions, true_end_of_life_index)
+from gear_phm.simulation.lives import LIFE_FILE
 from gear_phm.staging import write_atomic
 from gear_phm.status import ERROR, LEVEL_NAMES
 from gear_phm.transmissions import load_transmissions, TransmissionsError
@@ -498,7 +498,7 @@ def _healthy(args: argparse.Namespace, bag: Path, output: Path, median: np.ndarr
 
 
 def _print_acceptance(scores: dict[str, Any]) -> None:
-    """Print issue 23's per-life scores (docs/prognostics.md)."""
+    """Print the per-life acceptance scores (docs/prognostics.md)."""
     checks = ', '.join(f'{c["lam"]:g} {"PASS" if c["passed"] else "FAIL"}'
                        for c in scores['alpha_lambda'])
     band, below, finite = scores['band'], scores['not_optimistic'], scores['finite']

@@ -1,13 +1,20 @@
-"""``gear-phm paper``: regenerate figures 3, 4, 6 of Berri et al. with statistics."""
+"""``gear-phm paper``: regenerate figures 3, 4, 6 of Berri et al. with statistics.
+
+``--architecture NAME`` answers the paper's open question for one architecture (or ``all``):
+the lever model against the reference model of that architecture (docs/paper-reproduction.md).
+"""
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 from gear_phm.cli.main import CliError
+
+if TYPE_CHECKING:
+    from gear_phm.paper.reproduce import SamplingRanges
 
 HELP = 'reproduce the paper figures (simplified vs spur-gear model) with statistics'
 
@@ -35,9 +42,11 @@ def _bounded(convert: type, low: float, high: float | None = None) -> Callable[[
 _positive_int = _bounded(int, 1)
 _seed = _bounded(int, 0)
 _bearing_fraction = _bounded(float, 0.0, 10.0)
+_tooth_friction = _bounded(float, 0.0, 2.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from gear_phm.paper.architectures import ARCHITECTURES
     from gear_phm.paper.reproduce import DEFAULT_SAMPLES, DEFAULT_SEED, SamplingRanges
     parser.add_argument('--out', required=True, type=Path, metavar='DIR',
                         help='output directory (created if missing)')
@@ -50,6 +59,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='upper end of the uniform bearing friction radius / pitch radius '
                              f'range (default {SamplingRanges().bearing_fraction[1]:g}; values '
                              'near 1 give irreversible gears)')
+    parser.add_argument('--max-tooth-friction', type=_tooth_friction, default=None,
+                        metavar='F',
+                        help='upper end of the uniform tooth friction coefficient range of '
+                             f'the gears (default {SamplingRanges().tooth_friction[1]:g})')
+    parser.add_argument('--architecture', choices=(*ARCHITECTURES, 'all'), default=None,
+                        help='compare the simplified model with the reference model of this '
+                             'architecture (all: each into a subdirectory) and write '
+                             "table.md / table.csv; default: the paper's spur figures only")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,6 +81,10 @@ def run(args: argparse.Namespace) -> int:
     ranges = SamplingRanges()
     if args.max_bearing_fraction is not None:
         ranges = replace(ranges, bearing_fraction=(0.0, args.max_bearing_fraction))
+    if args.max_tooth_friction is not None:
+        ranges = replace(ranges, tooth_friction=(0.0, args.max_tooth_friction))
+    if args.architecture is not None:
+        return _run_architectures(args, out, ranges)
     try:
         summary = reproduce(out, seed=args.seed, samples=args.samples, ranges=ranges)
     except OSError as exc:
@@ -77,4 +98,21 @@ def run(args: argparse.Namespace) -> int:
           f'{summary["e_tot_fraction_below_1e-2"]:.1%}; |e_D| median '
           f'{summary["abs_error_opposing"]["median"]:.3g}, |e_I| median '
           f'{summary["abs_error_aiding"]["median"]:.3g}')
+    return 0
+
+
+def _run_architectures(args: argparse.Namespace, out: Path, ranges: SamplingRanges) -> int:
+    """Run --architecture NAME (or all), print the table."""
+    from gear_phm.paper.architectures import ARCHITECTURES, figure_files, run
+    names = ARCHITECTURES if args.architecture == 'all' else (args.architecture,)
+    try:
+        table = run(names, out, seed=args.seed, samples=args.samples, ranges=ranges)
+    except OSError as exc:
+        raise CliError(f'cannot write into {str(out)!r}: {exc.strerror}') from None
+    for name in names:
+        where = out if len(names) == 1 else out / name
+        print(f'{name}: wrote {", ".join(figure_files(name))}, samples.csv, summary.json to '
+              f'{where}')
+    print(f'wrote table.md, table.csv to {out} (seed {args.seed}, {args.samples} samples each)')
+    print(table, end='')
     return 0

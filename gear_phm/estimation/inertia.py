@@ -193,6 +193,6 @@ class InertiaLearner:
         self._provisional = [_block_fit(block) if self.blocks < MIN_BLOCKS
                              and PROVISIONAL <= len(block) < BLOCK else None
                              for block in self._open]
-        # added 2026-11-27; an older state takes the largest |K| of its open blocks
+        # added within schema 2; an older state takes the largest |K| of its open blocks
         self.kinetic_max = decode_float(state['kinetic_max']) if 'kinetic_max' in state else max(
             (abs(row[3]) for block in self._open for row in block), default=0.0)

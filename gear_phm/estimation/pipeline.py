@@ -283,15 +283,15 @@ class EstimatorPipeline:
                   stamp(state['max_stamp']), stamp(state['last_group_stamp']),
                   stamp(state['origin_ns']), stamp(state['grid']), int(state['last_code']),
                   decode_float(state['last_eta']), stamp(state['last_stamp']))
-        carry = state.get('carry')          # added within schema 2 (2026-11-25)
-        # h and the bias added within schema 2 (2026-11-27); an older carry's are 0 (its
+        carry = state.get('carry')          # added within schema 2
+        # h and the bias added within schema 2; an older carry's are 0 (its
         # measurement is not re-corrected)
         carried = None if carry is None else cast(
             'tuple[float, float, float, float, float]',
             tuple(decode_float(v) for v in [*carry, 0.0, 0.0][:5]))
-        if 'inertia' in state:              # added within schema 2 (2026-11-26)
+        if 'inertia' in state:              # added within schema 2
             fresh.inertia.from_state(state['inertia'])
-        if 'window' in state:               # added within schema 2 (2026-11-27)
+        if 'window' in state:               # added within schema 2
             fresh.integrator.from_state(state['window'])
         if 'no_load' in state:              # a state without it starts the no-load part anew
             fresh.no_load.from_state(state['no_load'])
@@ -444,7 +444,7 @@ class EstimatorPipeline:
         It is restarted first after a confirmed run of earlier stamps; each estimate carries the
         missing count at its stamp. ``marks``: (mark, number of this segment's samples before it),
         see :meth:`on_batch_marked`. The duplicates the screen dropped between the segment's
-        samples count as if each cut it (until 2026-11-27 each did): from the next sample on, and
+        samples count as if each cut it: from the next sample on, and
         in the snapshot of a mark before that sample.
         """
         if segment.reset_before:

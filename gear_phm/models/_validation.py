@@ -92,3 +92,26 @@ def scalar_ratio(ratio: float) -> None:
     if not 0.0 < ratio < math.inf:
         msg = f'ratio must be > 0 and finite, got {ratio!r}'
         raise ModelError(msg) from None
+
+
+def in_half_open_interval(name: str, value: ArrayLike, low: float, high: float,
+                          unit: str = '') -> np.ndarray:
+    """Finite and inside [low, high)."""
+    array = finite(name, value)
+    bad = (array < low) | (array >= high)
+    if bad.any():
+        raise ModelError(
+            f'{name} must be in [{low:g}, {high:g}){unit}, got {_first_bad(array, bad)}')
+    return array
+
+
+def result(value: ArrayLike) -> np.ndarray | float:
+    """Return a Python float for a 0-d result, the array otherwise (the models' return type)."""
+    array = np.asarray(value, dtype=float)
+    return float(array) if array.ndim == 0 else array
+
+
+def unwrap(value: np.ndarray) -> np.ndarray | float:
+    """Return the value a model stores in a field: a 0-d array as its numpy scalar."""
+    stored: np.ndarray | float = value[()] if value.ndim == 0 else value
+    return stored

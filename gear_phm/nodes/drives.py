@@ -1,4 +1,4 @@
-"""The ``transmissions`` node parameter: many drives served by one node (issue 25).
+"""The ``transmissions`` node parameter: many drives served by one node.
 
 As ros2_control names its joints: ``transmissions`` (string array) lists the drives; each
 name holds its own parameters ``<drive>.motor_joint``, ``<drive>.load_joint``,

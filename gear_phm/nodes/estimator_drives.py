@@ -1,4 +1,4 @@
-"""The estimator node serving many drives (``transmissions`` non-empty; issue 25).
+"""The estimator node serving many drives (``transmissions`` non-empty).
 
 One JointState stream carries every drive's joints. Each serialized message is buffered as it
 arrives (its stamp read with one ``struct`` call); a buffer is decoded once for all drives by

@@ -46,6 +46,7 @@ from gear_phm.nodes.common import (ConfigError, declare_parameters, declare_requ
                                    DropCounter, keep_spinning, OUTPUT_QOS, run_node,
                                    SPIN_TIMEOUT_S, stamp, status_msg)
 from gear_phm.nodes.drives import declare_drives, declare_string_array, declare_transmissions
+from gear_phm.nodes.transport import ExtendedTruthPublisher
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
 from gear_phm.simulation import config_from_parameters, PARAMETERS
 from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
@@ -153,6 +154,8 @@ class PublisherNode(Node):
         self.drive_truth_pubs = [tuple(self.create_publisher(
             Vector3Stamped, drive_topic(d.name, topic), OUTPUT_QOS)
             for topic in (TRUTH_FRICTION, TRUTH_EFFICIENCY)) for d in self.drives]
+        #: the no-load and oil truth and the oil temperature of each drive (one: the only one)
+        self.extended_pubs = self._extended_publishers()
         self.clock_pub = self.create_publisher(
             Clock, CLOCK, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)) \
             if self.publish_clock else None
@@ -231,6 +234,23 @@ class PublisherNode(Node):
                             load_joint=self.load_joint, topic=p['topic'],
                             rate_factor=p['rate_factor'], start_offset=p['start_offset'],
                             loop=p['loop'], replay_truth=p['replay_truth'])
+
+    def _extended_publishers(self) -> list[ExtendedTruthPublisher]:
+        """Return the extended truth publishers of a simulation with a real-gearbox effect on."""
+        configs = getattr(self.source, 'configs', None) or (
+            [self.source.config] if isinstance(self.source, SimulateSource) else [])
+        if not any(c.extended_truth or c.publish_temperature for c in configs):
+            return []
+        drives: list[str | None] = [d.name for d in self.drives] if self.drives else [None]
+        return [ExtendedTruthPublisher(self, c.extended_truth, c.publish_temperature, drive)
+                for c, drive in zip(configs, drives)]
+
+    def _publish_extended(self, sample: Sample, stamp_ns: int) -> None:
+        """Publish each drive's extended truth of ``sample``."""
+        for k, publisher in enumerate(self.extended_pubs):
+            publisher.publish(stamp_ns, sample.no_load[3 * k:3 * k + 3],
+                              sample.oil[3 * k:3 * k + 3],
+                              sample.temperature[k] if sample.temperature else None)
 
     # -- running ----------------------------------------------------------------------------
     def start(self) -> None:
@@ -337,6 +357,8 @@ class PublisherNode(Node):
         self._send(self.joint_pub, msg, scheduled)
         self.truth_pubs['truth_friction'].publish(friction)
         self.truth_pubs['truth_efficiency'].publish(efficiency)
+        if self.extended_pubs:
+            self._publish_extended(sample, stamp_ns)
         self.counter.received += 1
         self.published += 1
         return True
@@ -357,6 +379,8 @@ class PublisherNode(Node):
             for k, (friction_pub, efficiency_pub) in enumerate(self.drive_truth_pubs):
                 friction_pub.publish(_truth(stamp_ns, sample.friction, k))
                 efficiency_pub.publish(_truth(stamp_ns, sample.efficiency, k))
+            if self.extended_pubs:
+                self._publish_extended(sample, stamp_ns)
         self.counter.received += 1
         self.published += 1
         return True
@@ -392,7 +416,8 @@ class PublisherNode(Node):
     def _flush(self) -> None:
         """Wait until reliable subscribers acknowledged everything (bounded)."""
         for publisher in (self.joint_pub, *self.truth_pubs.values(),
-                          *(pub for pair in self.drive_truth_pubs for pub in pair)):
+                          *(pub for pair in self.drive_truth_pubs for pub in pair),
+                          *(pub for drive in self.extended_pubs for pub in drive.publishers)):
             publisher.wait_for_all_acked(Duration(seconds=5.0))
 
     # -- diagnostics --------------------------------------------------------------------------

@@ -19,11 +19,11 @@ from typing import Any
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, Temperature
 
 from gear_phm import codec, interfaces
 from gear_phm.estimation.records import FrictionEstimate
-from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, to_rclpy
+from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, stamp, to_rclpy
 from gear_phm.prognostics.assessor import HealthState
 from gear_phm.status import StatusOut
 
@@ -121,6 +121,45 @@ class EstimatePublisher:
         for estimate in estimates:
             for output in interfaces.estimate_outputs(estimate, self.frame_id, self.no_load):
                 self._publishers[output.topic].publish(interfaces.vector3_stamped_cdr(output))
+
+
+class ExtendedTruthPublisher:
+    """The simulator's no-load and oil truth and the oil temperature of one drive.
+
+    geometry_msgs/Vector3Stamped on ``gear_phm/truth/no_load`` and ``gear_phm/truth/oil``
+    (``extended``; layouts :data:`gear_phm.interfaces.TRUTH_LAYOUT`), sensor_msgs/Temperature
+    on ``oil_temperature`` (``temperature``; variance 0). ``drive``: of many.
+    """
+
+    def __init__(self, node: Node, extended: bool, temperature: bool,
+                 drive: str | None = None) -> None:
+        self._vectors = [node.create_publisher(Vector3Stamped, topic_of(drive, topic),
+                                               OUTPUT_QOS)
+                         for topic in (interfaces.TRUTH_NO_LOAD, interfaces.TRUTH_OIL)
+                         ] if extended else []
+        self._temperature = node.create_publisher(
+            Temperature, topic_of(drive, interfaces.OIL_TEMPERATURE), OUTPUT_QOS) \
+            if temperature else None
+
+    @property
+    def publishers(self) -> list[Any]:
+        """Every publisher of this drive's topics."""
+        return [*self._vectors, *([self._temperature] if self._temperature else [])]
+
+    def publish(self, stamp_ns: int, no_load: tuple[float, ...], oil: tuple[float, ...],
+                temperature: float | None) -> None:
+        """Publish one instant: no-load (x, y, z), oil (x, y, z), the oil temperature [degC]."""
+        for publisher, values in zip(self._vectors, (no_load, oil)):
+            msg = Vector3Stamped()
+            msg.header.stamp = stamp(stamp_ns)
+            msg.vector.x, msg.vector.y, msg.vector.z = (float(v) for v in values)
+            publisher.publish(msg)
+        if self._temperature is not None and temperature is not None:
+            message = Temperature()
+            message.header.stamp = stamp(stamp_ns)
+            message.temperature = float(temperature)
+            message.variance = 0.0
+            self._temperature.publish(message)
 
 
 class SampleLossPublisher:

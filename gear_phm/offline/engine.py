@@ -459,7 +459,7 @@ class _Run:
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
                  hardware_id: str, history: int | None = None, prior: ShapePrior | None = None,
                  drive: str | None = None) -> None:
-        #: one drive of many (issue 25): its topics are gear_phm/<drive>/..., its statuses
+        #: one drive of many: its topics are gear_phm/<drive>/..., its statuses
         #: named by it; None: the single transmission, today's names
         self.drive = drive
         self.estimator_status_name = (ESTIMATOR_STATUS_NAME if drive is None

@@ -8,6 +8,7 @@ model, :func:`summarize` reduces them to statistics and :func:`reproduce` writes
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 import csv
 from dataclasses import asdict, dataclass
 import json
@@ -54,23 +55,26 @@ class SamplingRanges:
     bearing_fraction: tuple[float, float] = (0.0, 1.0)     # rho_i / r_p,i [-]
 
 
-def _log_uniform(rng: np.random.Generator, bounds: tuple[float, float], n: int) -> np.ndarray:
+def log_uniform(rng: np.random.Generator, bounds: tuple[float, float], n: int) -> np.ndarray:
+    """Return ``n`` draws log-uniform in ``bounds``."""
     return np.exp(rng.uniform(math.log(bounds[0]), math.log(bounds[1]), n))
 
 
-def sample_reference_gears(count: int, seed: int,
-                           ranges: SamplingRanges = SamplingRanges()) -> dict[str, np.ndarray]:
-    """``count`` random valid gear pairs (arrays keyed like :data:`CSV_COLUMNS`), seeded."""
+def sample_reference_gears(count: int, seed: int, ranges: SamplingRanges = SamplingRanges(),
+                           ratio_range: tuple[float, float] = RATIO_RANGE
+                           ) -> dict[str, np.ndarray]:
+    """``count`` random valid gear pairs (arrays keyed like :data:`CSV_COLUMNS`), seeded.
+
+    Pairs with R = z2 / z1 outside ``ratio_range`` are redrawn.
+    """
     if count < 1:
         raise ValueError(f'count must be >= 1, got {count!r}')
     rng = np.random.default_rng(seed)
-    kept: dict[str, list[np.ndarray]] = {}
-    total = 0
-    while total < count:
-        batch = max(64, 2 * (count - total))
+
+    def draw(batch: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
         theta = np.deg2rad(rng.uniform(*ranges.pressure_angle_deg, batch))
-        z1 = np.round(_log_uniform(rng, ranges.teeth_1, batch))
-        z2 = np.round(_log_uniform(rng, ranges.teeth_2, batch))
+        z1 = np.round(log_uniform(rng, ranges.teeth_1, batch))
+        z2 = np.round(log_uniform(rng, ranges.teeth_2, batch))
         module = rng.uniform(*ranges.module, batch)
         friction = rng.uniform(*ranges.tooth_friction, batch)
         fraction_1 = rng.uniform(*ranges.bearing_fraction, batch)
@@ -78,14 +82,25 @@ def sample_reference_gears(count: int, seed: int,
         ratio = z2 / z1
         z_min = min_teeth(theta)
         ok = ((z1 >= z_min) & (z2 >= z_min)
-              & (ratio >= RATIO_RANGE[0]) & (ratio <= RATIO_RANGE[1]))
-        columns = {
+              & (ratio >= ratio_range[0]) & (ratio <= ratio_range[1]))
+        return {
             'z1': z1, 'z2': z2, 'module_m': module, 'pressure_angle_deg': np.rad2deg(theta),
             'addendum_m': module, 'tooth_friction': friction,
             'bearing_fraction_1': fraction_1, 'bearing_fraction_2': fraction_2,
             'bearing_radius_1_m': fraction_1 * module * z1 / 2,
             'bearing_radius_2_m': fraction_2 * module * z2 / 2,
-        }
+        }, ok
+    return rejection_sample(count, draw)
+
+
+def rejection_sample(count: int,
+                     draw: Callable[[int], tuple[dict[str, np.ndarray], np.ndarray]]
+                     ) -> dict[str, np.ndarray]:
+    """Keep the accepted rows of ``draw(batch)`` (columns, accepted mask) until ``count``."""
+    kept: dict[str, list[np.ndarray]] = {}
+    total = 0
+    while total < count:
+        columns, ok = draw(max(64, 2 * (count - total)))
         for name, values in columns.items():
             kept.setdefault(name, []).append(values[ok])
         total += int(np.count_nonzero(ok))
@@ -112,20 +127,34 @@ def evaluate_samples(samples: dict[str, np.ndarray],
     """
     gear = gears_of(samples, with_bearings)
     eta_d, eta_i = (np.asarray(x, dtype=float) for x in gear.efficiencies())
-    ratio = np.asarray(gear.ratio, dtype=float)
-    simplified_i = np.asarray(eta_aiding_from_opposing(eta_d, ratio), dtype=float)
-    simplified_d = np.asarray(eta_opposing_from_aiding(eta_i, ratio), dtype=float)
     table = dict(samples)
-    table.update({
-        'ratio': ratio, 'eta_opposing': eta_d, 'eta_aiding': eta_i,
-        'eta_aiding_simplified': simplified_i, 'eta_opposing_simplified': simplified_d,
-        'error_aiding': eta_i - simplified_i, 'error_opposing': eta_d - simplified_d,
-        'e_tot': np.asarray(total_squared_error(eta_d, eta_i, ratio), dtype=float),
-    })
+    table.update(compare_with_lever(eta_d, eta_i, np.asarray(gear.ratio, dtype=float)))
     return table
 
 
-def _stats(values: np.ndarray) -> dict[str, float]:
+def compare_with_lever(eta_d: np.ndarray, eta_i: np.ndarray,
+                       ratio: np.ndarray) -> dict[str, np.ndarray]:
+    """Compare reference efficiencies with the simplified lever model at the same R (eqs 14, 15).
+
+    Columns ratio, eta_opposing, eta_aiding, eta_aiding_simplified, eta_opposing_simplified,
+    error_aiding, error_opposing and e_tot; NaN where the point has no image on the curve or
+    an efficiency is NaN (a jammed train).
+    """
+    defined = np.isfinite(eta_d) & np.isfinite(eta_i)      # NaN: a train that jams
+    simplified_i, simplified_d, e_tot = (np.full(eta_d.shape, np.nan) for _ in range(3))
+    simplified_i[defined] = eta_aiding_from_opposing(eta_d[defined], ratio[defined])
+    simplified_d[defined] = eta_opposing_from_aiding(eta_i[defined], ratio[defined])
+    e_tot[defined] = total_squared_error(eta_d[defined], eta_i[defined], ratio[defined])
+    return {
+        'ratio': ratio, 'eta_opposing': eta_d, 'eta_aiding': eta_i,
+        'eta_aiding_simplified': simplified_i, 'eta_opposing_simplified': simplified_d,
+        'error_aiding': eta_i - simplified_i, 'error_opposing': eta_d - simplified_d,
+        'e_tot': e_tot,
+    }
+
+
+def quantile_stats(values: np.ndarray) -> dict[str, float]:
+    """Return count, mean, min, p5, p25, median, p75, p95, max of the finite values."""
     finite = values[np.isfinite(values)]
     if finite.size == 0:
         return {'count': 0}
@@ -165,41 +194,44 @@ def summarize(table: dict[str, np.ndarray]) -> dict[str, Any]:
         'samples': n,
         'irreversible_fraction': float(np.mean(table['eta_aiding'] < 0.0)),
         'no_image_on_curve': int(n - np.count_nonzero(finite)),
-        'e_tot': _stats(e_tot),
+        'e_tot': quantile_stats(e_tot),
         'e_tot_fraction_below_1e-2': float(np.mean(e_tot[finite] < 1e-2)),
         'e_tot_fraction_below_1e-3': float(np.mean(e_tot[finite] < 1e-3)),
         'normal_distance_median': float(math.sqrt(np.median(e_tot[finite]))),
-        'abs_error_opposing': _stats(abs_d),
-        'abs_error_aiding': _stats(abs_i),
+        'abs_error_opposing': quantile_stats(abs_d),
+        'abs_error_aiding': quantile_stats(abs_i),
         'fraction_both_abs_errors_below_0.1': float(np.mean(
             (abs_d[both] < 0.1) & (abs_i[both] < 0.1))),
         'fraction_min_abs_error_below_0.1': float(np.mean(
             np.minimum(abs_d[both], abs_i[both]) < 0.1)),
-        'e_tot_median_by_max_bearing_fraction': _by_bearing_fraction(table),
-        'ratio': _stats(table['ratio']),
-        'eta_opposing': _stats(table['eta_opposing']),
-        'eta_aiding': _stats(table['eta_aiding']),
+        **({'e_tot_median_by_max_bearing_fraction': _by_bearing_fraction(table)}
+           if 'bearing_fraction_1' in table else {}),
+        'ratio': quantile_stats(table['ratio']),
+        'eta_opposing': quantile_stats(table['eta_opposing']),
+        'eta_aiding': quantile_stats(table['eta_aiding']),
     }
 
 
-def write_csv(table: dict[str, np.ndarray], path: Path) -> None:
-    """One row per sample, columns :data:`CSV_COLUMNS` (SI units, angles in degrees)."""
+def write_csv(table: dict[str, np.ndarray], path: Path,
+              columns: tuple[str, ...] = CSV_COLUMNS) -> None:
+    """One row per sample, ``columns`` (SI units, angles in degrees)."""
     with path.open('w', newline='') as stream:
         writer = csv.writer(stream)
-        writer.writerow(CSV_COLUMNS)
-        for row in zip(*(table[name] for name in CSV_COLUMNS)):
+        writer.writerow(columns)
+        for row in zip(*(table[name] for name in columns)):
             writer.writerow([repr(float(value)) for value in row])
 
 
 # ------------------------------------------------------------------------------ figures
 
-def surface_grid(points: int = 161) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """eta_D in [-1, 1] x log-spaced R in [0.1, 50] -> eta_I clipped to [-1, 1].
+def surface_grid(points: int = 161, ratio_range: tuple[float, float] = RATIO_RANGE
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """eta_D in [-1, 1] x log-spaced R in ``ratio_range`` -> eta_I clipped to [-1, 1].
 
     NaN where no friction value u >= 0 gives that eta_D (eta_D <= -1/R).
     """
     eta_d = np.linspace(-1.0, 1.0, points)
-    ratio = np.geomspace(*RATIO_RANGE, points)
+    ratio = np.geomspace(*ratio_range, points)
     grid_d, grid_r = np.meshgrid(eta_d, ratio)
     eta_i = eta_aiding_from_opposing(grid_d, grid_r)
     eta_i = np.where(grid_d > -1.0 / grid_r, np.clip(eta_i, -1.0, 1.0), np.nan)
@@ -272,31 +304,9 @@ def plot_comparison(table: dict[str, np.ndarray], path: Path) -> None:
     axes3d.set_title('reference samples (blue circles) over the simplified surface',
                      fontsize=10)
 
-    axes = fig.add_subplot(2, 2, 2)
-    _contour_panel(fig, axes, grid)
-    axes.scatter(eta_d[shown], ratio[shown], s=14, facecolors='none', edgecolors='tab:red',
-                 linewidths=0.8)
-    axes.set_title(r'samples (red circles) at their ($\eta_D$, R); colour: simplified '
-                   r'$\eta_I$', fontsize=10)
+    map_panel(fig, fig.add_subplot(2, 2, 2), grid, table)
 
-    axes = fig.add_subplot(2, 2, 3)
-    simplified = table['eta_aiding_simplified']
-    ok = np.isfinite(simplified)
-    scatter = axes.scatter(simplified[ok], eta_i[ok], c=np.log10(ratio[ok]), s=10,
-                           cmap='plasma', vmin=-1, vmax=math.log10(50))
-    axes.plot([-1, 1], [-1, 1], 'k-', linewidth=1, label='simplified = reference')
-    axes.plot([-1, 1], [-0.9, 1.1], 'k:', linewidth=0.8, label=r'$\pm 0.1$')
-    axes.plot([-1, 1], [-1.1, 0.9], 'k:', linewidth=0.8)
-    axes.set_xlim(-1, 1)
-    axes.set_ylim(-1, 1)
-    axes.set_xlabel(r'simplified $\eta_I(\eta_{D,ref}, R)$ [-] (eq 14)')
-    axes.set_ylabel(r'reference $\eta_{I,ref}$ [-] (eq 8)')
-    axes.set_title(f'aiding efficiency: reference vs simplified '
-                   f'({int(np.count_nonzero(ok & (simplified >= -1)))} of {eta_d.size} '
-                   'in view)', fontsize=10)
-    axes.grid(True, alpha=0.3)
-    axes.legend(loc='upper left', fontsize=8)
-    fig.colorbar(scatter, ax=axes, label=r'$\log_{10}$ R [-]')
+    parity_panel(fig, fig.add_subplot(2, 2, 3), table)
 
     axes = fig.add_subplot(2, 2, 4)
     largest = np.maximum(table['bearing_fraction_1'], table['bearing_fraction_2'])
@@ -312,6 +322,42 @@ def plot_comparison(table: dict[str, np.ndarray], path: Path) -> None:
     fig.suptitle(f'Reference spur-gear model vs simplified model, {eta_d.size} random gears '
                  f'({int(np.count_nonzero(shown))} with both efficiencies in [-1, 1])')
     fig.savefig(path, dpi=100)
+
+
+def map_panel(fig: Figure, axes: Axes, grid: Grid, table: dict[str, np.ndarray]) -> None:
+    """Draw samples (red circles) at their (eta_D, R) over the map of the simplified eta_I."""
+    eta_d, eta_i, ratio = table['eta_opposing'], table['eta_aiding'], table['ratio']
+    shown = (eta_d >= -1) & (eta_d <= 1) & (eta_i >= -1) & (eta_i <= 1)
+    _contour_panel(fig, axes, grid)
+    axes.scatter(eta_d[shown], ratio[shown], s=14, facecolors='none', edgecolors='tab:red',
+                 linewidths=0.8)
+    axes.set_title(r'samples (red circles) at their ($\eta_D$, R); colour: simplified '
+                   r'$\eta_I$', fontsize=10)
+
+
+def parity_panel(fig: Figure, axes: Axes, table: dict[str, np.ndarray],
+                 ratio_range: tuple[float, float] = RATIO_RANGE,
+                 reference: str = 'eq 8') -> None:
+    """Plot reference eta_I against the simplified eta_I(eta_D,ref, R), coloured by log10 R."""
+    eta_d = table['eta_opposing']
+    simplified = table['eta_aiding_simplified']
+    ok = np.isfinite(simplified)
+    scatter = axes.scatter(simplified[ok], table['eta_aiding'][ok],
+                           c=np.log10(table['ratio'][ok]), s=10, cmap='plasma',
+                           vmin=math.log10(ratio_range[0]), vmax=math.log10(ratio_range[1]))
+    axes.plot([-1, 1], [-1, 1], 'k-', linewidth=1, label='simplified = reference')
+    axes.plot([-1, 1], [-0.9, 1.1], 'k:', linewidth=0.8, label=r'$\pm 0.1$')
+    axes.plot([-1, 1], [-1.1, 0.9], 'k:', linewidth=0.8)
+    axes.set_xlim(-1, 1)
+    axes.set_ylim(-1, 1)
+    axes.set_xlabel(r'simplified $\eta_I(\eta_{D,ref}, R)$ [-] (eq 14)')
+    axes.set_ylabel(rf'reference $\eta_{{I,ref}}$ [-] ({reference})')
+    axes.set_title(f'aiding efficiency: reference vs simplified '
+                   f'({int(np.count_nonzero(ok & (simplified >= -1)))} of {eta_d.size} '
+                   'in view)', fontsize=10)
+    axes.grid(True, alpha=0.3)
+    axes.legend(loc='upper left', fontsize=8)
+    fig.colorbar(scatter, ax=axes, label=r'$\log_{10}$ R [-]')
 
 
 def plot_error_histogram(table: dict[str, np.ndarray], path: Path) -> None:

@@ -7,7 +7,7 @@ it returns the :class:`HealthState` of that update: end of life, RUL with its 5 
 divergence and the level. STALE is applied by the caller's clock with
 :meth:`HealthState.as_stale`.
 
-Time bases (issue 13): wear accrues while the gearbox moves, so the wear history and its RUL
+Time bases: wear accrues while the gearbox moves, so the wear history and its RUL
 run on the estimates' operating time (``FrictionEstimate.operating_time``; an estimate without
 it, e.g. from an older recording, uses its stamp time). That RUL, ``rul_operating``, is in
 seconds of operation, and the level's WARN horizon applies to it. ``rul`` is the same RUL in

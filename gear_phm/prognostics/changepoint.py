@@ -31,10 +31,10 @@ from gear_phm.prognostics.laws import EXPONENTIAL_FORM, POWER
 #: detected only at detect_z DETECT_MIN_POINTS / n_eff sigma (posteriors: no such rule; their
 #: n_eff is small by their correlation). With fewer, a 2-sigma slope is a noise excursion
 #: often enough to be found, lost and found again within seconds (a 3000 s linear matrix
-#: run, seed 1, 2026-11-25: detected at 14 points, released at 19, detected again at 29), and
-#: the RUL-based WARN with it. A hard minimum of 24 points (until 2026-11-26) kept the RUL of
-#: a 300 s life inf for its first 0.1, while its rise was at 6 sigma from 0.04. 36 since
-#: 2026-11-27 (was 24): the estimator's learned parameters (the direction offset, the rotor
+#: run, seed 1: detected at 14 points, released at 19, detected again at 29), and
+#: the RUL-based WARN with it. A hard minimum of 24 points kept the RUL of
+#: a 300 s life inf for its first 0.1, while its rise was at 6 sigma from 0.04. 36, not
+#: 24: the estimator's learned parameters (the direction offset, the rotor
 #: inertia) settle over the first tens of windows, and the first windows' readings drift with
 #: them: healthy random life 86 (100 Hz, a mismatch) read a proportional law at 2.6 sigma
 #: from 29 points and stayed WARN, 39 (1 kHz) found growth at 2.2 sigma in a 22-point regime

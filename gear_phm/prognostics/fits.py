@@ -47,7 +47,7 @@ K_SPAN_GRID = np.geomspace(0.02, 30.0, 80)
 K_PROPORTIONAL_GRID = np.geomspace(1e-4, 30.0, 100)
 #: Smallest power-law exponent fitted or drawn. Wear-out does not decelerate: a running-in
 #: or a filter settling from its prior early in a history fits p < 1 and extrapolates an
-#: asymptote, i.e. RULs of 1e6 s at 6-13 % of a 300 s exponential life (2026-11-25), and a
+#: asymptote, i.e. RULs of 1e6 s at 6-13 % of a 300 s exponential life, and a
 #: WARN -> OK -> WARN. A truly decelerating history is extrapolated as linear: conservative.
 P_FLOOR = 1.0
 P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
@@ -56,7 +56,7 @@ P_GRID = np.geomspace(P_FLOOR, 10.0, 60)
 DETECT_RELEASE = 0.5
 #: A curved law joins the RUL's mixture only when it fits better than the line by this many
 #: sigma (likelihood ratio): before, its extrapolation is unconstrained. On a 30 000 s linear
-#: life (2026-11-25) exponential and power fits of the first 150 s (Akaike weights 0.24
+#: life, exponential and power fits of the first 150 s (Akaike weights 0.24
 #: each) put the RUL's p5 at 186 s against a true 29 850 s: a WARN at once, OK 500 s later.
 CURVATURE_Z = 2.0
 #: The RUL draws a curved law's shape only where its profile rss is within this many sigma
@@ -294,7 +294,7 @@ def _fit_proportional(s: np.ndarray, span: float, u: np.ndarray, w: np.ndarray,
 
 @dataclass(frozen=True)
 class ShapePrior:
-    """A population prior on a wear law's shape (issue 13): log-normal on k or p.
+    """A population prior on a wear law's shape: log-normal on k or p.
 
     Units that reached their end of life teach the fleet its wear law
     (:func:`gear_phm.offline.fleet.population_prior`): ``model`` (exponential, power or

@@ -143,7 +143,7 @@ class DivergenceDetector:
 #: End of life is entered when u's lower 95 % bound, u - EOL_Z sigma_u, reaches u_eol: an
 #: ERROR "end of life" means the gearbox is past it with 95 % confidence, not that the
 #: estimate's noise touched it (a 30 000 s life gave ERROR 6 s before the true end of life
-#: on the point estimate, 2026-11-25). It costs EOL_Z sigma_u / (du/dt) of delay: ~1 s on
+#: on the point estimate). It costs EOL_Z sigma_u / (du/dt) of delay: ~1 s on
 #: a 300 s life, ~90 s on a 30 000 s one. The band's one-sided 95 % quantile, defined there.
 EOL_Z = BAND_Z
 

@@ -18,7 +18,7 @@ was learned read u plus or minus d/2, a step that the fit took for wear (random 
 98: WARN before the wear onset).
 
 :class:`Utilisation`: operating time over elapsed time, the factor between the RUL's two time
-bases (docs/prognostics.md, issue 13).
+bases (docs/prognostics.md).
 """
 from __future__ import annotations
 
@@ -165,7 +165,7 @@ class WearHistory:
         """Restore :meth:`to_state` (same max_points); ValueError/KeyError/TypeError if bad."""
         m = self.max_points
         columns = [decode_floats(state[key]) for key in ('w', 'wt', 'wu')]
-        # added within schema 2 (2026-11-27): an older history's bins are not re-corrected
+        # added within schema 2: an older history's bins are not re-corrected
         columns += [decode_floats(state[key]) if key in state else [0.0] * m
                     for key in ('wh', 'wb')]
         n = [int(v) for v in state['n']]

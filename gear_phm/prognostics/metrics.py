@@ -8,9 +8,9 @@ is the latest one made at or before t_lambda.
 
 Beyond Saxena's: how early the RUL is finite (:func:`finite_from`), how often its p5-p95 band
 holds the true RUL (:func:`band_coverage`) and the health-level transitions of a run
-(:func:`level_transitions`), the acceptance measures of docs/prognostics.md; and issue 23's
-per-life scores of a random life (:func:`acceptance`, :func:`healthy_acceptance`), with t_start
-its wear onset.
+(:func:`level_transitions`), the acceptance measures of docs/prognostics.md; and the
+per-life acceptance scores of a random life (:func:`acceptance`,
+:func:`healthy_acceptance`), with t_start its wear onset.
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ LAMBDAS = (0.25, 0.5, 0.75)
 ALPHA = 0.2
 #: Fraction of the life from which :func:`band_coverage` counts predictions.
 BAND_FROM = 0.25
-#: Issue 23's scoring of a life (:func:`acceptance`): alpha-lambda at these lambdas, ...
+#: The acceptance scoring of a life (:func:`acceptance`): alpha-lambda at these lambdas, ...
 ACCEPTANCE_LAMBDAS = (0.5, 0.75, 0.9)
 #: ... p5 at or below the true RUL from this fraction of the life on, ...
 NOT_OPTIMISTIC_FROM = 0.5
@@ -245,7 +245,7 @@ def level_transitions(t: ArrayLike, levels: ArrayLike, t_eol: float,
 
 def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
                 t_start: float | None = None) -> dict[str, Any]:
-    """Issue 23's levels of a wear life, JSON-ready.
+    """Return the acceptance check of a wear life's levels, JSON-ready.
 
     ``sequence``: the transitions as 'FROM>TO' level names; ``passed`` when they are
     exactly OK -> WARN then WARN -> ERROR, no state before ``onset`` [s] is WARN or ERROR and
@@ -269,7 +269,7 @@ def level_check(t: ArrayLike, levels: ArrayLike, t_eol: float, onset: float,
 def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t_eol: float,
                t_start: float, levels: tuple[ArrayLike, ArrayLike] | None = None,
                alpha: float = ALPHA) -> dict[str, Any]:
-    """Issue 23's scores of one wear life from t_start = its onset [s], JSON-ready.
+    """Score one wear life for acceptance from t_start = its onset [s], JSON-ready.
 
     ``t``, ``median``, ``p5``, ``p95``: every prediction (after t_eol too: ignored);
     ``levels``: (stamps [s], level codes) of the health states, None without them.
@@ -302,7 +302,7 @@ def acceptance(t: ArrayLike, median: ArrayLike, p5: ArrayLike, p95: ArrayLike, t
 
 
 def healthy_acceptance(median: ArrayLike, levels: ArrayLike | None = None) -> dict[str, Any]:
-    """Issue 23's score of a healthy life: every RUL inf and every level OK, JSON-ready."""
+    """Score a healthy life for acceptance: every RUL inf and every level OK, JSON-ready."""
     values = np.asarray(median, dtype=float).ravel()
     finite = int(np.isfinite(values).sum())
     codes = [] if levels is None else sorted({int(c) for c in np.asarray(levels).ravel()})

@@ -19,9 +19,11 @@ import numpy as np
 
 from gear_phm.models import u_from_eta_opposing
 from gear_phm.parameters import defaults
-from gear_phm.simulation.parameters import config_from_parameters, PARAMETERS
+from gear_phm.simulation.parameters import BASE_PARAMETERS, config_from_parameters, PARAMETERS
 from gear_phm.simulation.simulator import SimulationConfig
 
+#: A random life's record, next to the bag's files (:meth:`Life.to_json`).
+LIFE_FILE = 'life.json'
 #: Tag of the prior's stream: numpy SeedSequence entropy [seed, LIFE_STREAM].
 LIFE_STREAM = 0x6C696665
 #: Simulation seeds tried per life (seed = life seed * SEED_TRIES + attempt) until the realised
@@ -43,6 +45,15 @@ FEATURES: tuple[str, ...] = ('onset', 'running_in', 'offset', 'regime', 'gamma',
 DURATION_RANGE = (300.0, 30_000.0)
 #: Spur plant: largest tooth friction coefficient searched for the end of life [-].
 SPUR_FRICTION_MAX = 3.0
+#: The priors: ``paper`` (the paper's physics) and ``bench`` (every real-gearbox effect on).
+PRIORS: tuple[str, ...] = ('paper', 'bench')
+#: Tag of the bench prior's own stream, [seed, BENCH_STREAM]: the paper prior's draws stay
+#: the same.
+BENCH_STREAM = 0x62656E63
+#: Features only bench lives have.
+BENCH_FEATURES: tuple[str, ...] = ('cold_restart', 'oil_temperature')
+#: Bench prior: share of the lives that restart cold mid-record after an idle gap.
+COLD_RESTART_SHARE = 0.3
 
 
 @dataclass(frozen=True)
@@ -50,7 +61,9 @@ class Life:
     """One drawn life: flat simulation parameters, record length and its truth.
 
     ``duration`` [s], ``rate`` [Hz]; ``onset`` and ``end_of_life`` [s] are None for a healthy
-    life; ``eta_healthy`` is eta_D at the healthy friction (after any running-in) [-].
+    life; ``eta_healthy`` is eta_D at the healthy friction (after any running-in) [-]. Times
+    are elapsed times (stamps - start): with an idle gap they run on through it. ``bench``:
+    the bench prior's truth (no-load loss, oil, idle gap), None for the paper prior.
     """
 
     seed: int
@@ -65,6 +78,8 @@ class Life:
     onset: float | None
     end_of_life: float | None
     attempts: int
+    prior: str = 'paper'
+    bench: dict[str, Any] | None = field(default=None, compare=False)
 
     def config(self) -> SimulationConfig:
         """Return the simulation config of the drawn parameters."""
@@ -78,7 +93,8 @@ class Life:
                 'ratio': self.parameters['ratio'], 'eta_healthy': self.eta_healthy,
                 'eta_opposing_min': self.eta_opposing_min, 'u_eol': self.u_eol,
                 'onset_s': self.onset, 'end_of_life_s': self.end_of_life,
-                'seed_attempts': self.attempts, 'parameters': dict(self.parameters)}
+                'seed_attempts': self.attempts, 'parameters': dict(self.parameters),
+                **({} if self.bench is None else {'prior': self.prior, **self.bench})}
 
 
 def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
@@ -125,17 +141,21 @@ def _friction_for(parameters: dict[str, Any], eta: float, low: float, high: floa
     return 0.5 * (low + high)
 
 
-def random_life(seed: int, rate: float = 100.0) -> Life:
-    """Draw life ``seed`` (an integer >= 0) for a record at ``rate`` [Hz].
+def random_life(seed: int, rate: float = 100.0, prior: str = 'paper') -> Life:
+    """Draw life ``seed`` (an integer >= 0) for a record at ``rate`` [Hz] from ``prior``.
 
-    Raises ValueError on a bad seed or rate.
+    ``prior`` is one of :data:`PRIORS`; the bench prior draws the paper prior's quantities
+    (the same values) and then the real-gearbox effects from its own stream. Raises
+    ValueError on a bad seed, rate or prior.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f'seed must be an integer >= 0, got {seed!r}')
     if not (math.isfinite(rate) and rate > 0.0):
         raise ValueError(f'rate must be > 0 Hz, got {rate!r}')
+    if prior not in PRIORS:
+        raise ValueError(f'prior must be one of {", ".join(PRIORS)}; got {prior!r}')
     rng = np.random.default_rng([int(seed), LIFE_STREAM])
-    p: dict[str, Any] = dict(defaults(PARAMETERS))
+    p: dict[str, Any] = dict(defaults(PARAMETERS if prior == 'bench' else BASE_PARAMETERS))
     _draw_plant(rng, p)
     ratio = p['ratio']
     features: list[str] = []
@@ -157,10 +177,16 @@ def random_life(seed: int, rate: float = 100.0) -> Life:
     duration = float(round(_log_uniform(rng, *DURATION_RANGE)))
     family = FAMILIES[int(rng.choice(len(FAMILIES), p=FAMILY_WEIGHTS))]
     p['friction_initial'] = f0
+    bench = None
+    record = duration             # elapsed length of the record, an idle gap included
+    if prior == 'bench':
+        bench = _draw_bench(np.random.default_rng([int(seed), BENCH_STREAM]), p, duration)
+        record = duration + p['idle_gap_duration']
+        features += [f for f in BENCH_FEATURES if bench[f]]
     if family == 'healthy':
         p['seed'] = int(seed) * SEED_TRIES
-        return Life(int(seed), family, tuple(features), p, duration, float(rate), eta0,
-                    eta_min, u_eol, None, None, 1)
+        return Life(int(seed), family, tuple(features), p, record, float(rate), eta0,
+                    eta_min, u_eol, None, None, 1, prior, _bench_json(bench, p))
     if p['plant'] == 'lever':
         f_eol = u_eol
     else:
@@ -195,18 +221,83 @@ def random_life(seed: int, rate: float = 100.0) -> Life:
         features.append(process)
         p['wear_process'] = process
         p['wear_process_scale'] = float(rng.uniform(0.05, 0.3)) ** 2 * wear
-    life_features = tuple(f for f in FEATURES if f in features)
+    life_features = tuple(f for f in FEATURES + BENCH_FEATURES if f in features)
     for attempt in range(SEED_TRIES):
         p['seed'] = int(seed) * SEED_TRIES + attempt
         config = config_from_parameters(p)
-        eol = end_of_life(config, u_eol, duration, rate)
+        eol = end_of_life(config, u_eol, record, rate)
         eta_end = config.plant.efficiencies(config.wear_path().value(duration))[1]
         tail = max(EOL_TAIL * (duration - onset), 1.0)
-        if eol is not None and onset < eol < duration - tail and float(eta_end) > 0.05:
-            return Life(int(seed), family, life_features, p, duration, float(rate), eta0,
-                        eta_min, u_eol, onset, eol, attempt + 1)
+        start = config.idle_gap.elapsed(onset)
+        if eol is not None and start < eol < record - tail and float(eta_end) > 0.05:
+            return Life(int(seed), family, life_features, p, record, float(rate), eta0,
+                        eta_min, u_eol, start, eol, attempt + 1, prior,
+                        _bench_json(bench, p))
     msg = f'life {seed}: no seed of {SEED_TRIES} crosses the end of life inside the record'
     raise ValueError(msg)
+
+
+def _draw_bench(rng: np.random.Generator, p: dict[str, Any], duration: float
+                ) -> dict[str, Any]:
+    """Draw the bench prior's effects into ``p`` (docs/lives.md); return their truth.
+
+    ``duration`` [s]: the record's operating length.
+    """
+    ratio = p['ratio']
+    peak = p['air_load_preload'] + p['air_load_stiffness'] * p['travel']   # load [N m]
+    rated = peak / ratio                    # rated input torque [N m]
+    speed = ratio * p['travel'] / (p['extend_time'] - p['accel_time'])   # motor [rad/s]
+    share = float(rng.uniform(0.005, 0.05))
+    split = float(rng.uniform(0.0, 1.0))
+    p['no_load_coulomb'] = split * share * rated
+    p['no_load_viscous'] = (1.0 - split) * share * rated / speed
+    p['no_load_cold_factor'] = float(rng.uniform(1.5, 4.0))
+    ambient = p['oil_ambient_temperature'] = float(rng.uniform(5.0, 30.0))
+    p['oil_running_temperature'] = ambient + float(rng.uniform(25.0, 55.0))
+    warm = p['oil_warm_time_constant'] = float(rng.uniform(5.0, 40.0)) * 60.0
+    p['oil_cool_time_constant'] = float(rng.uniform(1.0, 2.0)) * warm
+    p['load_scale_min'] = float(rng.uniform(0.2, 0.4))
+    p['load_scale_max'] = 1.0
+    p['load_modulation'] = float(rng.uniform(0.05, 0.2))
+    p['load_modulation_frequency'] = float(rng.uniform(0.1, 0.5))
+    for channel, full_scale in (('effort_motor', 2.0 * rated), ('effort_load', 2.0 * peak)):
+        p[f'bias_{channel}'] = float(rng.uniform(-0.01, 0.01)) * full_scale
+        p[f'gain_{channel}'] = float(rng.uniform(-0.005, 0.005))
+        p[f'ripple_{channel}'] = float(rng.uniform(0.001, 0.005)) * full_scale
+        p[f'quantum_{channel}'] = 2.0 * full_scale / 2.0 ** int(rng.integers(12, 17))
+    teeth = float(rng.integers(15, 41))
+    if p['plant'] == 'lever':
+        p['mesh_teeth'] = teeth
+    p['encoder_counts_motor'] = int(2 ** int(rng.integers(12, 17)))
+    p['encoder_counts_load'] = int(2 ** int(rng.integers(16, 21)))
+    p['publish_temperature'] = bool(rng.uniform() < 0.5)
+    restart = bool(rng.uniform() < COLD_RESTART_SHARE)
+    at = float(rng.uniform(0.2, 0.8)) * duration
+    gap = float(round(float(rng.uniform(4.0, 12.0)) * 3600.0))
+    if restart:         # at the end of a cycle: the surface retracted, at rest
+        period = config_from_parameters(p).duty_cycle.period
+        p['idle_gap_at'] = max(round(at / period), 1) * period
+        p['idle_gap_duration'] = gap
+    return {'cold_restart': restart, 'oil_temperature': p['publish_temperature'],
+            'rated_input_torque': rated, 'reference_speed': speed, 'drag_share': share,
+            'operating_duration': duration}
+
+
+def _bench_json(bench: dict[str, Any] | None, p: dict[str, Any]) -> dict[str, Any] | None:
+    """Return the bench prior's truth for life.json (None for the paper prior)."""
+    if bench is None:
+        return None
+    speed = bench['reference_speed']
+    gap = p['idle_gap_duration']
+    return {'operating_duration_s': bench['operating_duration'],
+            'idle_gap_s': [p['idle_gap_at'], gap] if gap else None,
+            'no_load': {
+                'coulomb_warm': p['no_load_coulomb'], 'viscous_warm': p['no_load_viscous'],
+                'cold_factor': p['no_load_cold_factor'],
+                'reference_speed': speed,
+                'torque_warm_at_reference': p['no_load_coulomb'] + p['no_load_viscous'] * speed,
+                'rated_input_torque': bench['rated_input_torque'],
+                'share_of_rated_input': bench['drag_share']}}
 
 
 def _wear_law(rng: np.random.Generator, p: dict[str, Any], family: str, wear: float,
@@ -242,19 +333,22 @@ def end_of_life(config: SimulationConfig, u_eol: float, duration: float,
 
     Searched on a 1 s grid, then at the sample times of the interval before the first grid
     crossing (the friction between grid points is at most that at the ends: linear wear path
-    plus a decaying running-in).
+    plus a decaying running-in). Times are elapsed times: the wear runs on the operating time
+    of the config's idle gap, whose samples are not published.
     """
     path = config.wear_path()
     plant = config.plant
     count = int(math.floor(duration * rate + 1e-9))
     grid = np.arange(0.0, math.floor(duration) + 1.0)
-    u = plant.efficiencies(path.value(grid))[0]
+    u = plant.efficiencies(path.value(config.operating_time(grid)))[0]
     crossed = np.flatnonzero(u >= u_eol)
     if crossed.size:          # the interval before the first grid crossing
         first, last = max(int(crossed[0]) - 1, 0), int(math.ceil(grid[crossed[0]] * rate)) + 1
     else:                     # only the samples after the last grid point are left
         first, last = len(grid) - 1, count
     index = np.arange(int(math.floor(grid[first] * rate)), min(last, count))
-    u = plant.efficiencies(path.value(index / rate))[0]
+    if config.idle_gap.enabled:
+        index = index[~config.idle_gap.idle(index / rate)]
+    u = plant.efficiencies(path.value(config.operating_time(index / rate)))[0]
     hits = np.flatnonzero(u >= u_eol)
     return float(index[hits[0]] / rate) if hits.size else None

@@ -10,13 +10,18 @@ from collections.abc import Mapping
 
 from gear_phm.parameters import check_values, defaults, ParamSpec, RATIO, T, Value
 from gear_phm.simulation.duty_cycle import DutyCycle
+from gear_phm.simulation.idle_gap import IdleGap
+from gear_phm.simulation.load_variation import LoadVariation
+from gear_phm.simulation.no_load import NoLoadLoss
+from gear_phm.simulation.oil import Oil
 from gear_phm.simulation.plant import EFFICIENCY_MODELS, Plant
-from gear_phm.simulation.sensors import Channel, Sensors
+from gear_phm.simulation.sensors import Channel, CHANNELS, Sensors
 from gear_phm.simulation.simulator import SimulationConfig
 from gear_phm.simulation.wear import PROCESSES, Wear, WEAR_KINDS
 
 _PLANT, _DUTY, _WEAR = Plant(), DutyCycle(), Wear()
 _SENSORS = Sensors()
+_OIL, _LOAD = Oil(), LoadVariation()
 # Physical bounds of the plant, duty cycle and sensors: within them every simulated sample is
 # finite (the fastest stroke, travel 1e4 rad in 2e-6 s, gives load accelerations ~1e16 rad/s^2
 # and torques ~1e22 N m, far from float64's 1.8e308).
@@ -24,6 +29,8 @@ _INERTIA_MAX = 1e6        # kg m^2
 _TORQUE_MAX = 1e9         # N m, and N m/rad for the stiffness
 _TIME_MAX = 1e6           # s, a stroke or a dwell
 _SENSOR_MAX = 1e9         # rad/s or N m
+_TEMPERATURE = (-100.0, 300.0)  # degC
+_COUNTS_MAX = 2**31 - 1   # encoder counts per revolution
 
 
 def _sensor_specs() -> list[ParamSpec]:
@@ -38,8 +45,8 @@ def _sensor_specs() -> list[ParamSpec]:
     return specs
 
 
-#: The simulation's parameters, in the order of the publisher's config file.
-PARAMETERS: tuple[ParamSpec, ...] = (
+#: The paper's simulation parameters, in the order of the publisher's config file.
+BASE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('seed', 0, 'seed of the sensor noise (numpy PCG64)', '-', 0),
     ParamSpec('plant', _PLANT.efficiency_model, 'efficiency model of the plant',
               choices=EFFICIENCY_MODELS),
@@ -111,6 +118,61 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     *_sensor_specs(),
 )
 
+#: The real-gearbox effects (docs/publisher.md), all off by default: no-load drag and the oil
+#: temperature, load variation, torque sensor errors, encoders, an idle gap.
+EFFECT_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('no_load_coulomb', 0.0, 'no-load loss: Coulomb drag torque T_0 at the motor, '
+              'warm (T_0 sign(w_m))', 'N m', 0.0, _TORQUE_MAX),
+    ParamSpec('no_load_viscous', 0.0, 'no-load loss: viscous drag coefficient c_v at the '
+              'motor, warm (c_v w_m)', 'N m s/rad', 0.0, _TORQUE_MAX),
+    ParamSpec('no_load_cold_factor', _OIL.cold_factor, 'no-load loss: drag at the ambient '
+              'oil temperature over the drag warm (1: no temperature dependence)', '-', 1.0,
+              100.0),
+    ParamSpec('oil_ambient_temperature', _OIL.ambient_temperature, 'oil: ambient '
+              'temperature (approached in idle gaps)', 'degC', *_TEMPERATURE),
+    ParamSpec('oil_running_temperature', _OIL.running_temperature, 'oil: running '
+              'temperature (approached while the gearbox runs; above the ambient one)',
+              'degC', *_TEMPERATURE),
+    ParamSpec('oil_warm_time_constant', _OIL.warm_time_constant, 'oil: time constant of the '
+              'warming while running', 's', 1e-3, _TIME_MAX),
+    ParamSpec('oil_cool_time_constant', _OIL.cool_time_constant, 'oil: time constant of the '
+              'cooling in an idle gap', 's', 1e-3, _TIME_MAX),
+    ParamSpec('oil_initial_warmth', _OIL.initial_warmth, 'oil: temperature at the start, '
+              'as a share of the way from the ambient (0, a cold start) to the running '
+              'temperature (1)', '-', 0.0, 2.0),
+    ParamSpec('publish_temperature', False, 'also put out the oil temperature '
+              '(sensor_msgs/Temperature on oil_temperature)'),
+    ParamSpec('load_scale_min', _LOAD.scale_min, 'load variation: lowest factor of the air '
+              'load per cycle (uniform in [load_scale_min, load_scale_max])', '-', 1e-3, 10.0),
+    ParamSpec('load_scale_max', _LOAD.scale_max, 'load variation: highest factor of the air '
+              'load per cycle', '-', 1e-3, 10.0),
+    ParamSpec('load_modulation', _LOAD.modulation, 'load variation: relative amplitude of '
+              'the smooth modulation within a cycle', '-', 0.0, 0.95),
+    ParamSpec('load_modulation_frequency', _LOAD.frequency, 'load variation: mean frequency '
+              'of the modulation', 'Hz', 1e-4, 1e3),
+    *(spec for channel in ('effort_motor', 'effort_load') for spec in (
+        ParamSpec(f'gain_{channel}', 0.0, f'gain error of {channel}: reads (1 + gain) x the '
+                  f'torque', '-', -0.5, 0.5),
+        ParamSpec(f'ripple_{channel}', 0.0, f'mesh-frequency ripple amplitude of {channel} '
+                  f'(frequency teeth x motor speed)', 'N m', 0.0, _SENSOR_MAX),
+        ParamSpec(f'quantum_{channel}', 0.0, f'quantisation step of {channel} (0: none)',
+                  'N m', 0.0, _SENSOR_MAX))),
+    ParamSpec('mesh_teeth', _PLANT.mesh_teeth, 'lever plant: teeth of the motor pinion, for '
+              'the mesh ripple (spur plant: pinion_teeth)', '-', 2.0, 1e4),
+    ParamSpec('encoder_counts_motor', 0, 'motor position encoder: counts per revolution; '
+              'the speed is then differenced from it (0: exact position and speed)', '-', 0,
+              _COUNTS_MAX),
+    ParamSpec('encoder_counts_load', 0, 'load position encoder: counts per revolution (0: '
+              'exact position and speed)', '-', 0, _COUNTS_MAX),
+    ParamSpec('idle_gap_at', 0.0, 'idle gap: start, in elapsed time (nothing published '
+              'during the gap, the oil cools)', 's', 0.0, _TIME_MAX * 1e3),
+    ParamSpec('idle_gap_duration', 0.0, 'idle gap: length (0: no gap)', 's', 0.0,
+              _TIME_MAX * 1e3),
+)
+
+#: Every simulation parameter: the paper's plant, wear and noise, then the effects.
+PARAMETERS = BASE_PARAMETERS + EFFECT_PARAMETERS
+
 
 def config_from_parameters(values: Mapping[str, object]) -> SimulationConfig:
     """Build a SimulationConfig from flat values (missing names take PARAMETERS' defaults).
@@ -131,7 +193,7 @@ def config_from_parameters(values: Mapping[str, object]) -> SimulationConfig:
                   pinion_teeth=num('pinion_teeth'), module=num('module'),
                   bearing_radius_1=num('bearing_radius_1'),
                   bearing_radius_2=num('bearing_radius_2'),
-                  direction_offset=num('direction_offset'))
+                  direction_offset=num('direction_offset'), mesh_teeth=num('mesh_teeth'))
     duty = DutyCycle(travel=num('travel'), extend_time=num('extend_time'),
                      retract_time=num('retract_time'), accel_time=num('accel_time'),
                      dwell_extended=num('dwell_extended'),
@@ -145,11 +207,28 @@ def config_from_parameters(values: Mapping[str, object]) -> SimulationConfig:
                 regime_factor=num('regime_factor'), process=text('wear_process'),
                 process_scale=num('wear_process_scale'),
                 process_step=num('wear_process_step'))
-    sensors = Sensors(*(Channel(sigma=_named(v, f'noise_{c}'), bias=_named(v, f'bias_{c}'))
-                        for c in ('velocity_motor', 'velocity_load', 'effort_motor',
-                                  'effort_load')))
+    channels = {c: Channel(sigma=_named(v, f'noise_{c}'), bias=_named(v, f'bias_{c}'),
+                           gain=num(f'gain_{c}') if f'gain_{c}' in v else 0.0,
+                           ripple=num(f'ripple_{c}') if f'ripple_{c}' in v else 0.0,
+                           quantum=num(f'quantum_{c}') if f'quantum_{c}' in v else 0.0)
+                for c in CHANNELS}
+    sensors = Sensors(**channels, encoder_counts_motor=_typed(v, 'encoder_counts_motor', int),
+                      encoder_counts_load=_typed(v, 'encoder_counts_load', int))
+    oil = Oil(ambient_temperature=num('oil_ambient_temperature'),
+              running_temperature=num('oil_running_temperature'),
+              warm_time_constant=num('oil_warm_time_constant'),
+              cool_time_constant=num('oil_cool_time_constant'),
+              initial_warmth=num('oil_initial_warmth'),
+              cold_factor=num('no_load_cold_factor'))
+    load = LoadVariation(scale_min=num('load_scale_min'), scale_max=num('load_scale_max'),
+                         modulation=num('load_modulation'),
+                         frequency=num('load_modulation_frequency'))
     return SimulationConfig(plant=plant, duty_cycle=duty, wear=wear, sensors=sensors,
-                            seed=_typed(v, 'seed', int))
+                            seed=_typed(v, 'seed', int),
+                            no_load=NoLoadLoss(num('no_load_coulomb'), num('no_load_viscous')),
+                            oil=oil, load_variation=load,
+                            idle_gap=IdleGap(num('idle_gap_at'), num('idle_gap_duration')),
+                            publish_temperature=_typed(v, 'publish_temperature', bool))
 
 
 def _typed(values: Mapping[str, Value], name: str, kind: type[T]) -> T:

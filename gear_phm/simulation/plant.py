@@ -51,7 +51,9 @@ class Plant:
     motor_inertia J_m and load_inertia J_l [kg m^2]; air_load_preload T0 [N m] and
     air_load_stiffness k [N m/rad]; spur geometry: pinion_teeth [-], module [m],
     pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur');
-    direction_offset [-]: lever plant only, eta_I is the lever model's at u + direction_offset.
+    direction_offset [-]: lever plant only, eta_I is the lever model's at u + direction_offset;
+    mesh_teeth [-]: lever plant, teeth of the pinion on the motor shaft (the mesh ripple's
+    frequency is teeth x shaft speed; the spur plant's are ``pinion_teeth``).
     """
 
     ratio: float = float(RATIO.default)
@@ -66,6 +68,7 @@ class Plant:
     bearing_radius_1: float = 0.0
     bearing_radius_2: float = 0.0
     direction_offset: float = 0.0
+    mesh_teeth: float = 20.0
 
     def __post_init__(self) -> None:
         positive('ratio', self.ratio)
@@ -74,6 +77,7 @@ class Plant:
         non_negative('air_load_preload', self.air_load_preload)
         real('air_load_stiffness', self.air_load_stiffness)
         one_of('efficiency_model', self.efficiency_model, EFFICIENCY_MODELS)
+        positive('mesh_teeth', self.mesh_teeth)
         offset = real('direction_offset', self.direction_offset)
         if offset != 0.0 and self.efficiency_model != 'lever':
             raise ValueError(f'direction_offset applies to the lever plant only (the spur '
@@ -103,14 +107,24 @@ class Plant:
             u = np.asarray(u_from_eta_opposing(eta_d, self.ratio))
         return u, eta_d, eta_i
 
-    def output_torque(self, position: ArrayLike, acceleration: ArrayLike) -> np.ndarray:
+    @property
+    def teeth(self) -> float:
+        """Teeth of the pinion on the motor shaft: ``mesh_teeth``, or the spur plant's."""
+        return float(self.pinion_teeth if self.efficiency_model == 'spur' else self.mesh_teeth)
+
+    def output_torque(self, position: ArrayLike, acceleration: ArrayLike,
+                      scale: ArrayLike | None = None) -> np.ndarray:
         """Torque the gearbox applies to the load, tau_out [N m].
 
-        At load position [rad] and load acceleration [rad/s^2].
+        At load position [rad] and load acceleration [rad/s^2]; ``scale`` [-] multiplies the
+        air load (:mod:`gear_phm.simulation.load_variation`; None: 1).
         """
         position = np.asarray(position, dtype=float)
-        return (self.load_inertia * np.asarray(acceleration, dtype=float)
-                + self.air_load_preload + self.air_load_stiffness * position)
+        inertial = self.load_inertia * np.asarray(acceleration, dtype=float)
+        if scale is None:
+            return inertial + self.air_load_preload + self.air_load_stiffness * position
+        air = self.air_load_preload + self.air_load_stiffness * position
+        return inertial + np.asarray(scale, dtype=float) * air
 
     def input_torque(self, tau_out: ArrayLike, velocity_load: ArrayLike, eta_d: ArrayLike,
                      eta_i: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

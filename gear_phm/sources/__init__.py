@@ -45,7 +45,10 @@ class Sample:
     """One simulated instant: (motor, load) joint states and the truth at the same time.
 
     position [rad], velocity [rad/s], effort [N m]; friction = (lever u [-], plant friction
-    value [-]); efficiency = (eta_D, eta_I) [-]. Many drives
+    value [-]); efficiency = (eta_D, eta_I) [-]; with a real-gearbox effect on, no_load and oil
+    hold the x, y, z of the no-load and oil truth (``gear_phm.interfaces.TRUTH_LAYOUT``) and
+    temperature the oil temperature [degC] (``publish_temperature``), else they are empty.
+    Many drives
     (:class:`~gear_phm.sources.simulate.SimulateDrivesSource`): each tuple holds every
     drive's pair, in the drives' order.
     """
@@ -55,6 +58,9 @@ class Sample:
     effort: tuple[float, ...]
     friction: tuple[float, ...]
     efficiency: tuple[float, ...]
+    no_load: tuple[float, ...] = ()
+    oil: tuple[float, ...] = ()
+    temperature: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,13 +2,20 @@
 from __future__ import annotations
 
 from collections.abc import Generator, Mapping, Sequence
+from dataclasses import replace
 import math
 from typing import Any
 
 import numpy as np
 
-from gear_phm.simulation import config_from_parameters, PARAMETERS, SimulationConfig, Simulator
+from gear_phm.interfaces import TRUTH_LAYOUT, TRUTH_NO_LOAD, TRUTH_OIL
+from gear_phm.simulation import (config_from_parameters, PARAMETERS, SimulationConfig,
+                                 SimulationResult, Simulator)
 from gear_phm.sources import Item, one_line, Sample, SourceError
+
+_LAYOUT = dict(TRUTH_LAYOUT)
+#: Sample's fields of the extended truth and the SimulationResult arrays they hold.
+_EXTENDED = (('no_load', _LAYOUT[TRUTH_NO_LOAD]), ('oil', _LAYOUT[TRUTH_OIL]))
 
 #: Samples generated per simulation chunk [s of simulated time].
 SIM_CHUNK_S = 0.5
@@ -55,21 +62,34 @@ class SimulateSource:
                           r.velocity_motor.tolist(), r.velocity_load.tolist(),
                           r.effort_motor.tolist(), r.effort_load.tolist(), r.u.tolist(),
                           r.friction.tolist(), r.eta_opposing.tolist(), r.eta_aiding.tolist())
+            extra = _extended([self.config], [r])
             for i, (pm, pl, vm, vl, em, el, u, friction, eta_d, eta_i) in enumerate(columns):
-                elapsed_ns = int(round((index + i) * 1e9 / self.rate))
-                yield elapsed_ns, Sample((pm, pl), (vm, vl), (em, el), (u, friction),
-                                         (eta_d, eta_i))
+                elapsed_ns = int(round(float(index[i]) * 1e9 / self.rate))
+                sample = Sample((pm, pl), (vm, vl), (em, el), (u, friction), (eta_d, eta_i))
+                yield elapsed_ns, replace(sample, **{k: v[i] for k, v in extra.items()}) \
+                    if extra else sample
 
-    def _chunks(self) -> Generator[tuple[int, np.ndarray], None, None]:
-        """Yield (index of the first sample, sample times [s]) of each simulation chunk."""
+    def _chunks(self) -> Generator[tuple[np.ndarray, np.ndarray], None, None]:
+        """Yield (sample indices, sample times [s]) of each simulation chunk.
+
+        The samples of the idle gap are left out (the stamps jump over it).
+        """
         rate = self.rate
+        gap = self.config.idle_gap
         total = int(math.floor(self.duration * rate + 1e-9)) if self.duration > 0 else None
         chunk = max(1, int(round(SIM_CHUNK_S * rate)))
         index = 0
         while total is None or index < total:
             count = chunk if total is None else min(chunk, total - index)
-            yield index, np.arange(index, index + count) / rate
+            indices = np.arange(index, index + count)
+            t = indices / rate
             index += count
+            if gap.enabled:
+                running = ~gap.idle(t)
+                indices, t = indices[running], t[running]
+                if not t.size:
+                    continue
+            yield indices, t
 
     def describe(self) -> Sequence[tuple[str, Any]]:
         return [('rate_hz', self.rate)]
@@ -88,6 +108,9 @@ class SimulateDrivesSource(SimulateSource):
             raise SourceError('no drive to simulate')
         for config in configs:
             super().__init__(config, rate, duration)
+        if len({config.idle_gap for config in configs}) > 1:
+            raise SourceError('the drives of one stream must share their idle gap '
+                              '(idle_gap_at, idle_gap_duration)')
         self.configs = list(configs)
 
     def items(self) -> Generator[tuple[int, Item], None, None]:
@@ -95,6 +118,7 @@ class SimulateDrivesSource(SimulateSource):
         simulators = [Simulator(config) for config in self.configs]
         for index, t in self._chunks():
             runs = [simulator.sample(t) for simulator in simulators]
+            extra = _extended(self.configs, runs)
 
             def rows(*names: str) -> list[tuple[float, ...]]:
                 table = np.column_stack([getattr(r, name) for r in runs for name in names])
@@ -104,8 +128,29 @@ class SimulateDrivesSource(SimulateSource):
                           rows('effort_motor', 'effort_load'), rows('u', 'friction'),
                           rows('eta_opposing', 'eta_aiding'))
             for i, (position, velocity, effort, friction, efficiency) in enumerate(columns):
-                elapsed_ns = int(round((index + i) * 1e9 / self.rate))
-                yield elapsed_ns, Sample(position, velocity, effort, friction, efficiency)
+                elapsed_ns = int(round(float(index[i]) * 1e9 / self.rate))
+                sample = Sample(position, velocity, effort, friction, efficiency)
+                yield elapsed_ns, replace(sample, **{k: v[i] for k, v in extra.items()}) \
+                    if extra else sample
 
     def describe(self) -> Sequence[tuple[str, Any]]:
         return [('rate_hz', self.rate), ('drives', len(self.configs))]
+
+
+def _extended(configs: Sequence[SimulationConfig], runs: Sequence[SimulationResult]
+              ) -> dict[str, list[tuple[float, ...]]]:
+    """Per sample, the extended truth fields of :class:`Sample` (each drive's, in order).
+
+    Only the fields some drive has; every drive contributes its values then (a drive without
+    the effect: no loss, a scale of 1), so each drive's values keep their place.
+    """
+    extra: dict[str, list[tuple[float, ...]]] = {}
+    wanted: list[tuple[str, tuple[str, ...]]] = [
+        (name, fields) for name, fields in _EXTENDED if any(c.extended_truth for c in configs)]
+    if any(c.publish_temperature for c in configs):
+        wanted.append(('temperature', ('oil_temperature',)))
+    for name, fields in wanted:
+        table = np.column_stack([getattr(r, f) if f else np.zeros(len(r)) for r in runs
+                                 for f in fields])
+        extra[name] = [tuple(row) for row in table.tolist()]
+    return extra
