@@ -87,8 +87,12 @@ def run_life(task: tuple[Path, int, float, bool, bool, str, str, tuple[str, ...]
     life = json.loads((bag / 'life.json').read_text())
     health = ['--ratio', repr(life['ratio']), '--eta-opposing-min',
               repr(life['eta_opposing_min'])]
-    _step(analysis, [*_nice(), *GEAR_PHM, 'analyze', str(bag), *health, *extra, '--out',
-                     str(analysis), '--no-plot', '--no-progress'], reuse)
+    try:
+        _step(analysis, [*_nice(), *GEAR_PHM, 'analyze', str(bag), *health, *extra, '--out',
+                         str(analysis), '--no-plot', '--no-progress'], reuse)
+    except RuntimeError as exc:         # a life the analysis refuses counts as failed
+        return {'life': life, 'failed': str(exc).splitlines()[-1], 'directory': str(out),
+                'seconds': time.perf_counter() - started}
     if prepare_only:
         return {'life': life, 'seconds': time.perf_counter() - started}
     evaluation = analysis / 'evaluation.json'
@@ -316,10 +320,16 @@ def main() -> int:
                           args.prepare_only, args.prior, args.analysis,
                           tuple(args.analyze_arg)))
     args.out.mkdir(parents=True, exist_ok=True)
-    results = []
+    results: list[dict[str, Any]] = []
+    failed: list[dict[str, Any]] = []
     print(LIFE_HEADER, flush=True)
     with Pool(args.workers) as pool:
         for result in pool.imap(run_life, tasks):
+            if 'failed' in result:
+                failed.append(result)
+                print(f"failed: life {result['life']['seed']} at {result['life']['rate_hz']:g} "
+                      f"Hz: {result['failed']}", flush=True)
+                continue
             results.append(result)
             if args.prepare_only:
                 print(f"prepared {result['life']['seed']} at {result['life']['rate_hz']:g} Hz "
@@ -329,10 +339,15 @@ def main() -> int:
     if args.prepare_only:
         return 0
     text = ['\n'.join([LIFE_HEADER] + [life_row(r) for r in results]), tables(results)]
+    if failed:
+        text.append('Lives the analysis refused (not in the tables): ' + '; '.join(
+            f"{r['life']['seed']} at {r['life']['rate_hz']:g} Hz ({r['failed']})"
+            for r in failed))
     commit = subprocess.run(['git', '-C', str(ROOT), 'describe', '--always', '--dirty'],
                             capture_output=True, text=True).stdout.strip()
     text.insert(0, f'Commit {commit}; command: {" ".join(sys.argv)}')
     summary: dict[str, Any] = {'commit': commit, 'lives': len(results),
+                               'failed': [r['life']['seed'] for r in failed],
                                'gear_phm': groups(results)}
     if args.progpy:
         from progpy_ensemble import progpy_results
