@@ -157,6 +157,7 @@ class NoLoadLearner:
         self.held = 0
         #: the first windows, kept until the scales are known (:meth:`observe`)
         self._first: list[tuple[float, ...]] = []
+        self._estimate: NoLoadEstimate | None = None     # estimate() until the next window
 
     # --- the filter ------------------------------------------------------------------------
     def _prior(self) -> np.ndarray:
@@ -219,6 +220,7 @@ class NoLoadLearner:
         nuisance (windows of a ramp would otherwise pass it into the no-load part). A window
         without travel is returned as not identified and not learned from.
         """
+        self._estimate = None
         load = -load_energy
         values = (t_start, t_end, operating, motor_energy, load, motor_variance,
                   load_variance, travel, travel_square)
@@ -307,6 +309,11 @@ class NoLoadLearner:
     # --- reporting -------------------------------------------------------------------------
     def estimate(self) -> NoLoadEstimate:
         """Return the learned no-load loss (NaN before the first window)."""
+        if self._estimate is None:
+            self._estimate = self._estimated()
+        return self._estimate
+
+    def _estimated(self) -> NoLoadEstimate:
         if self.kf is None:
             nan = math.nan
             return NoLoadEstimate(nan, nan, nan, self.reference_speed, nan, nan, False, nan)
