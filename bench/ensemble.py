@@ -357,8 +357,8 @@ def main() -> int:
     print('\n\n'.join(text[2:]))
     tables_name = '' if args.analysis == 'a' else f'_{args.analysis}'
     (args.out / f'table{tables_name}.md').write_text('\n\n'.join(text) + '\n', encoding='utf-8')
-    (args.out / f'ensemble{tables_name}.json').write_text(json.dumps(_json_ready(summary), indent=2) + '\n',
-                                            encoding='utf-8')
+    (args.out / f'ensemble{tables_name}.json').write_text(
+        json.dumps(_json_ready(summary), indent=2) + '\n', encoding='utf-8')
     return 0
 
 

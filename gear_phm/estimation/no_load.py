@@ -251,9 +251,9 @@ class NoLoadLearner:
             self._cool()
         return self._step(*row)
 
-    def _step(self, direction: int, t_start: float, t_end: float, operating: float,
+    def _step(self, direction: float, t_start: float, t_end: float, operating: float,
               motor_energy: float, load: float, motor_variance: float, load_variance: float,
-              travel: float, travel_square: float, motion: int, rate_d: float,
+              travel: float, travel_square: float, motion: float, rate_d: float,
               rate_i: float, kinetic: float) -> NoLoadCorrection:
         """Return one window's correction from the state before it, then learn from it."""
         gain_rates = (rate_d, rate_i)
@@ -263,8 +263,8 @@ class NoLoadLearner:
         kf.predict()
         scale = abs(load)
         h = np.zeros((1, DIM))
-        direction = int(direction)
-        h[0, direction] = math.copysign(1.0, load)
+        column = int(direction)
+        h[0, column] = math.copysign(1.0, load)
         h[0, 2 if motion >= 0 else 3] = travel / scale
         h[0, 4] = (travel_square - self.speed_scale * travel) / scale
         h[0, 5] = kinetic / scale
@@ -279,7 +279,7 @@ class NoLoadLearner:
         elif self._seek_cold:
             self.cold = kf.x[NO_LOAD, 0].copy()
             self._seek_cold = False
-        gain = float(kf.x[direction, 0])
+        gain = float(kf.x[column, 0])
         sensor = (motor_variance + gain * gain * load_variance) / (scale * scale)
         y = motor_energy / scale - float((h @ kf.x)[0, 0])
         hph = float((h @ kf.P @ h.T)[0, 0])
