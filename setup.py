@@ -13,6 +13,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
         ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
     ],
     python_requires='>=3.11',
     # Runtime dependencies of everything but the ROS nodes (rclpy and the message packages come
