@@ -391,3 +391,28 @@ def test_real_launch_loads_the_files() -> None:
         description = get_launch_description_from_python_launch_file(str(path))
         names = {a.name for a in description.get_launch_arguments()}
         assert {'namespace', 'use_sim_time', 'use_publisher', 'record_path'} <= names
+
+
+@pytest.mark.usefixtures('stand_ins')
+def test_the_readme_launch_commands_name_real_files_and_arguments(
+        monkeypatch: pytest.MonkeyPatch, declared: dict[str, set[str]]) -> None:
+    """Each `ros2 launch gear_phm` line of the README's "Launch" runs (stand-ins) as given."""
+    text = (REPO / 'README.md').read_text(encoding='utf-8')
+    section = re.search(r'^## Launch\n(.*?)(?=^## )', text, re.M | re.S)
+    assert section, 'README has no section "## Launch"'
+    lines = [line.strip() for block in re.findall(r'^```text\n(.*?)^```', section.group(1),
+                                                  re.M | re.S) for line in block.splitlines()]
+    monkeypatch.chdir(REPO)                     # the files given relative to the repository
+    launches = [line.split()[3:] for line in lines if line.startswith('ros2 launch gear_phm ')]
+    assert sorted(words[0] for words in launches) == ['bench.launch.py', 'gear_phm.launch.py']
+    for file, *arguments in launches:
+        given = dict(a.split(':=', 1) for a in arguments)
+        started = run(LAUNCH / file, **given)
+        assert started, file
+        for node in started:
+            _check_parameters(node, declared)
+    runs = [line.split() for line in lines if line.startswith('ros2 run ')]
+    assert runs == [['ros2', 'run', 'diagnostic_aggregator', 'aggregator_node', '--ros-args',
+                     '--params-file', 'config/analyzers.yaml']]
+    for path in re.findall(r'`((?:launch|config)/[\w.]+)`', section.group(1)):
+        assert (REPO / path).is_file(), path
