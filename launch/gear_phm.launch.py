@@ -26,7 +26,7 @@ RECORDER = 'diagnostics'
 
 
 def _nodes(context):
-    """The three Node actions, their parameters files made valid in any namespace."""
+    """Return the three Node actions, their parameters files made valid in any namespace."""
     record_path = LaunchConfiguration('record_path').perform(context)
     actions = []
     for name in NODES:

@@ -56,7 +56,7 @@ def _status_names(out: Path) -> set[str]:
 
 @pytest.fixture(scope='module')
 def analysis_names(tmp_path_factory: pytest.TempPathFactory) -> set[str]:
-    """The status names of gear-phm analyze on bags/healthy and on a simulated bench."""
+    """Return the status names of gear-phm analyze on bags/healthy and a simulated bench."""
     root = tmp_path_factory.mktemp('analyzers')
     single = root / 'single'
     assert main(['analyze', str(REPO / 'bags' / 'healthy'), '--ratio', '3.0', '--out',

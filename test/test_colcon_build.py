@@ -48,7 +48,7 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _colcon_env(root: Path) -> dict[str, str]:
-    """This environment, the venv first on PATH, without this pytest run's own variables."""
+    """Return this environment, the venv first on PATH, without pytest's own variables."""
     env = {k: v for k, v in os.environ.items() if not k.startswith('PYTEST_')}
     env['PATH'] = f'{VENV_BIN}{os.pathsep}{os.environ.get("PATH", "")}'
     env['COLCON_LOG_PATH'] = str(root / 'log')

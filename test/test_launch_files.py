@@ -55,7 +55,7 @@ class Context(dict):
 
 
 def perform(value: Any, context: Context) -> str:
-    """A substitution, a string or a list of them, evaluated as launch does."""
+    """Evaluate a substitution, a string or a list of them, as launch does."""
     if isinstance(value, str):
         return value
     if isinstance(value, (list, tuple)):
@@ -184,7 +184,7 @@ def _load(path: Path) -> LaunchDescription:
 
 
 def _parameters_of(node: str, params_file: str) -> dict[str, Any]:
-    """The parameters rcl gives the node ``node`` (any namespace) from ``params_file``."""
+    """Return the parameters rcl gives the node ``node`` (any namespace) from a file."""
     document = yaml.safe_load(Path(params_file).read_text(encoding='utf-8'))
     found: dict[str, Any] = {}
     for key in ('/**', f'/**/{node}'):            # rcl: wildcards first, the node's name last
@@ -203,7 +203,7 @@ def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, Any]:
 
 
 def run(path: Path, **arguments: str) -> list[dict[str, Any]]:
-    """The nodes the launch file ``path`` starts with ``arguments`` (name:=value)."""
+    """Return the nodes the launch file ``path`` starts with ``arguments`` (name:=value)."""
     return list(_visit(_load(path).entities, Context(arguments), arguments))
 
 
@@ -254,7 +254,7 @@ def _started(node: Node, context: Context) -> dict[str, Any]:
 # --- what the package provides -----------------------------------------------------------
 
 def _ros2_run_executables() -> set[str]:
-    """Executables ``ros2 run gear_phm X`` finds: console_scripts installed in lib/gear_phm."""
+    """Return what ``ros2 run gear_phm X`` finds: console_scripts installed in lib/gear_phm."""
     config = configparser.ConfigParser()
     config.read(REPO / 'setup.cfg')
     assert config['install']['install_scripts'] == '$base/lib/gear_phm'
@@ -269,7 +269,7 @@ def _ros2_run_executables() -> set[str]:
 
 @pytest.fixture(scope='module')
 def declared() -> dict[str, set[str]]:
-    """The parameters each node declares (docs/generate_parameter_tables.py --json)."""
+    """Return the parameters each node declares (docs/generate_parameter_tables.py --json)."""
     done = subprocess.run([sys.executable, str(REPO / 'docs' / 'generate_parameter_tables.py'),
                            '--json'], capture_output=True, text=True, timeout=120, cwd=REPO)
     assert done.returncode == 0, done.stderr
@@ -293,8 +293,8 @@ def _check_parameters(started: dict[str, Any], declared: dict[str, set[str]]) ->
 def test_setup_py_installs_the_launch_files_into_share() -> None:
     setup = (REPO / 'setup.py').read_text(encoding='utf-8')
     assert "('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py'))" in setup
-    assert sorted(p.name for p in LAUNCH.glob('*.launch.py')) == ['bench.launch.py',
-                                                                   'gear_phm.launch.py']
+    files = sorted(p.name for p in LAUNCH.glob('*.launch.py'))
+    assert files == ['bench.launch.py', 'gear_phm.launch.py']
 
 
 @pytest.mark.usefixtures('stand_ins')

@@ -60,7 +60,7 @@ def test_a_missing_file_names_itself(tmp_path: Path) -> None:
 @pytest.mark.parametrize('namespace', ['', '/rig_a', '/hangar/bench_2'])
 def test_rcl_gives_a_namespaced_node_the_copy_s_parameters(
         source: str, node: str, key: str, value: object, namespace: str) -> None:
-    """rclpy reads the copy as the node does: the installed files' values, in any namespace.
+    """Read the copy with rclpy as the node does: the files' values, in any namespace.
 
     The original config/<node>.yaml keys its node by name, which rcl applies to the node
     without namespace only.
@@ -90,7 +90,7 @@ def test_rcl_gives_a_namespaced_node_the_copy_s_parameters(
         assert overrides[copy][key] == value
         if originals:
             # The original reaches the node without namespace only: what the copy is for.
-            assert (key in overrides[originals[0]]) == (not namespace
-                                                         or source == 'bench_nodes.yaml')
+            reaches = not namespace or source == 'bench_nodes.yaml'     # its key is /**
+            assert (key in overrides[originals[0]]) == reaches
     finally:
         os.unlink(copy)

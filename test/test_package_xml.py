@@ -92,7 +92,7 @@ def _imports(path: Path) -> Iterator[tuple[str, bool]]:
 
 
 def _third_party(folders: list[Path], local: set[str]) -> dict[str, set[str]]:
-    """{imported top-level name: {'module level', 'in a function'}} of ``folders``."""
+    """Return {imported top-level name: {'module level', 'in a function'}} of ``folders``."""
     found: dict[str, set[str]] = {}
     for folder in folders:
         for path in _modules(folder):
@@ -128,7 +128,7 @@ def test_every_run_time_import_is_declared(package) -> None:  # noqa: ANN001
     run = _keys(package.exec_depends) | _keys(package.build_export_depends)
     imports = _third_party([REPO / PACKAGE, REPO / 'launch'], {PACKAGE})
     unknown = sorted(set(imports) - set(RUN_IMPORTS) - set(PIP_ONLY) - OPTIONAL)
-    assert not unknown, f'imports with no entry in this test\'s tables: {unknown}'
+    assert not unknown, f"imports with no entry in this test's tables: {unknown}"
     missing = sorted(f'{name} ({RUN_IMPORTS[name]})' for name in imports
                      if name in RUN_IMPORTS and RUN_IMPORTS[name] not in run)
     assert not missing, f'imported, not an exec_depend of package.xml: {missing}'
