@@ -26,6 +26,8 @@ from typing import Any
 import pytest
 import yaml
 
+from gear_phm.transmissions import _flatten
+
 REPO = Path(__file__).resolve().parents[1]
 LAUNCH = REPO / 'launch'
 MAIN = LAUNCH / 'gear_phm.launch.py'
@@ -188,42 +190,32 @@ def _parameters_of(node: str, params_file: str) -> dict[str, Any]:
     document = yaml.safe_load(Path(params_file).read_text(encoding='utf-8'))
     found: dict[str, Any] = {}
     for key in ('/**', f'/**/{node}'):            # rcl: wildcards first, the node's name last
-        found.update(_flat(document.get(key, {}).get('ros__parameters', {})))
+        found.update(_flatten(document.get(key, {}).get('ros__parameters', {})))
     return found
-
-
-def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, Any]:
-    flat: dict[str, Any] = {}
-    for key, value in values.items():
-        if isinstance(value, dict):
-            flat.update(_flat(value, f'{prefix}{key}.'))
-        else:
-            flat[f'{prefix}{key}'] = value
-    return flat
 
 
 def run(path: Path, **arguments: str) -> list[dict[str, Any]]:
     """Return the nodes the launch file ``path`` starts with ``arguments`` (name:=value)."""
-    return list(_visit(_load(path).entities, Context(arguments), arguments))
+    return list(_visit(_load(path).entities, Context(arguments)))
 
 
-def _visit(entities: list[Any], context: Context, given: dict[str, str]
-           ) -> Iterator[dict[str, Any]]:
+def _visit(entities: list[Any], context: Context) -> Iterator[dict[str, Any]]:
     for entity in entities:
         if isinstance(entity, DeclareLaunchArgument):
-            if entity.name not in given:
+            if entity.name not in context:         # given, or set by an including file
                 assert entity.default_value is not None, entity.name
                 context[entity.name] = perform(entity.default_value, context)
             if entity.choices is not None:
                 assert context[entity.name] in entity.choices, (entity.name, context)
         elif isinstance(entity, OpaqueFunction):
             yield from _visit(list(entity.function(context, *entity.args, **entity.kwargs)
-                                   or []), context, given)
+                                   or []), context)
         elif isinstance(entity, IncludeLaunchDescription):
             included = Path(perform(entity.source.launch_file_path, context))
             handed = {perform(k, context): perform(v, context)
                       for k, v in entity.launch_arguments}
-            yield from _visit(_load(included).entities, Context(handed), handed)
+            # Not scoped: the included file sees the including one's configurations.
+            yield from _visit(_load(included).entities, Context({**context, **handed}))
         elif isinstance(entity, Node):
             condition = entity.kwargs.get('condition')
             if condition is not None and not condition.evaluate(context):
@@ -311,7 +303,7 @@ def test_default_launch_starts_the_three_nodes_with_the_installed_files(
         _check_parameters(node, declared)
         # The copy holds the installed config/<node>.yaml, every value.
         config = yaml.safe_load((REPO / 'config' / f'{node["name"]}.yaml').read_text())
-        expected = _flat(config[node['name']]['ros__parameters'])
+        expected = _flatten(config[node['name']]['ros__parameters'])
         assert {k: node['parameters'][k] for k in expected} == expected
     estimator = started[1]['parameters']
     assert estimator['ratio'] == 3.0 and estimator['gate_threshold'] == 10.83
@@ -340,7 +332,7 @@ def test_bench_launch_gives_every_node_the_drives(declared: dict[str, set[str]])
     started = run(BENCH)
     assert [s['executable'] for s in started] == ['publisher', 'estimator', 'diagnostics']
     nodes = yaml.safe_load((REPO / 'config' / 'bench_nodes.yaml').read_text())
-    expected = _flat(nodes['/**']['ros__parameters'])
+    expected = _flatten(nodes['/**']['ros__parameters'])
     for node in started:
         assert node['parameters'] == {**expected, 'use_sim_time': False}
         _check_parameters(node, declared)
@@ -366,9 +358,10 @@ def test_every_argument_is_described_and_bench_hands_on_only_declared_ones() -> 
         assert argument.description and len(argument.description) > 10, argument.name
     include = next(e for e in bench_entities if isinstance(e, IncludeLaunchDescription))
     handed = {perform(k, Context()) for k, _ in include.launch_arguments}
+    assert handed == {f'{node}_params_file' for node in ('publisher', 'estimator',
+                                                         'diagnostics')}
     assert handed <= set(main)
-    assert set(main) - handed == set()          # nothing left to gear_phm.launch's defaults
-    assert set(bench) - set(main) == {'transmissions_file'}
+    assert set(bench) == {'transmissions_file'}   # the others: gear_phm.launch.py's
 
 
 def test_the_launch_files_use_only_the_stand_ins_names() -> None:
@@ -387,10 +380,11 @@ def test_real_launch_loads_the_files() -> None:
     """Where ROS 2's launch is installed: it loads both files and lists their arguments."""
     pytest.importorskip('launch_ros')
     from launch.launch_description_sources import get_launch_description_from_python_launch_file
-    for path in (MAIN, BENCH):
+    expected = {MAIN: {'namespace', 'use_sim_time', 'use_publisher', 'record_path'},
+                BENCH: {'transmissions_file'}}
+    for path, names in expected.items():
         description = get_launch_description_from_python_launch_file(str(path))
-        names = {a.name for a in description.get_launch_arguments()}
-        assert {'namespace', 'use_sim_time', 'use_publisher', 'record_path'} <= names
+        assert names <= {a.name for a in description.get_launch_arguments()}
 
 
 @pytest.mark.usefixtures('stand_ins')
