@@ -116,6 +116,7 @@ def test_installed_cli_starts_from_the_install_space(workspace: Path) -> None:
 
 
 @pytest.mark.integration
+@pytest.mark.long(20)                   # the build (fixture), then colcon test's own pytest
 def test_colcon_test_passes_and_test_result_reads_it(workspace: Path) -> None:
     """`colcon test` with setup.cfg's pytest configuration (xdist, timeout) on a selection."""
     env = _colcon_env(workspace)
