@@ -20,6 +20,7 @@ from pathlib import Path
 import re
 import subprocess
 import sys
+import tempfile
 import types
 from typing import Any
 
@@ -169,7 +170,9 @@ STAND_INS = {
 
 
 @pytest.fixture
-def stand_ins(monkeypatch: pytest.MonkeyPatch) -> None:
+def stand_ins(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # The parameters files' copies (gear_phm.launching.namespaced_copy) go to tmp_path.
+    monkeypatch.setattr(tempfile, 'tempdir', str(tmp_path))
     for name, members in STAND_INS.items():
         module = types.ModuleType(name)
         module.__dict__.update(members)
