@@ -155,7 +155,7 @@ def test_api_and_node_parameters_file_give_the_same_drives(bench: Path, tmp_path
     for name in DRIVES:
         a, b = from_file.transmissions[name], from_records.transmissions[name]
         np.testing.assert_array_equal(a.estimates.u, b.estimates.u)
-        assert a.summary['health']['trend'] == b.summary['health']['trend']
+        assert a.summary.health.trend == b.summary.health.trend
 
 
 BAD = {
@@ -265,13 +265,13 @@ def test_a_drive_whose_joints_vanish_counts_them_alone(bench: Path, tmp_path: Pa
             writer.write_groups([(interfaces.JOINT_STATES, log_times[rows], payloads)])
     whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
     analysis = analyze_bag(cut, transmissions=bench / 'bench.yaml', plot=False)
-    counts = {n: a.summary['counts'] for n, a in analysis.transmissions.items()}
+    counts = {n: a.summary.estimator.counts for n, a in analysis.transmissions.items()}
     assert counts['rudder'].get('missing_joint') == len(messages) - half
-    assert analysis.transmissions['rudder'].summary['samples_seen'] == half
+    assert analysis.transmissions['rudder'].summary.estimator.samples_seen == half
     for name in ('flap_l', 'spoiler_3'):
         assert counts[name].get('missing_joint', 0) == 0
-        assert analysis.transmissions[name].summary['u'] == pytest.approx(
-            whole.transmissions[name].summary['u'], rel=1e-9, abs=0)
+        assert analysis.transmissions[name].summary.estimator.u == pytest.approx(
+            whole.transmissions[name].summary.estimator.u, rel=1e-9, abs=0)
 
 
 def test_evaluate_scores_each_drive_against_its_own_truth(tmp_path: Path,
@@ -402,7 +402,7 @@ def test_a_drive_that_never_moves_is_stale_alone_and_all_idle_is_an_error(
     whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
     for name in ('flap_l', 'spoiler_3'):
         assert 'no_measurement' not in drives[name]
-        assert drives[name]['u'] == pytest.approx(whole.transmissions[name].summary['u'],
+        assert drives[name]['u'] == pytest.approx(whole.transmissions[name].summary.estimator.u,
                                                   rel=1e-9, abs=0)
     none = _idle_bench(bench, tmp_path / 'none', set(DRIVES))
     assert main(['analyze', str(none), '--transmissions', str(bench / 'bench.yaml'), '--out',
