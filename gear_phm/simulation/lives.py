@@ -22,6 +22,8 @@ from gear_phm.parameters import defaults
 from gear_phm.simulation.parameters import config_from_parameters, PARAMETERS
 from gear_phm.simulation.simulator import SimulationConfig
 
+#: A random life's record, next to the bag's files (:meth:`Life.to_json`).
+LIFE_FILE = 'life.json'
 #: Tag of the prior's stream: numpy SeedSequence entropy [seed, LIFE_STREAM].
 LIFE_STREAM = 0x6C696665
 #: Simulation seeds tried per life (seed = life seed * SEED_TRIES + attempt) until the realised
