@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Union
 
+import numpy as np
+
 from gear_phm.errors import GearPhmError
 
 #: A value ``json.dumps`` writes (NaN and infinities as ``NaN`` and ``Infinity``).
@@ -85,6 +87,19 @@ def texts(values: Mapping[str, object], key: str) -> dict[str, str]:
     """Return the object of strings ``values[key]``, in its order."""
     found = obj(values, key)
     return {name: text(found, name) for name in found}
+
+
+def scalar(values: Mapping[str, object], key: str) -> JsonValue:
+    """Return the JSON scalar ``values[key]`` (a numpy scalar as its Python value).
+
+    Raises RecordError for any other value.
+    """
+    value = field(values, key)
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    raise _wrong(key, 'a number, a string, true, false or null', value) from None
 
 
 def one_or_many(values: Mapping[str, object], key: str) -> tuple[str, ...]:

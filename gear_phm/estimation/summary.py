@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
-from gear_phm.jsonfields import counts, flag, integer, JsonObject, number, text
+from gear_phm.jsonfields import (counts, flag, integer, JsonObject, JsonValue, number, scalar,
+                                 text)
 
 
 def stalled_stamps(samples_seen: int, filter_updates: int, repeated: int) -> str:
@@ -28,7 +29,9 @@ class EstimatorSummary:
     the adaptive noises, the direction offset, the motor inertia [kg m^2], the operating time
     [s], the sample counters, ``counts`` (each rejection reason and event of
     :data:`~gear_phm.estimation.pipeline.SAMPLE_REASONS` and the others: how often) and the
-    data checks (each '' when it found nothing, else the advice).
+    data checks (each '' when it found nothing, else the advice). ``extra``: the summary's
+    keys this record does not name (those of optional parts of the estimator), after the
+    others in the summary's order.
     """
 
     u: float
@@ -58,6 +61,7 @@ class EstimatorSummary:
     ratio_check: str
     windows_over_unity: int
     over_unity: str
+    extra: Mapping[str, JsonValue] = field(default_factory=dict)
 
     def to_dict(self) -> JsonObject:
         """Return the record as the pipeline's summary dict (its keys, in its order)."""
@@ -78,16 +82,17 @@ class EstimatorSummary:
             'counts': dict(self.counts), 'timed_out': self.timed_out,
             'reversed_torque': self.reversed_torque, 'speed_ratio': self.speed_ratio,
             'ratio_check': self.ratio_check, 'windows_over_unity': self.windows_over_unity,
-            'over_unity': self.over_unity,
+            'over_unity': self.over_unity, **self.extra,
         }
 
     @classmethod
     def from_dict(cls, values: Mapping[str, object]) -> EstimatorSummary:
-        """Return the record of a summary dict (the pipeline's, or a summary.json's).
+        """Return the record of the pipeline's summary dict (a summary.json's keys up to bag).
 
-        Keys the record does not hold are ignored. Raises
+        Keys the record does not name go to ``extra`` (each a JSON scalar). Raises
         :class:`~gear_phm.jsonfields.RecordError` for a missing or mistyped field.
         """
+        extra = {key: scalar(values, key) for key in values if key not in _NAMED}
         return cls(
             u=number(values, 'u'), u_rate=number(values, 'u_rate'),
             sigma_u=number(values, 'sigma_u'), eta_opposing=number(values, 'eta_opposing'),
@@ -112,7 +117,7 @@ class EstimatorSummary:
             speed_ratio=number(values, 'speed_ratio'),
             ratio_check=text(values, 'ratio_check'),
             windows_over_unity=integer(values, 'windows_over_unity'),
-            over_unity=text(values, 'over_unity'))
+            over_unity=text(values, 'over_unity'), extra=extra)
 
     def stalled_stamps(self) -> str:
         """Return why the estimator has no measurement if its samples' stamps do not advance.
@@ -135,3 +140,7 @@ class EstimatorSummary:
             found.items(), key=lambda item: -item[1])) or 'none counted'
         return (f'{self.samples_seen} samples, {self.samples_used} used, '
                 f'{windows_measured} windows measured (rejections: {reasons})')
+
+
+#: The keys of the pipeline's summary that :class:`EstimatorSummary` names.
+_NAMED = frozenset(f.name for f in fields(EstimatorSummary)) - {'extra'}

@@ -179,7 +179,10 @@ class DriveSummary:
         except (TypeError, ValueError) as exc:
             msg = f'field config: {exc}'
             raise RecordError(msg) from None
-        return cls(EstimatorSummary.from_dict(values), RunInfo.from_dict(values),
+        keys = list(values)         # the estimator's keys come first, up to 'bag'
+        ends = keys.index('bag') if 'bag' in keys else len(keys)
+        estimator = EstimatorSummary.from_dict({key: values[key] for key in keys[:ends]})
+        return cls(estimator, RunInfo.from_dict(values),
                    integer(values, 'windows_measured'), parameters,
                    HealthSummary.from_dict(obj(values, 'health')),
                    text(values, 'no_measurement') if 'no_measurement' in values else None)

@@ -78,6 +78,13 @@ def test_to_dict_is_the_summary_json_written(fault: tuple[Path, DriveSummary]) -
     assert again.to_json() == summary.to_json()
     assert again.health == summary.health and again.config == summary.config
     assert again.run == summary.run
+    # an estimator's optional keys, before 'bag', stay in their place
+    items = list(summary.to_dict().items())
+    at = [key for key, _ in items].index('bag')
+    more = dict([*items[:at], ('part_torque', 0.5), *items[at:]])
+    extended = DriveSummary.from_dict(more)
+    assert dict(extended.estimator.extra) == {'part_torque': 0.5}
+    assert _same(extended.to_dict(), more)
 
 
 def test_many_drives_read_through_attributes(tmp_path: Path) -> None:
@@ -123,6 +130,13 @@ def test_estimator_summary_is_the_pipeline_dict() -> None:
     assert summary.unmeasured(0) == ('10 samples, 0 used, 0 windows measured (rejections: '
                                      'duplicate_stamp 6, zero_speed 4)')
     assert dataclasses.replace(summary, filter_updates=1).unmeasured(3) == ''
+    # keys of optional parts of the estimator are kept, in order, after the others
+    more = {**values, 'part_torque': 0.25, 'part_identified': True, 'part_note': ''}
+    kept = EstimatorSummary.from_dict(more)
+    assert dict(kept.extra) == {'part_torque': 0.25, 'part_identified': True, 'part_note': ''}
+    assert _same(kept.to_dict(), more)
+    with pytest.raises(RecordError, match="field 'part_list': expected a number"):
+        EstimatorSummary.from_dict({**values, 'part_list': [1.0]})
 
 
 def test_a_malformed_summary_names_the_field(fault: tuple[Path, DriveSummary],
