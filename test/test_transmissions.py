@@ -551,7 +551,7 @@ from pathlib import Path
 from gear_phm.cli.main import main
 from gear_phm.offline import AnalysisError, ParallelError, engine
 bag, spec, out = sys.argv[1:4]
-real_advance, real_write = engine._Run.advance, engine._Stream._write
+real_advance, real_write = engine.DriveRun.advance, engine.Stream.write_batch
 MODE = ''
 def advance(self, *args):
     if self.drive == 'rudder' and MODE == 'raise':
@@ -564,7 +564,7 @@ def write(self, *args):                 # killed between two requests: the next 
         process.kill()
         process.join()
     return real_write(self, *args)
-engine._Run.advance, engine._Stream._write = advance, write
+engine.DriveRun.advance, engine.Stream.write_batch = advance, write
 def gone():
     left = os.listdir(Path(out).parent)
     assert not Path(out).exists() and not left, left
@@ -622,7 +622,7 @@ import os, sys
 from pathlib import Path
 from gear_phm.offline import AnalysisError, ParallelError, engine
 bag, out = sys.argv[1:3]
-real_assess = engine._Run.assess
+real_assess = engine.DriveRun.assess
 MODE = ''
 def assess(self, *args):
     if MODE == 'raise':
@@ -630,7 +630,7 @@ def assess(self, *args):
     if MODE == 'die':
         os._exit(3)
     return real_assess(self, *args)
-engine._Run.assess = assess
+engine.DriveRun.assess = assess
 for MODE, error in (('raise', AnalysisError), ('die', ParallelError)):
     try:
         engine.analyze_bag(bag, 3.0, motor_joint='pdu_l', load_joint='flap_l_out', out=out,

@@ -254,8 +254,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 or not motor_joint or not load_joint or motor_joint == load_joint:
             raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty '
                                 f'names, got {motor_joint!r} and {load_joint!r}')
-        runs = [_Run(estimator_config, health_config, motor_joint, load_joint, topic,
-                     transmission_name, hardware_id, history, prior)]
+        runs = [DriveRun(estimator_config, health_config, motor_joint, load_joint, topic,
+                         transmission_name, hardware_id, history, prior)]
     else:
         given = [name for name, value, default in zip(DRIVE_OWN, (
             ratio, motor_joint, load_joint, transmission_name, hardware_id), (
@@ -267,15 +267,15 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         for drive in _drives(transmissions):
             estimator_config, health_config = split_options(
                 drive.ratio, {**options, **drive.offline_options()})
-            runs.append(_Run(estimator_config, health_config, drive.motor_joint,
-                             drive.load_joint, topic, drive.name, drive.name, history, prior,
-                             drive=drive.name))
+            runs.append(DriveRun(estimator_config, health_config, drive.motor_joint,
+                                 drive.load_joint, topic, drive.name, drive.name, history, prior,
+                                 drive=drive.name))
     paths = [path_or_paths] if isinstance(path_or_paths, (str, Path)) else list(path_or_paths)
     if not paths:
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite, bags)
-    stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
+    stream = Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
     # the plots' process imports matplotlib meanwhile; not where drive workers may draw them
     plotter = (start_plotter() if plot and target is not None
                and (len(runs) == 1 or stream.jobs == 1) else None)
@@ -347,7 +347,7 @@ def _drive_summary(analysis: Analysis) -> DriveSummary:
     return summary
 
 
-def _refusal(run: _Run) -> str:
+def _refusal(run: DriveRun) -> str:
     """Return why a run's data contradict its parameters ('' when they do not).
 
     The estimator's checks (ratio against the speeds, energy out above energy in, a reversed
@@ -386,7 +386,7 @@ def _drives(transmissions: Any) -> tuple[Transmission, ...]:
     return drives
 
 
-def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
+def _combined(stream: Stream, analyses: list[Analysis], bags: list[Path],
               readers: list[str], elapsed: float) -> Analysis:
     """Return the Analysis of many drives: the combined summary, each drive's Analysis."""
     drives = {str(run.drive): _drive_summary(analysis)
@@ -438,8 +438,8 @@ def _analysis_files(name: str, entry: Path) -> bool:
         and file[len(name) + 1:-len('.mcap')].isdigit())
 
 
-class _Run:
-    """One analysis: the pipeline, the assessor and what they produced."""
+class DriveRun:
+    """One drive's run: the pipeline, the assessor and what they produced."""
 
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
@@ -564,7 +564,7 @@ class _Run:
                             {'stamp_ns': stamps[chosen], 'eta': eta[chosen]})
         self.pending.clear()
 
-    def _keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
+    def keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
         """Add ground-truth rows (stamps [ns], x, y, z) of topic ``name``."""
         columns = {'stamp_ns': stamps, 'x': values[:, 0], 'y': values[:, 1],
                    'z': values[:, 2]}
@@ -714,8 +714,8 @@ class _Run:
         return DriveSummary(estimator, run, windows, self.estimator_config, health, why or None)
 
 
-class _Stream:
-    """One JointState stream read once for one or many drives (:class:`_Run` each).
+class Stream:
+    """One JointState stream read once for one or many drives (:class:`DriveRun` each).
 
     One drive with ``drive`` None is today's single transmission: its outputs, statuses and
     summary are those of the nodes. Each batch is decoded once for all drives
@@ -723,7 +723,7 @@ class _Stream:
     array with every drive's estimator and health status.
     """
 
-    def __init__(self, runs: Sequence[_Run], topic: str, diagnostics_rate: float,
+    def __init__(self, runs: Sequence[DriveRun], topic: str, diagnostics_rate: float,
                  want_truth: bool, stamp_source: str = str(STAMP_SOURCE.default),
                  jobs: int = 1) -> None:
         self.runs = list(runs)
@@ -819,7 +819,7 @@ class _Stream:
                 upcoming = next(batches, None)
                 if drives.ahead:
                     submit(upcoming)
-                self._write(drives.collect(), current.ticks, writer)
+                self.write_batch(drives.collect(), current.ticks, writer)
                 bar.update(current.messages)
                 last_log_ns = current.last_log_ns
                 if not drives.ahead:
@@ -880,10 +880,10 @@ class _Stream:
             raise AnalysisError(msg)
         return _Prepared(decoded, len(raw), cuts, ticks, int(times[-1]))
 
-    def _write(self, made: list[Made], ticks: list[int], writer: Any) -> None:
+    def write_batch(self, made: list[Made], ticks: list[int], writer: Any) -> None:
         """Write one batch: each status after the outputs of the estimates before its mark.
 
-        ``made``: each drive's outputs and statuses (:meth:`_Run.advance`); ``ticks`` are the
+        ``made``: each drive's outputs and statuses (:meth:`DriveRun.advance`); ``ticks`` are the
         /diagnostics times [ns] of bag time inside the batch; the statuses report the state
         after the messages logged before each (marks of the pipeline, not cuts of the batch).
         """
