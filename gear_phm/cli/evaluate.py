@@ -253,7 +253,7 @@ def _print_healthy(score: dict[str, Any], u_eol: float) -> None:
 
 
 def _print_acceptance(scores: dict[str, Any]) -> None:
-    """Print issue 23's per-life scores (docs/prognostics.md)."""
+    """Print the per-life acceptance scores (docs/prognostics.md)."""
     checks = ', '.join(f'{c["lam"]:g} {"PASS" if c["passed"] else "FAIL"}'
                        for c in scores['alpha_lambda'])
     band, below, finite = scores['band'], scores['not_optimistic'], scores['finite']
