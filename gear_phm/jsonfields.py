@@ -38,11 +38,14 @@ def _wrong(key: str, kind: str, value: object) -> RecordError:
 
 
 def number(values: Mapping[str, object], key: str) -> float:
-    """Return the number ``values[key]`` as a float (RecordError if it is not a number)."""
+    """Return the number ``values[key]`` as it is, an int or a float (RecordError if neither).
+
+    An int stays an int, so that the record writes back what it read.
+    """
     value = field(values, key)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _wrong(key, 'a number', value) from None
-    return float(value)
+    return value
 
 
 def integer(values: Mapping[str, object], key: str) -> int:

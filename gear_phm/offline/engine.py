@@ -706,7 +706,7 @@ class DriveRun:
             health = HealthSummary(
                 LEVEL_NAMES[latest.level], first_seen, dropped, latest.message,
                 dict(interfaces.health_key_values(latest)),
-                TrendSummary(trend.model, float(trend.shape), float(self.assessor.u_eol)))
+                TrendSummary(trend.model, trend.shape, self.assessor.u_eol))
         if why:     # the filter's prior is no estimate of the gearbox: no health level
             health = replace(health, level='STALE', message=f'no efficiency measurement: {why}')
         run = RunInfo(tuple(str(b) for b in bags), self.topic, self.samples, tuple(readers),
