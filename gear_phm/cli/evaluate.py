@@ -28,9 +28,8 @@ from typing import Any
 from gear_phm.bagio import BagError
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.offline.evaluation import (evaluate_run, EvaluationError, find_bag,
-                                         health_config, LIFE_HEALTH)
-from gear_phm.offline.truth import read_life, TruthError
+from gear_phm.offline.evaluation import evaluate_run, EvaluationError, find_bag, health_config
+from gear_phm.offline.truth import LIFE_HEALTH, read_life, TruthError
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics.metrics import ALPHA, BAND_FROM, LAMBDAS
 from gear_phm.simulation.lives import LIFE_FILE

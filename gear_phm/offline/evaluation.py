@@ -26,15 +26,12 @@ from gear_phm.bagio import BagError
 from gear_phm.bagio.series import bag_span, has_topic, read_vector_topic
 from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT, HEALTH_RUL
-from gear_phm.offline.truth import topic_of, truth_eol_and_span
+from gear_phm.offline.truth import LIFE_HEALTH, LifeRecord, topic_of, truth_eol_and_span
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics import end_of_life_u, HealthConfig
 from gear_phm.prognostics.metrics import (acceptance, band_coverage, evaluate, finite_from,
                                           healthy_acceptance, level_transitions)
 from gear_phm.status import ERROR, LEVEL_NAMES
-
-#: life.json fields that are the defaults of the health options of the same name.
-LIFE_HEALTH = ('eta_opposing_min',)
 
 
 class EvaluationError(GearPhmError, ValueError):
@@ -108,21 +105,22 @@ def read_levels(bag: Path, drive: str | None = None) -> tuple[np.ndarray, np.nda
 
 
 def health_config(values: Mapping[str, Any], ratio: float | None,
-                  life: Mapping[str, Any] | None) -> HealthConfig:
+                  life: LifeRecord | None) -> HealthConfig:
     """Return the health parameters: ``values``, then the life's, then the defaults.
 
-    ``values``: the health options by name, None for those of :data:`LIFE_HEALTH` not given;
-    ``ratio``: None for the life's, else the parameter's default. Raises EvaluationError if
-    they are not valid.
+    ``values``: the health options by name, None for those of
+    :data:`~gear_phm.offline.truth.LIFE_HEALTH` not given; ``ratio``: None for the life's,
+    else the parameter's default. Raises EvaluationError if they are not valid.
     """
     chosen = dict(values)
+    given = life.health_defaults() if life is not None else {}
     for name in LIFE_HEALTH:
         if chosen[name] is None:
             chosen.pop(name)
-            if life is not None:
-                chosen[name] = float(life[name])
+            if name in given:
+                chosen[name] = given[name]
     if ratio is None:
-        ratio = float(life['ratio']) if life is not None else float(RATIO.default)
+        ratio = life.ratio if life is not None else float(RATIO.default)
     try:
         return HealthConfig(ratio=float(ratio), **chosen)
     except (TypeError, ValueError) as exc:
@@ -149,7 +147,7 @@ def overlap(run: tuple[float, float], truth: tuple[float, float] | None,
 
 
 def evaluate_run(bag: Path, truth: Path, config: HealthConfig, *,
-                 life: Mapping[str, Any] | None = None, drive: str | None = None,
+                 life: LifeRecord | None = None, drive: str | None = None,
                  alpha: float, lambdas: Sequence[float], band_from: float,
                  t_start: float | None = None) -> Evaluation:
     """Score the RUL predictions of ``bag`` against ``truth`` (module docstring).
@@ -163,17 +161,17 @@ def evaluate_run(bag: Path, truth: Path, config: HealthConfig, *,
     u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
                              config.u_max)
     predictions = read_predictions(bag, drive)
-    same_eol = life is not None and math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9)
-    if same_eol and life is not None and (life['healthy'] or life['end_of_life_s'] is not None):
+    same_eol = life is not None and math.isclose(u_eol, life.u_eol, rel_tol=1e-9)
+    if same_eol and life is not None and (life.healthy or life.end_of_life_s is not None):
         warnings = overlap(predictions.span, bag_span(truth), truth)
-        if life['healthy']:
+        t_eol = life.end_of_life_s
+        if life.healthy or t_eol is None:       # a healthy life has no end of life
             return _healthy(bag, drive, predictions, u_eol, warnings)
-        t_eol = float(life['end_of_life_s'])
     else:
         t_eol, truth_span = truth_eol_and_span(truth, u_eol, drive)
         warnings = overlap(predictions.span, truth_span, truth)
-    if t_start is None and life is not None and life['onset_s'] is not None:
-        t_start = float(life['onset_s'])
+    if t_start is None and life is not None and life.onset_s is not None:
+        t_start = life.onset_s
     metrics = _scores(predictions, read_levels(bag, drive), t_eol, alpha, lambdas, band_from,
                       t_start, life is not None)
     times = predictions.times

@@ -8,20 +8,24 @@ true_eol is used). A truth bag written by ``gear-phm simulate --random-life`` ha
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 import csv
+from dataclasses import dataclass
 import json
 import math
 from pathlib import Path
-from typing import Any
 
 from gear_phm.bagio.series import read_vector_topic
 from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import drive_topic, TRUTH_FRICTION
+from gear_phm.jsonfields import flag, number, RecordError
 from gear_phm.prognostics.metrics import true_end_of_life_index
 from gear_phm.simulation.lives import LIFE_FILE
 
 #: life.json fields an evaluation reads.
 LIFE_FIELDS = ('ratio', 'eta_opposing_min', 'u_eol', 'onset_s', 'end_of_life_s', 'healthy')
+#: life.json fields that are the defaults of the health options of the same name.
+LIFE_HEALTH = ('eta_opposing_min',)
 #: Columns of a truth CSV, in its header line.
 CSV_COLUMNS = ('time', 'true_eol')
 
@@ -30,21 +34,42 @@ class TruthError(GearPhmError, ValueError):
     """Ground truth that cannot be read or gives no end of life: one line, for the user."""
 
 
+@dataclass(frozen=True)
+class LifeRecord:
+    """What an evaluation reads of a random life's record (:data:`LIFE_FIELDS` of life.json).
+
+    The gearbox ratio [-] and eta_opposing_min [-] it was drawn with, its u_eol [-], its wear
+    onset and true end of life [s] (None: none), and whether it is a healthy life.
+    """
+
+    ratio: float
+    eta_opposing_min: float
+    u_eol: float
+    onset_s: float | None
+    end_of_life_s: float | None
+    healthy: bool
+
+    def health_defaults(self) -> dict[str, float]:
+        """Return the health options the life gives defaults of (:data:`LIFE_HEALTH`)."""
+        return {name: float(getattr(self, name)) for name in LIFE_HEALTH}
+
+
 def topic_of(topic: str, drive: str | None) -> str:
     """Return ``topic``, or one drive's own (``gear_phm/<drive>/...``)."""
     return topic if drive is None else drive_topic(drive, topic)
 
 
-def read_life(truth: Path) -> dict[str, Any] | None:
+def read_life(truth: Path) -> LifeRecord | None:
     """Return the random life's record beside a truth bag (in it or beside its file), or None.
 
-    Raises TruthError if that file is unreadable or lacks a field of :data:`LIFE_FIELDS`.
+    Raises TruthError if that file is unreadable, lacks a field of :data:`LIFE_FIELDS` or
+    holds one of the wrong type.
     """
     path = (truth if truth.is_dir() else truth.parent) / LIFE_FILE
     if not path.is_file():
         return None
     try:
-        life: dict[str, Any] = json.loads(path.read_text(encoding='utf-8'))
+        life = json.loads(path.read_text(encoding='utf-8'))
     except (OSError, ValueError) as exc:
         msg = f'cannot read {path}: {exc}'
         raise TruthError(msg) from None
@@ -53,7 +78,18 @@ def read_life(truth: Path) -> dict[str, Any] | None:
         msg = (f'{path} is not a life record of gear-phm simulate --random-life '
                f'(missing {", ".join(missing)})')
         raise TruthError(msg) from None
-    return life
+    try:
+        return LifeRecord(number(life, 'ratio'), number(life, 'eta_opposing_min'),
+                          number(life, 'u_eol'), _seconds(life, 'onset_s'),
+                          _seconds(life, 'end_of_life_s'), flag(life, 'healthy'))
+    except RecordError as exc:
+        msg = f'{path}: {exc}'
+        raise TruthError(msg) from None
+
+
+def _seconds(values: Mapping[str, object], key: str) -> float | None:
+    """Return the time [s] ``values[key]``, or None where it is null."""
+    return None if values[key] is None else number(values, key)
 
 
 def read_truth_csv(path: Path) -> float:

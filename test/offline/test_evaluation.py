@@ -12,6 +12,7 @@ from gear_phm.interfaces import HEALTH_RUL, TRUTH_FRICTION, Vector3Out
 from gear_phm.offline.evaluation import (evaluate_run, EvaluationError, find_bag,
                                          health_config, overlap, read_levels,
                                          read_predictions)
+from gear_phm.offline.truth import LifeRecord
 from gear_phm.prognostics import HealthConfig
 
 #: The truth reaches u_eol 0.6 (ratio 3, eta_opposing_min 0.5) at t = 600 s.
@@ -60,8 +61,7 @@ def test_a_run_is_scored_against_its_truth_bag(bags: tuple[Path, Path]) -> None:
 
 def test_a_healthy_life_is_scored_on_staying_ok(bags: tuple[Path, Path]) -> None:
     run, truth = bags
-    life = {'ratio': 3.0, 'eta_opposing_min': 0.5, 'u_eol': 0.6, 'onset_s': None,
-            'end_of_life_s': None, 'healthy': True}
+    life = LifeRecord(3.0, 0.5, 0.6, None, None, True)
     result = evaluate_run(find_bag(run), truth, CONFIG, life=life, **SCORING)
     assert math.isnan(result.t_eol) and result.metrics['healthy'] is True
     score = result.metrics['acceptance']['healthy']
@@ -69,7 +69,7 @@ def test_a_healthy_life_is_scored_on_staying_ok(bags: tuple[Path, Path]) -> None
 
 
 def test_health_config_takes_the_life_s_defaults() -> None:
-    life = {'ratio': 5.0, 'eta_opposing_min': 0.65}
+    life = LifeRecord(5.0, 0.65, 0.2, 10.0, 100.0, False)
     config = health_config({'eta_opposing_min': None}, None, life)
     assert config.ratio == 5.0 and config.eta_opposing_min == 0.65
     given = health_config({'eta_opposing_min': 0.7}, 2.0, life)

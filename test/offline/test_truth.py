@@ -9,8 +9,8 @@ import pytest
 
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.interfaces import drive_topic, TRUTH_FRICTION, Vector3Out
-from gear_phm.offline.truth import (read_life, read_truth_csv, topic_of, truth_eol,
-                                    truth_eol_and_span, TruthError)
+from gear_phm.offline.truth import (LifeRecord, read_life, read_truth_csv, topic_of,
+                                    truth_eol, truth_eol_and_span, TruthError)
 from gear_phm.simulation.lives import LIFE_FILE
 
 
@@ -60,7 +60,10 @@ def test_life_record_beside_the_truth(tmp_path: Path) -> None:
     life = {'ratio': 3.0, 'eta_opposing_min': 0.7, 'u_eol': 0.29, 'onset_s': 10.0,
             'end_of_life_s': 262.0, 'healthy': False, 'seed': 1}
     (bag / LIFE_FILE).write_text(json.dumps(life))
-    assert read_life(bag) == life
+    assert read_life(bag) == LifeRecord(3.0, 0.7, 0.29, 10.0, 262.0, False)
+    (bag / LIFE_FILE).write_text(json.dumps({**life, 'onset_s': None, 'healthy': 'no'}))
+    with pytest.raises(TruthError, match="field 'healthy': expected true or false"):
+        read_life(bag)
     (bag / LIFE_FILE).write_text(json.dumps({'ratio': 3.0}))
     with pytest.raises(TruthError, match='missing eta_opposing_min, u_eol'):
         read_life(bag)
