@@ -10,9 +10,9 @@ the metrics and writes them as JSON (``--output``), whole or not at all, never o
 A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` beside it: its
 ``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
 ``--eta-opposing-min``, its wear onset that of ``--t-start`` (t_P = onset), its
-``end_of_life_s`` the true end of life (when the options give its u_eol), and its per-life
-scores are added (``acceptance``); a healthy life, which has no end of life, is scored on
-whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
+``end_of_life_s`` the true end of life (when the options give its u_eol), and the
+per-life acceptance scores are added (``acceptance``); a healthy life, which has no end of
+life, is scored on whether it stays OK with RUL inf. Definitions: docs/prognostics.md.
 """
 from __future__ import annotations
 
