@@ -13,6 +13,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
         ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
     ],
     python_requires='>=3.11',
     # Runtime dependencies of everything but the ROS nodes (rclpy and the message packages come
@@ -30,6 +31,11 @@ setup(
         'tqdm>=4.70,<5',
         'zstandard>=0.25,<1',
     ],
+    # colcon test runs pytest (not unittest) for a package with pytest among these, as
+    # `ros2 pkg create` writes it; setup.cfg's pytest options need the two plugins.
+    extras_require={
+        'test': ['pytest>=9.0,<10', 'pytest-timeout>=2.4,<3', 'pytest-xdist>=3.8,<4'],
+    },
     zip_safe=True,
     maintainer='gear_phm maintainers',
     maintainer_email='gear_phm@example.com',

@@ -67,7 +67,7 @@ for _ in range(int(sys.argv[3])):
     plot_analysis(Path(sys.argv[2]), analysis, 3.0, [Path(sys.argv[1])])
     draws.append(time.perf_counter() - start)
 spent['draw'] = min(draws)
-spent['messages'] = analysis.summary['messages']
+spent['messages'] = analysis.summary.run.messages
 print(json.dumps(spent))
 """
 

@@ -5,7 +5,6 @@ Usage: .venv/bin/python bench/analyze_speed.py [BAG]
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 import sys
 import tempfile
@@ -15,6 +14,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_typestore, Stores
 
 from gear_phm.cli.main import main as gear_phm
+from gear_phm.offline.summary import read_summary
 
 
 def rosbags_rates(bag: Path, topic: str = '/joint_states') -> tuple[float, float, int]:
@@ -40,12 +40,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         gear_phm(['analyze', str(bag), '--ratio', '3.0', '--out', f'{tmp}/out', '--no-plot',
                   '--no-progress'])
-        summary = json.loads(Path(f'{tmp}/out/summary.json').read_text())
+        run = read_summary(f'{tmp}/out').run
     print(f'bag {bag}: {count} JointState messages')
     print(f'rosbags raw read           : {raw_rate:10.0f} msg/s')
     print(f'rosbags read + deserialize : {decode_rate:10.0f} msg/s')
-    print(f'gear-phm analyze           : {summary["samples_per_second"]:10.0f} samples/s '
-          f'({100 * summary["samples_per_second"] / decode_rate:.0f} % of deserialize)')
+    print(f'gear-phm analyze           : {run.samples_per_second:10.0f} samples/s '
+          f'({100 * run.samples_per_second / decode_rate:.0f} % of deserialize)')
 
 
 if __name__ == '__main__':

@@ -26,7 +26,6 @@ Usage: .venv/bin/python bench/multi_drive.py [--drives 8] [--duration 120] [--ra
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 import resource
 import statistics
@@ -44,6 +43,7 @@ from _report import append_section  # noqa: E402
 from gear_phm import interfaces  # noqa: E402
 from gear_phm.bagio import BagReader  # noqa: E402
 from gear_phm.bagio.writer import vector3_stamped_from_cdr  # noqa: E402
+from gear_phm.offline.summary import read_summary, RunSummary  # noqa: E402
 
 GEAR_PHM = Path(sys.executable).parent / 'gear-phm'
 RATIOS = (3.0, 5.0, 2.0, 4.0, 30.0, 12.0)
@@ -112,7 +112,9 @@ def main() -> None:
                 times[key].append(timed(commands))
         wall = {key: statistics.median(w for w, _ in runs) for key, runs in times.items()}
         cpu = {key: statistics.median(c for _, c in runs) for key, runs in times.items()}
-        workers = json.loads((work / 'all_0' / 'summary.json').read_text())['workers']
+        run = read_summary(work / 'all_0')
+        assert isinstance(run, RunSummary), 'a run of many drives'
+        workers = run.workers
         worst = [0.0, 0.0, 0.0]                 # u, du/dt, sigma_u
         for name in drives:
             theirs = friction(work / name, '/' + interfaces.FRICTION)

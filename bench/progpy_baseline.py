@@ -190,7 +190,8 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from rul_matrix import run as gear_phm_chain
 
-    from gear_phm.cli.evaluate import _find_bag, read_vector_topic
+    from gear_phm.bagio.series import read_vector_topic
+    from gear_phm.offline.evaluation import find_bag
     from gear_phm.interfaces import HEALTH_RUL
     from gear_phm.offline import analyze_bag
     from gear_phm.prognostics.metrics import evaluate, prognostic_horizon
@@ -218,7 +219,7 @@ def _scenario(out: Path, law: str, life: float, seed: int, args: argparse.Namesp
 
     def horizon_on_grid(analysis: Path) -> float:
         """Horizon [s] of a gear_phm run from its latest RUL at each of progpy's times."""
-        times, values = read_vector_topic(_find_bag(analysis), HEALTH_RUL)
+        times, values = read_vector_topic(find_bag(analysis), HEALTH_RUL)
         before = times < t_eol
         index = np.searchsorted(times[before], t_pred, side='right') - 1
         return prognostic_horizon(t_pred[index >= 0], values[before, 0][index[index >= 0]],

@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 
 from gear_phm import interfaces  # noqa: E402
 from gear_phm.bagio.chunks import McapChunkReader  # noqa: E402
-from gear_phm.cli.evaluate import truth_eol  # noqa: E402
+from gear_phm.offline.truth import truth_eol  # noqa: E402
 from gear_phm.prognostics import end_of_life_u, HealthAssessor, HealthConfig  # noqa: E402
 from gear_phm.prognostics.metrics import acceptance, healthy_acceptance  # noqa: E402
 

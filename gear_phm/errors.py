@@ -10,6 +10,10 @@ that raises them (as in rosbags) and keep their older bases (``ValueError`` wher
 - ``gear_phm.persistence.StateError`` / ``StateCorrupt`` / ``StateMismatch``: state files;
 - ``gear_phm.sources.SourceError``: a publisher source that cannot be built;
 - ``gear_phm.offline.AnalysisError`` / ``gear_phm.offline.fleet.FleetError``: offline input;
+- ``gear_phm.offline.truth.TruthError`` / ``gear_phm.offline.evaluation.EvaluationError``: a
+  run that cannot be scored against its ground truth;
+- ``gear_phm.jsonfields.RecordError``: a JSON document that is not the record it should be
+  (a summary.json read back);
 - ``gear_phm.transmissions.TransmissionsError``: a list of many drives (transmissions file);
 - ``gear_phm.models.ModelError``: an argument outside a model function's domain;
 - ``gear_phm.nodes.common.ConfigError``: a node's start-up configuration;

@@ -229,9 +229,9 @@ def test_a_swallowed_recorded_stop_is_not_printed_other_unraisables_are(
     ignored in ...' and a traceback came with it.
     """
     from types import SimpleNamespace
-    from gear_phm.cli.main import _quiet_stop
+    from gear_phm.cli.main import quiet_stop
     seen: list[object] = []
-    hook = _quiet_stop(seen.append)
+    hook = quiet_stop(seen.append)
     stop = SimpleNamespace(exc_value=SystemExit(143))
     hook(stop)
     assert seen == [stop]                       # no stop recorded: not ours

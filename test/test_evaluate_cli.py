@@ -384,7 +384,7 @@ def test_vector_topics_decode_in_batches_as_rosbags_does(tmp_path: Path) -> None
     from rosbags.typesys import get_typestore, Stores
 
     from gear_phm.bagio import BagReader
-    from gear_phm.cli.evaluate import read_vector_topic
+    from gear_phm.bagio.series import read_vector_topic
     from gear_phm.codec import decode_vector3_stamped_buffer, packed
     from gear_phm.interfaces import VECTOR3_STAMPED_TYPE
 

@@ -5,7 +5,7 @@ from ament_flake8.main import main_with_errors
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = ['gear_phm', 'test', 'bench', 'setup.py']
+PATHS = ['gear_phm', 'launch', 'test', 'bench', 'setup.py']
 
 
 @pytest.mark.flake8

@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gear_phm.cli.evaluate import read_vector_topic, truth_eol
+from gear_phm.bagio.series import read_vector_topic
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.interfaces import TRUTH_EFFICIENCY, TRUTH_FRICTION
 from gear_phm.models import eta_aiding, eta_opposing
+from gear_phm.offline.truth import truth_eol
 from gear_phm.simulation import (config_from_parameters, Plant, sample_times, simulate,
                                  SimulationConfig, Simulator, Wear)
 from gear_phm.simulation.lives import EOL_TAIL, FAMILIES, FEATURES, random_life

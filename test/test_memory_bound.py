@@ -61,7 +61,7 @@ def test_python_api_peak_rss_does_not_grow_with_the_bag(bags: dict[int, Path]) -
     """analyze_bag with its default options: 100k samples peak within 15 % of 10k."""
     script = ('import sys; from gear_phm.offline import analyze_bag; '
               'result = analyze_bag(sys.argv[1], 3.0); '
-              'assert result.summary["messages"] == int(sys.argv[2]), result.summary')
+              'assert result.summary.run.messages == int(sys.argv[2]), result.summary')
     small, large = (_peak_mib([sys.executable, '-c', script, str(bag), str(samples)])
                     for samples, bag in bags.items())
     assert large <= (1 + GROWTH) * small, f'peak RSS {small:.0f} -> {large:.0f} MiB'

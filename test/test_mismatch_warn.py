@@ -55,8 +55,8 @@ def test_healthy_mismatched_lever_gearbox_at_4_khz_stays_ok(tmp_path: Path) -> N
     assert nis.size > 60
     assert nis.mean() < chi_square_mean_bound(nis.size, 0.999), nis.mean()
     assert np.count_nonzero(nis > 10.83) <= 1       # the gate (chi-square(1) 99.9 %)
-    assert analysis.summary['eta_opposing'] == pytest.approx(0.85, abs=0.01)
-    assert analysis.summary['eta_aiding'] == pytest.approx(0.80, abs=0.01)
+    assert analysis.summary.estimator.eta_opposing == pytest.approx(0.85, abs=0.01)
+    assert analysis.summary.estimator.eta_aiding == pytest.approx(0.80, abs=0.01)
 
 
 def test_an_efficiency_that_varies_within_a_direction_is_still_a_model_mismatch() -> None:

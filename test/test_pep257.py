@@ -9,7 +9,7 @@ from ament_pep257.main import main
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = ['gear_phm', 'test', 'bench', 'setup.py']
+PATHS = ['gear_phm', 'launch', 'test', 'bench', 'setup.py']
 
 OPTIONS = ['--add-ignore', 'D213', '--add-select', 'D212']
 

@@ -6,6 +6,7 @@ running units again with it.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 import json
 import math
 from pathlib import Path
@@ -15,7 +16,9 @@ import sys
 import numpy as np
 import pytest
 
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, EstimatorSummary
 from gear_phm.offline.fleet import population_prior
+from gear_phm.offline.summary import DriveSummary, HealthSummary, RunInfo, TrendSummary
 from gear_phm.prognostics import ShapePrior
 from gear_phm.prognostics.fits import fit_laws
 
@@ -59,13 +62,19 @@ def test_shape_prior_rejects_what_has_no_shape() -> None:
         ShapePrior('power', 1.0, 0.0)
 
 
-def _summary(u: float, model: str, shape: float, u_eol: float = 0.25) -> dict:
-    return {'u': u, 'health': {'trend': {'model': model, 'shape': shape, 'u_eol': u_eol}}}
+def _summary(u: float, model: str, shape: float, u_eol: float = 0.25) -> DriveSummary:
+    """Return a unit's summary with the final u and the fitted wear law given."""
+    config = EstimatorConfig(ratio=3.0)
+    fresh = EstimatorSummary.from_dict(EstimatorPipeline(config).summary())
+    return DriveSummary(replace(fresh, u=u), RunInfo(('bag',), '/joint_states', 0, ('mcap',),
+                                                     0.0),
+                        0, config, HealthSummary('OK', {}, {}, 'estimating', {},
+                                                 TrendSummary(model, shape, u_eol)))
 
 
 def test_population_prior_comes_from_units_at_end_of_life_only() -> None:
     ended = [_summary(0.26, 'power', p) for p in (2.5, 3.0, 3.6)]
-    others = [_summary(0.10, 'power', 9.0), _summary(0.30, 'linear', 0.0), {}]
+    others = [_summary(0.10, 'power', 9.0), _summary(0.30, 'linear', 0.0), None]
     prior = population_prior(ended + others)
     logs = np.log([2.5, 3.0, 3.6])
     assert prior is not None and prior.model == 'power'

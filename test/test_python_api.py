@@ -48,7 +48,7 @@ def test_api_histories_match_summary_and_outputs(tmp_path: Path) -> None:
                            plot=False, eta_opposing_min=0.7333)
     e, h = analysis.estimates, analysis.health
     # the summary is the last posterior, the last estimate predicted to the newest sample
-    assert e.u[-1] == pytest.approx(analysis.summary['u'], abs=3 * e.u_sigma[-1])
+    assert e.u[-1] == pytest.approx(analysis.summary.estimator.u, abs=3 * e.u_sigma[-1])
     assert np.all(np.diff(e.stamp_ns) > 0)                  # one estimate per stamp, in order
     assert np.array_equal(h.stamp_ns, e.stamp_ns)           # a health state per estimate
     assert analysis.out == tmp_path / 'run'
@@ -105,7 +105,7 @@ def test_history_bounds_the_returned_histories_not_the_result() -> None:
     positions = np.searchsorted(full.estimates.stamp_ns, kept)
     assert positions[0] == 0 and np.unique(np.diff(positions[:-1])).size == 1  # evenly spaced
     assert positions[-1] == n - 1 and lean.estimates.u[-1] == full.estimates.u[-1]  # the last
-    assert lean.summary['u'] == full.summary['u']
+    assert lean.summary.estimator.u == full.summary.estimator.u
     # the default keeps a bag this short whole, and the plot's envelopes cover every estimate
     default = analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False)
     assert np.array_equal(default.estimates.u, full.estimates.u, equal_nan=True)
@@ -114,7 +114,7 @@ def test_history_bounds_the_returned_histories_not_the_result() -> None:
     for name in ('u', 'eta_opposing'):
         assert np.nanmin(envelope.low[name]) == np.nanmin(getattr(full.estimates, name))
         assert np.nanmax(envelope.high[name]) == np.nanmax(getattr(full.estimates, name))
-    assert lean.summary['windows_measured'] == full.summary['windows_measured']
+    assert lean.summary.windows_measured == full.summary.windows_measured
     with pytest.raises(AnalysisError, match='history must be an integer >= 1'):
         analyze_bag(ROOT / 'bags' / 'healthy', 3.0, plot=False, history=0)
 

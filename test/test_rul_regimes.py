@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gear_phm.cli.evaluate import read_vector_topic
+from gear_phm.bagio.series import read_vector_topic
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.interfaces import field_index, HEALTH_LAYOUT, HEALTH_RUL
 from gear_phm.prognostics import RulPredictor

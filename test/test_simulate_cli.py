@@ -347,7 +347,7 @@ def test_fault_and_healthy_bags() -> None:
 
 def test_power_law_wear_from_the_command_line(tmp_path: Path) -> None:
     """--wear power --wear-exponent 3: u = 0.05 + rate t^3, slow at first, then faster."""
-    from gear_phm.cli.evaluate import read_vector_topic
+    from gear_phm.bagio.series import read_vector_topic
     from gear_phm.interfaces import TRUTH_FRICTION
     out = tmp_path / 'power'
     assert simulate_cli(out, '--duration', '20', '--rate', '20', '--wear', 'power',

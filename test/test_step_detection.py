@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from gear_phm import interfaces
-from gear_phm.cli.evaluate import _find_bag, read_vector_topic
+from gear_phm.bagio.series import read_vector_topic
 from gear_phm.cli.main import main
+from gear_phm.offline.evaluation import find_bag
 
 U0, T_FAULT = 0.1, 104.0      # 104 s: the slowest of the fault phases measured in the cycle
 HEALTH = ['--ratio', '3', '--eta-opposing-min', '0.5']          # end of life at u = 0.6
@@ -32,7 +33,7 @@ def detect(tmp: Path, seed: int, step: float, rate: int = 100, duration: float =
                  '--truth-every', '100']) == 0
     assert main(['analyze', str(bag), *HEALTH, '--out', str(analysis), '--no-plot',
                  '--no-progress']) == 0
-    t, values = read_vector_topic(_find_bag(analysis), interfaces.FRICTION)  # from 0 s
+    t, values = read_vector_topic(find_bag(analysis), interfaces.FRICTION)  # from 0 s
     u, sigma = values[:, 0], values[:, 2]
     new = U0 + step
     after = t >= t_fault

@@ -155,7 +155,7 @@ def test_api_and_node_parameters_file_give_the_same_drives(bench: Path, tmp_path
     for name in DRIVES:
         a, b = from_file.transmissions[name], from_records.transmissions[name]
         np.testing.assert_array_equal(a.estimates.u, b.estimates.u)
-        assert a.summary['health']['trend'] == b.summary['health']['trend']
+        assert a.summary.health.trend == b.summary.health.trend
 
 
 BAD = {
@@ -265,13 +265,13 @@ def test_a_drive_whose_joints_vanish_counts_them_alone(bench: Path, tmp_path: Pa
             writer.write_groups([(interfaces.JOINT_STATES, log_times[rows], payloads)])
     whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
     analysis = analyze_bag(cut, transmissions=bench / 'bench.yaml', plot=False)
-    counts = {n: a.summary['counts'] for n, a in analysis.transmissions.items()}
+    counts = {n: a.summary.estimator.counts for n, a in analysis.transmissions.items()}
     assert counts['rudder'].get('missing_joint') == len(messages) - half
-    assert analysis.transmissions['rudder'].summary['samples_seen'] == half
+    assert analysis.transmissions['rudder'].summary.estimator.samples_seen == half
     for name in ('flap_l', 'spoiler_3'):
         assert counts[name].get('missing_joint', 0) == 0
-        assert analysis.transmissions[name].summary['u'] == pytest.approx(
-            whole.transmissions[name].summary['u'], rel=1e-9, abs=0)
+        assert analysis.transmissions[name].summary.estimator.u == pytest.approx(
+            whole.transmissions[name].summary.estimator.u, rel=1e-9, abs=0)
 
 
 def test_evaluate_scores_each_drive_against_its_own_truth(tmp_path: Path,
@@ -402,7 +402,7 @@ def test_a_drive_that_never_moves_is_stale_alone_and_all_idle_is_an_error(
     whole = analyze_bag(bench / 'bag', transmissions=bench / 'bench.yaml', plot=False)
     for name in ('flap_l', 'spoiler_3'):
         assert 'no_measurement' not in drives[name]
-        assert drives[name]['u'] == pytest.approx(whole.transmissions[name].summary['u'],
+        assert drives[name]['u'] == pytest.approx(whole.transmissions[name].summary.estimator.u,
                                                   rel=1e-9, abs=0)
     none = _idle_bench(bench, tmp_path / 'none', set(DRIVES))
     assert main(['analyze', str(none), '--transmissions', str(bench / 'bench.yaml'), '--out',
@@ -551,7 +551,7 @@ from pathlib import Path
 from gear_phm.cli.main import main
 from gear_phm.offline import AnalysisError, ParallelError, engine
 bag, spec, out = sys.argv[1:4]
-real_advance, real_write = engine._Run.advance, engine._Stream._write
+real_advance, real_write = engine.DriveRun.advance, engine.Stream.write_batch
 MODE = ''
 def advance(self, *args):
     if self.drive == 'rudder' and MODE == 'raise':
@@ -564,7 +564,7 @@ def write(self, *args):                 # killed between two requests: the next 
         process.kill()
         process.join()
     return real_write(self, *args)
-engine._Run.advance, engine._Stream._write = advance, write
+engine.DriveRun.advance, engine.Stream.write_batch = advance, write
 def gone():
     left = os.listdir(Path(out).parent)
     assert not Path(out).exists() and not left, left
@@ -622,7 +622,7 @@ import os, sys
 from pathlib import Path
 from gear_phm.offline import AnalysisError, ParallelError, engine
 bag, out = sys.argv[1:3]
-real_assess = engine._Run.assess
+real_assess = engine.DriveRun.assess
 MODE = ''
 def assess(self, *args):
     if MODE == 'raise':
@@ -630,7 +630,7 @@ def assess(self, *args):
     if MODE == 'die':
         os._exit(3)
     return real_assess(self, *args)
-engine._Run.assess = assess
+engine.DriveRun.assess = assess
 for MODE, error in (('raise', AnalysisError), ('die', ParallelError)):
     try:
         engine.analyze_bag(bag, 3.0, motor_joint='pdu_l', load_joint='flap_l_out', out=out,

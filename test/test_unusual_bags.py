@@ -14,7 +14,7 @@ import pytest
 
 from gear_phm.cli.main import main
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
-from gear_phm.estimation.pipeline import stalled_stamps
+from gear_phm.estimation.summary import EstimatorSummary
 
 HEALTHY = Path(__file__).resolve().parents[1] / 'bags' / 'healthy'
 MESSAGES = 3000                 # 30 s of bags/healthy (100 Hz): a few dozen filter updates
@@ -213,12 +213,12 @@ def test_estimator_status_names_stamps_that_do_not_advance() -> None:
     assert status.level == 1
     assert status.message.startswith('no efficiency measurement yet: the header stamps do '
                                      'not advance'), status.message
-    assert stalled_stamps(pipeline.summary())
+    assert EstimatorSummary.from_dict(pipeline.summary()).stalled_stamps()
     # advancing stamps: no such message, whatever the measurement state
     fresh = EstimatorPipeline(EstimatorConfig(ratio=3.0))
     fresh.on_batch(np.arange(n, dtype=np.int64) * 10_000_000 + 1, ones, ones, ones / 3.0,
                    ones)
-    assert not stalled_stamps(fresh.summary())
+    assert not EstimatorSummary.from_dict(fresh.summary()).stalled_stamps()
     assert 'header stamps' not in fresh.status('gear_phm estimator').message
 
 

@@ -48,7 +48,7 @@ def test_default_warn_threshold_of_a_gearbox_close_to_its_end_of_life(tmp_path: 
     assert WARN_AT - 15.0 < first < WARN_AT + 15.0, first   # one 5 s dwell, noise in eta_D
     assert 'eta_D' in h.messages[warned[0]]
     assert set(h.level[t >= first].tolist()) == {WARN}       # one transition, held
-    values = analysis.summary['health']['values']
+    values = analysis.summary.health.values
     eta_healthy, eta_warn = float(values['eta_healthy']), float(values['eta_warn'])
     # learned at the first estimate with sigma_u <= HEALTHY_SETTLED_SHARE (u_eol - u), here
     # 0.0021 in u, 0.002 in eta_D: within 2.5 of those sigma (0.9443 since the window
@@ -59,5 +59,5 @@ def test_default_warn_threshold_of_a_gearbox_close_to_its_end_of_life(tmp_path: 
     # an explicit eta_warn still wins
     explicit = analyze_bag(tmp_path / 'bag', RATIO, history=None, plot=False,
                            eta_opposing_min=0.92, warn_horizon=0.0, eta_warn=0.93)
-    assert float(explicit.summary['health']['values']['eta_warn']) == 0.93
-    assert float(explicit.summary['health']['values']['eta_healthy']) == eta_healthy
+    assert explicit.summary.health.value('eta_warn') == 0.93
+    assert explicit.summary.health.value('eta_healthy') == eta_healthy

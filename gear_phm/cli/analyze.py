@@ -72,6 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gear_phm.offline import AnalysisError, analyze_bag
     from gear_phm.offline.parallel import ParallelError
+    from gear_phm.offline.summary import DriveSummary
 
     if (args.ratio is None) == (args.transmissions is None):
         raise CliError('give --ratio (one transmission) or --transmissions FILE (many drives)')
@@ -100,16 +101,19 @@ def run(args: argparse.Namespace) -> int:
     except (AnalysisError, ParallelError) as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary
-    rate = (f'{summary["messages"]} messages in {summary["seconds"]:.2f} s '
-            f'({summary["samples_per_second"]:.0f}/s) -> {analysis.out}')
-    drives = summary.get('transmissions', {'': summary})
+    run = summary.run
+    rate = (f'{run.messages} messages in {run.seconds:.2f} s '
+            f'({run.samples_per_second:.0f}/s) -> {analysis.out}')
+    drives = ({'': summary} if isinstance(summary, DriveSummary)
+              else dict(summary.transmissions))
     for name, drive in drives.items():
-        if 'no_measurement' in drive:           # a drive of many that did not move
-            print(f'{name}: no efficiency measurement ({drive["no_measurement"]})',
+        if drive.no_measurement is not None:        # a drive of many that did not move
+            print(f'{name}: no efficiency measurement ({drive.no_measurement})',
                   file=sys.stderr)
             continue
-        print(f'{name + ": " if name else ""}u = {drive["u"]:.5f} +/- {drive["sigma_u"]:.5f}, '
-              f'eta_D = {drive["eta_opposing"]:.4f}, eta_I = {drive["eta_aiding"]:.4f}'
+        e = drive.estimator
+        print(f'{name + ": " if name else ""}u = {e.u:.5f} +/- {e.sigma_u:.5f}, '
+              f'eta_D = {e.eta_opposing:.4f}, eta_I = {e.eta_aiding:.4f}'
               + ('' if name else f'; {rate}'), file=sys.stderr)
     if '' not in drives:
         print(rate, file=sys.stderr)

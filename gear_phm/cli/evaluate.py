@@ -1,18 +1,11 @@
 """``gear-phm evaluate``: score RUL predictions against ground truth (Saxena metrics).
 
-Predictions: ``gear_phm/health/rul`` (x = median RUL [s], stamped with the time of the
-estimate) in a rosbag2 directory -- a diagnostics recording or an ``analyze`` output (the
-directory itself or a bag directly inside it). Truth: a simulated bag with
-``gear_phm/truth/friction`` (EOL = first stamp where true u >= u_eol, u_eol from the health
-options) or a CSV with the header ``time,true_eol`` (seconds, finite, true_eol > 0; the last
-row's true_eol is used). A truth bag whose stamps do not overlap the run's is refused; a
-partial overlap, or a run that ends before the last lambda of the life, is warned about on
-stderr and in the JSON (``warnings``). The JSON is written whole or not at all, never over an
-input.
-Also scored: from which fraction of the life the RUL stays finite, how often its p5-p95 band
-(y, z of the RUL topic) holds the true RUL from ``--band-from``, and, when the run has
-``gear_phm/health/efficiency`` (z = level), its health-level transitions and whether ERROR came
-before the true end of life. Prints the metrics and writes them as JSON (``--output``).
+The command line of :func:`gear_phm.offline.evaluation.evaluate_run`, which holds what is
+read and scored. The run: a rosbag2 directory with ``gear_phm/health/rul`` (a diagnostics
+recording or an ``analyze`` output); the truth: a simulated bag with
+``gear_phm/truth/friction`` or a CSV ``time,true_eol`` (:mod:`gear_phm.offline.truth`). u_eol
+comes from the health options. Warnings go to stderr and into the JSON (``warnings``). Prints
+the metrics and writes them as JSON (``--output``), whole or not at all, never over an input.
 
 A truth bag written by ``gear-phm simulate --random-life`` has ``life.json`` beside it: its
 ``ratio`` and ``eta_opposing_min`` are then the defaults of ``--ratio`` and
@@ -24,7 +17,6 @@ life, is scored on whether it stays OK with RUL inf. Definitions: docs/prognosti
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -33,29 +25,20 @@ import re
 import sys
 from typing import Any
 
-import numpy as np
-
-from gear_phm.bagio import BagError, BagReader
+from gear_phm.bagio import BagError
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, health_values
-from gear_phm.codec import decode_vector3_stamped_buffer
-from gear_phm.interfaces import (drive_topic, field_index, HEALTH_EFFICIENCY, HEALTH_LAYOUT,
-                                 HEALTH_RUL, stamp_to_ns, TRUTH_FRICTION, VECTOR3_STAMPED_TYPE)
+from gear_phm.offline.evaluation import evaluate_run, EvaluationError, find_bag, health_config
+from gear_phm.offline.truth import LIFE_HEALTH, read_life, TruthError
 from gear_phm.parameters import RATIO
-from gear_phm.prognostics import end_of_life_u, HealthConfig
-from gear_phm.prognostics.metrics import (acceptance, ALPHA, band_coverage, BAND_FROM,
-                                          evaluate, finite_from, healthy_acceptance, LAMBDAS,
-                                          level_transitions, true_end_of_life_index)
+from gear_phm.prognostics.metrics import ALPHA, BAND_FROM, LAMBDAS
 from gear_phm.simulation.lives import LIFE_FILE
 from gear_phm.staging import write_atomic
-from gear_phm.status import ERROR, LEVEL_NAMES
 from gear_phm.transmissions import load_transmissions, TransmissionsError
 
-#: life.json fields that are the defaults of the health options of the same name.
-LIFE_HEALTH = ('eta_opposing_min',)
-#: life.json fields evaluate reads.
-LIFE_FIELDS = ('ratio', 'eta_opposing_min', 'u_eol', 'onset_s', 'end_of_life_s', 'healthy')
 HELP = 'score RUL predictions against ground truth (alpha-lambda, horizon, accuracy)'
+#: What the library raises for a run that cannot be scored (each is one line for the user).
+_REFUSALS = (BagError, EvaluationError, TruthError)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -94,174 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_health_arguments(parser)
     # None: from life.json when the truth has one, else the parameter's default.
     parser.set_defaults(**{f'health_{name}': None for name in LIFE_HEALTH})
-
-
-def read_life(truth: Path) -> dict[str, Any] | None:
-    """Return the random life's record beside a truth bag (in it or beside its file), or None.
-
-    Raises CliError if that file is unreadable or lacks a field evaluate needs.
-    """
-    path = (truth if truth.is_dir() else truth.parent) / LIFE_FILE
-    if not path.is_file():
-        return None
-    try:
-        life: dict[str, Any] = json.loads(path.read_text(encoding='utf-8'))
-    except (OSError, ValueError) as exc:
-        raise CliError(f'cannot read {path}: {exc}') from None
-    missing = [key for key in LIFE_FIELDS if not isinstance(life, dict) or key not in life]
-    if missing:
-        raise CliError(f'{path} is not a life record of gear-phm simulate --random-life '
-                       f'(missing {", ".join(missing)})')
-    return life
-
-
-def _topic(topic: str, drive: str | None) -> str:
-    """Return ``topic``, or one drive's own (``gear_phm/<drive>/...``)."""
-    return topic if drive is None else drive_topic(drive, topic)
-
-
-def _find_bag(run: Path, drive: str | None = None) -> Path:
-    if not run.exists():
-        raise CliError(f'{run} does not exist')
-    candidates = [run] + (sorted(p.parent for p in run.glob('*/metadata.yaml'))
-                          if run.is_dir() else [])
-    for candidate in candidates:
-        try:
-            with BagReader(candidate) as bag:
-                if bag.resolve_topic(_topic(HEALTH_RUL, drive)) in bag.topics:
-                    return candidate
-        except BagError:
-            continue
-    raise CliError(f'no bag with topic {_topic(HEALTH_RUL, drive)} in {run}')
-
-
-def read_vector_topic(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
-    """(stamps [s], N x 3 values) of a Vector3Stamped topic, sorted by stamp.
-
-    Decoded in batches (:func:`~gear_phm.codec.decode_vector3_stamped_buffer`); a topic with
-    a payload that decoder refuses is read again message by message with rosbags.
-    """
-    try:
-        with BagReader(path) as bag:
-            name = bag.require_topic(topic, VECTOR3_STAMPED_TYPE)
-            parts = [decode_vector3_stamped_buffer(batch.buffer, batch.offsets, batch.lengths)
-                     for batch in bag.raw_batches([name])]
-            if all(part is not None for part in parts):
-                decoded = [part for part in parts if part is not None]
-                stamps = np.concatenate([s for s, _ in decoded]) if decoded else np.zeros(0)
-                values = np.concatenate([v for _, v in decoded]) if decoded \
-                    else np.zeros((0, 3))
-            else:
-                rows = [(stamp_to_ns(m.header.stamp), m.vector.x, m.vector.y, m.vector.z)
-                        for _, _, m in bag.messages([name])]
-                stamps = np.array([r[0] for r in rows], dtype=np.int64)
-                values = np.array([r[1:] for r in rows], dtype=float).reshape(-1, 3)
-    except BagError as exc:
-        raise CliError(str(exc)) from None
-    if not stamps.size:
-        raise CliError(f'topic {topic} in {path} has no messages')
-    order = np.argsort(stamps, kind='stable')
-    return stamps[order] * 1e-9, values[order]
-
-
-def _levels(bag: Path, drive: str | None = None) -> tuple[np.ndarray, np.ndarray] | None:
-    """(stamps [s], levels) of the run's health states, or None without that topic."""
-    with BagReader(bag) as reader:
-        if reader.resolve_topic(_topic(HEALTH_EFFICIENCY, drive)) not in reader.topics:
-            return None
-    times, vectors = read_vector_topic(bag, _topic(HEALTH_EFFICIENCY, drive))
-    return times, vectors[:, field_index(HEALTH_LAYOUT, HEALTH_EFFICIENCY, 'level')]
-
-
-#: Columns of a truth CSV, in its header line.
-CSV_COLUMNS = ('time', 'true_eol')
-
-
-def read_truth_csv(path: Path) -> float:
-    """Return the true end of life [s] of a CSV ``time,true_eol`` [s]: its last row's.
-
-    The first line that is not empty nor a ``#`` comment is the header naming both columns;
-    every value must be a finite number, time >= 0 and true_eol > 0. Raises CliError naming
-    the file, line and column otherwise.
-    """
-    try:
-        with open(path, newline='', encoding='utf-8') as stream:
-            lines = [(number, row) for number, row in enumerate(csv.reader(stream), 1)
-                     if row and ''.join(row).strip() and not row[0].lstrip().startswith('#')]
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else exc
-        raise CliError(f'cannot read {path}: {reason}') from None
-    if not lines:
-        raise CliError(f'{path} holds no header {",".join(CSV_COLUMNS)} and no row')
-    number, header = lines[0]
-    names = [name.strip() for name in header]
-    missing = [name for name in CSV_COLUMNS if name not in names]
-    if missing:
-        raise CliError(f'{path} line {number}: the header must name the columns '
-                       f'{",".join(CSV_COLUMNS)}, got {",".join(header)!r} (missing '
-                       f'{", ".join(missing)})')
-    columns = [names.index(name) for name in CSV_COLUMNS]
-    eol = math.nan
-    for number, row in lines[1:]:
-        values = []
-        for name, column in zip(CSV_COLUMNS, columns):
-            text = row[column].strip() if column < len(row) else ''
-            try:
-                value = float(text)
-            except ValueError:
-                value = math.nan
-            low, bound = (0.0, '>= 0') if name == 'time' else (math.ulp(0.0), '> 0')
-            if not (math.isfinite(value) and value >= low):
-                raise CliError(f'{path} line {number} column {name}: expected a finite number '
-                               f'{bound} [s], got {text!r}')
-            values.append(value)
-        eol = values[1]
-    if math.isnan(eol):
-        raise CliError(f'{path} holds a header but no {",".join(CSV_COLUMNS)} row')
-    return eol
-
-
-def truth_eol(truth: Path, u_eol: float, drive: str | None = None) -> float:
-    """Return the true end of life [s], from a truth bag or a CSV (module docstring)."""
-    return truth_eol_and_span(truth, u_eol, drive)[0]
-
-
-def truth_eol_and_span(truth: Path, u_eol: float, drive: str | None = None
-                       ) -> tuple[float, tuple[float, float] | None]:
-    """Return :func:`truth_eol` and the truth's stamp range [s] (None for a CSV)."""
-    if truth.suffix.lower() == '.csv':
-        return read_truth_csv(truth), None
-    times, vectors = read_vector_topic(truth, _topic(TRUTH_FRICTION, drive))
-    index = true_end_of_life_index(vectors[:, 0], u_eol)
-    if index is None:
-        raise CliError(f'true u in {truth} never reaches u_eol = {u_eol:.4g} (max '
-                       f'{vectors[:, 0].max():.4g}): no end of life to score against')
-    return float(times[index]), (float(times[0]), float(times[-1]))
-
-
-def _bag_span(path: Path) -> tuple[float, float] | None:
-    """Return the first and last log time [s] of the bag ``path``, or None if unreadable."""
-    try:
-        with BagReader(path) as bag:
-            return bag.start_ns * 1e-9, bag.end_ns * 1e-9
-    except BagError:
-        return None
-
-
-def _config(args: argparse.Namespace, life: dict[str, Any] | None) -> HealthConfig:
-    """Health options, unset ones from ``life`` (else their defaults); CliError if invalid."""
-    values = health_values(args)
-    for name in LIFE_HEALTH:
-        if values[name] is None:
-            values.pop(name)
-            if life is not None:
-                values[name] = float(life[name])
-    ratio = args.ratio if args.ratio is not None else (
-        float(life['ratio']) if life is not None else RATIO.default)
-    try:
-        return HealthConfig(ratio=float(ratio), **values)
-    except (TypeError, ValueError) as exc:
-        raise CliError(str(exc)) from None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -312,24 +127,6 @@ def _check_options(args: argparse.Namespace) -> None:
         raise CliError(f'--t-start must be finite, got {args.t_start!r}')
 
 
-def _overlap(run: tuple[float, float], truth: tuple[float, float] | None,
-             path: Path) -> list[str]:
-    """Check that the run's stamps [s] overlap the truth's; return warnings if only partly.
-
-    Raises CliError when they do not overlap at all.
-    """
-    if truth is None:
-        return []
-    spans = (f"the run's predictions are stamped {run[0]:.6g}-{run[1]:.6g} s, the truth "
-             f'{path} {truth[0]:.6g}-{truth[1]:.6g} s')
-    if run[1] < truth[0] or run[0] > truth[1]:
-        raise CliError(f'{spans}: they do not overlap (not the same time base?)')
-    slack = 0.01 * (truth[1] - truth[0])      # a thinned truth topic ends a little early
-    if run[0] < truth[0] - slack or run[1] > truth[1] + slack:
-        return [f'{spans}: they overlap only partly']
-    return []
-
-
 def _warn(warnings: list[str]) -> None:
     for text in warnings:
         print(f'gear-phm evaluate: warning: {text}', file=sys.stderr)
@@ -338,63 +135,32 @@ def _warn(warnings: list[str]) -> None:
 def _run_one(args: argparse.Namespace) -> int:
     """Score one run (one transmission, or ``args.drive`` of many)."""
     _check_options(args)
-    life = read_life(args.truth) if args.life else None
-    config = _config(args, life)
-    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
-                             config.u_max)
-    bag = _find_bag(args.run, args.drive)
-    output = _output(args, bag)
-    times, values = read_vector_topic(bag, _topic(HEALTH_RUL, args.drive))
-    median, p5, p95 = (values[:, field_index(HEALTH_LAYOUT, HEALTH_RUL, f'rul.{name}')]
-                       for name in ('median', 'p5', 'p95'))
-    run_span = (float(times[0]), float(times[-1]))
-    same_eol = life is not None and math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9)
-    if same_eol and life is not None and (life['healthy'] or life['end_of_life_s'] is not None):
-        truth_span = _bag_span(args.truth)
-        warnings = _overlap(run_span, truth_span, args.truth)
-        if life['healthy']:
-            return _healthy(args, bag, output, median, u_eol, warnings)
-        t_eol = float(life['end_of_life_s'])
-    else:
-        t_eol, truth_span = truth_eol_and_span(args.truth, u_eol, args.drive)
-        warnings = _overlap(run_span, truth_span, args.truth)
-    if args.t_start is None and life is not None and life['onset_s'] is not None:
-        args.t_start = float(life['onset_s'])
-    before = times < t_eol
-    if not before.any():
-        raise CliError(f'no prediction before the true end of life at {t_eol:.6g} s')
-    levels = _levels(bag, args.drive)
     try:
-        metrics = evaluate(times[before], median[before], t_eol, args.alpha, args.lambdas,
-                           args.t_start)
-        start = float(metrics['t_start_s'])
-        share, counted = band_coverage(times, p5, p95, t_eol, args.band_from, start)
-        changes = () if levels is None else level_transitions(*levels, t_eol, start)
-        finite = finite_from(times[before], median[before], t_eol, start)
-        scores = None if life is None else acceptance(times, median, p5, p95, t_eol, start,
-                                                      levels, args.alpha)
-    except ValueError as exc:
+        life = read_life(args.truth) if args.life else None
+        config = health_config(health_values(args), args.ratio, life)
+        bag = find_bag(args.run, args.drive)
+        output = _output(args, bag)
+        result = evaluate_run(bag, args.truth, config, life=life, drive=args.drive,
+                              alpha=args.alpha, lambdas=args.lambdas,
+                              band_from=args.band_from, t_start=args.t_start)
+    except _REFUSALS as exc:
         raise CliError(str(exc)) from None
-    metrics['rul_finite_from'] = 'inf' if math.isinf(finite) else finite
-    metrics['band_coverage'] = {'from_lambda': args.band_from,
-                                'share': 'nan' if math.isnan(share) else share,
-                                'predictions': counted}
-    if levels is not None:
-        metrics['level_transitions'] = [
-            {'t': c.t, 'lam': c.lam, 'from': LEVEL_NAMES.get(c.before, str(c.before)),
-             'to': LEVEL_NAMES.get(c.after, str(c.after))} for c in changes]
-        metrics['error_before_eol'] = bool(np.any((levels[1] == ERROR) & (levels[0] < t_eol)))
-    if scores is not None:
-        metrics['acceptance'] = scores
-    last = max(c['lam'] for c in metrics['alpha_lambda'])
-    if times[-1] < start + last * (t_eol - start):
-        warnings.append(f"the run's last prediction at {times[-1]:.6g} s comes before lambda "
-                        f'{last:g} of the life ({start:.6g}-{t_eol:.6g} s): later checks '
-                        'score that prediction')
+    metrics, warnings = result.metrics, list(result.warnings)
     _warn(warnings)
     if warnings:
         metrics['warnings'] = warnings
-    _write(args, bag, output, metrics, u_eol)
+    _write(args, bag, output, metrics, result.u_eol)
+    if metrics.get('healthy'):
+        _print_healthy(metrics['acceptance']['healthy'], result.u_eol)
+    else:
+        _print_metrics(args, metrics, result.t_eol, result.u_eol)
+    print(f'metrics written to {output}')
+    return 0
+
+
+def _print_metrics(args: argparse.Namespace, metrics: dict[str, Any], t_eol: float,
+                   u_eol: float) -> None:
+    """Print the scores of a life with an end of life."""
     print(f'true end of life {t_eol:.6g} s (u_eol {u_eol:.4g}), {metrics["predictions"]} '
           f'predictions from {metrics["t_start_s"]:.6g} s')
     for check in metrics['alpha_lambda']:
@@ -405,17 +171,16 @@ def _run_one(args: argparse.Namespace) -> int:
     print(f'  prognostic horizon: {metrics["prognostic_horizon_s"]} s')
     print(f'  cumulative relative accuracy: {metrics["cumulative_relative_accuracy"]}')
     print(f'  RUL finite from lambda {metrics["rul_finite_from"]}')
-    print(f'  p5-p95 band holds the true RUL at {metrics["band_coverage"]["share"]} of '
-          f'{counted} predictions from lambda {args.band_from:g}')
-    if levels is not None:
+    band = metrics['band_coverage']
+    print(f'  p5-p95 band holds the true RUL at {band["share"]} of '
+          f'{band["predictions"]} predictions from lambda {args.band_from:g}')
+    if 'level_transitions' in metrics:
         steps = ', '.join(f'{c["from"]}>{c["to"]} at {c["t"]:.6g} s (lambda {c["lam"]:.3f})'
                           for c in metrics['level_transitions'])
         print(f'  health levels: {steps or "no change"}; ERROR before the true end of life: '
               f'{"YES" if metrics["error_before_eol"] else "no"}')
-    if scores is not None:
-        _print_acceptance(scores)
-    print(f'metrics written to {output}')
-    return 0
+    if 'acceptance' in metrics:
+        _print_acceptance(metrics['acceptance'])
 
 
 def _output(args: argparse.Namespace, bag: Path) -> Path:
@@ -479,22 +244,11 @@ def _write(args: argparse.Namespace, bag: Path, output: Path, metrics: dict[str,
         raise CliError(f'cannot write {output}: {exc.strerror or exc}') from None
 
 
-def _healthy(args: argparse.Namespace, bag: Path, output: Path, median: np.ndarray,
-             u_eol: float, warnings: list[str]) -> int:
-    """Score a healthy random life: RUL inf and level OK throughout."""
-    levels = _levels(bag, args.drive)
-    score = healthy_acceptance(median, None if levels is None else levels[1])
-    metrics: dict[str, Any] = {'healthy': True, 'predictions': score['predictions'],
-                               'acceptance': {'healthy': score}}
-    _warn(warnings)
-    if warnings:
-        metrics['warnings'] = warnings
-    _write(args, bag, output, metrics, u_eol)
+def _print_healthy(score: dict[str, Any], u_eol: float) -> None:
+    """Print the score of a healthy random life: RUL inf and level OK throughout."""
     print(f'healthy life (u_eol {u_eol:.4g}): {score["finite"]} of {score["predictions"]} '
           f'RUL predictions finite, levels {", ".join(score["levels_seen"]) or "none"}: '
           f'{"PASS" if score["passed"] else "FAIL"}')
-    print(f'metrics written to {output}')
-    return 0
 
 
 def _print_acceptance(scores: dict[str, Any]) -> None:

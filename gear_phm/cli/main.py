@@ -58,7 +58,7 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
-def _quiet_stop(default: Callable[[Any], object]) -> Callable[[Any], None]:
+def quiet_stop(default: Callable[[Any], object]) -> Callable[[Any], None]:
     """Return a ``sys.unraisablehook`` that does not print a swallowed recorded stop.
 
     A handler's SystemExit or KeyboardInterrupt that landed where Python cannot raise it (an
@@ -106,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command in STOPPED_ON_SIGTERM:
         signal.signal(signal.SIGTERM, functools.partial(_terminate, command=args.command))
         signal.signal(signal.SIGINT, _interrupt)
-        sys.unraisablehook = _quiet_stop(sys.unraisablehook)
+        sys.unraisablehook = quiet_stop(sys.unraisablehook)
     try:
         return int(args._run(args) or 0)
     except CliError as exc:

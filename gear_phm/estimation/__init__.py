@@ -5,14 +5,16 @@
 - :mod:`.windows`: energy windows within one phase -> efficiency -> pseudo-measurement of u.
 - :mod:`.kalman`: filterpy Kalman filter on [u, du/dt] with gating.
 - :mod:`.pipeline`: the whole estimator over batches of samples.
+- :mod:`.summary`: its final state and counters as a record.
 """
 from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.kalman import FrictionFilter, UpdateResult
 from gear_phm.estimation.pipeline import EstimatorPipeline, StatusSnapshot
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
+from gear_phm.estimation.summary import EstimatorSummary
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 
 __all__ = ['PARAMETERS', 'EnergyIntegrator', 'EstimatorConfig', 'EstimatorPipeline',
-           'FrictionEstimate', 'FrictionFilter', 'JointSample', 'Measurement', 'StatusSnapshot',
-           'UpdateResult', 'Window', 'classify', 'to_measurement']
+           'EstimatorSummary', 'FrictionEstimate', 'FrictionFilter', 'JointSample', 'Measurement',
+           'StatusSnapshot', 'UpdateResult', 'Window', 'classify', 'to_measurement']

@@ -29,6 +29,7 @@ from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
+from gear_phm.estimation.summary import stalled_stamps
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
@@ -95,21 +96,6 @@ OVER_UNITY_MIN = 5
 
 def _ns(seconds: float) -> int:
     return int(round(seconds * 1e9))
-
-
-def stalled_stamps(summary: dict[str, Any]) -> str:
-    """Return why the estimator has no measurement if its samples' stamps do not advance.
-
-    ``summary``: :meth:`EstimatorPipeline.summary`. No filter update yet, and at least half of
-    the samples seen repeated the stamp before them (``duplicate_stamp``): the publisher most
-    likely leaves ``header.stamp`` unset (0), and every sample after the first is dropped.
-    '' otherwise.
-    """
-    seen, repeated = summary['samples_seen'], summary['counts'].get('duplicate_stamp', 0)
-    if summary['filter_updates'] or not seen or 2 * repeated < seen:
-        return ''
-    return (f'the header stamps do not advance: {repeated} of {seen} samples repeat the '
-            f'stamp before them (is header.stamp set by the publisher?)')
 
 
 @dataclass(frozen=True)
@@ -1105,7 +1091,8 @@ class EstimatorPipeline:
         elif summary['filter_updates'] == 0 and summary['counts'].get('not_identifiable', 0):
             level, message = OK, NOT_IDENTIFIABLE
         elif summary['filter_updates'] == 0:
-            stalled = stalled_stamps(summary)
+            stalled = stalled_stamps(summary['samples_seen'], summary['filter_updates'],
+                                     summary['counts'].get('duplicate_stamp', 0))
             level, message = WARN, ('no efficiency measurement yet'
                                     + (f': {stalled}' if stalled else ''))
         elif gated:

@@ -23,8 +23,6 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, fields, replace
-import json
-import math
 import operator
 from pathlib import Path
 import sys
@@ -37,13 +35,16 @@ from gear_phm import codec, interfaces, stopping
 from gear_phm.errors import GearPhmError
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, FrictionEstimate,
                                  Measurement)
-from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT, stalled_stamps
+from gear_phm.estimation.pipeline import MESSAGE_REASON_TEXT
+from gear_phm.estimation.summary import EstimatorSummary
 from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
 from gear_phm.offline.parallel import (Assessed, Column, drives_for, Estimated, Finished,
                                        HealthHalf, LocalDrives, Made, start_plotter)
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
+from gear_phm.offline.summary import (DriveSummary, HealthSummary, RunInfo, RunSummary,
+                                      TrendSummary)
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,
                                  STAMP_SOURCE, TRANSMISSION_NAME)
 from gear_phm.prognostics import HealthAssessor, HealthConfig, HealthState, ShapePrior
@@ -224,9 +225,11 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
     ``stamp_source``: a sample's time is its JointState's ``header.stamp`` ('header', as the
     nodes) or the bag's record time of the message ('log': for a publisher that leaves the
     header unset).
+    ``Analysis.summary`` is a :class:`~gear_phm.offline.summary.DriveSummary` (one
+    transmission) or a :class:`~gear_phm.offline.summary.RunSummary` (``transmissions``).
     Raises :class:`AnalysisError` on bad input (a bad transmissions list included), and when
-    the stamps do not advance (:func:`~gear_phm.estimation.pipeline.stalled_stamps`: no
-    measurement at all; ``stamp_source='log'`` is then the remedy), and
+    the stamps do not advance (:meth:`~gear_phm.estimation.summary.EstimatorSummary.
+    stalled_stamps`: no measurement at all; ``stamp_source='log'`` is then the remedy), and
     :class:`~gear_phm.offline.parallel.ParallelError` if a drive's worker process dies.
     """
     if not isinstance(topic, str) or not topic:
@@ -251,8 +254,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
                 or not motor_joint or not load_joint or motor_joint == load_joint:
             raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty '
                                 f'names, got {motor_joint!r} and {load_joint!r}')
-        runs = [_Run(estimator_config, health_config, motor_joint, load_joint, topic,
-                     transmission_name, hardware_id, history, prior)]
+        runs = [DriveRun(estimator_config, health_config, motor_joint, load_joint, topic,
+                         transmission_name, hardware_id, history, prior)]
     else:
         given = [name for name, value, default in zip(DRIVE_OWN, (
             ratio, motor_joint, load_joint, transmission_name, hardware_id), (
@@ -264,15 +267,15 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         for drive in _drives(transmissions):
             estimator_config, health_config = split_options(
                 drive.ratio, {**options, **drive.offline_options()})
-            runs.append(_Run(estimator_config, health_config, drive.motor_joint,
-                             drive.load_joint, topic, drive.name, drive.name, history, prior,
-                             drive=drive.name))
+            runs.append(DriveRun(estimator_config, health_config, drive.motor_joint,
+                                 drive.load_joint, topic, drive.name, drive.name, history, prior,
+                                 drive=drive.name))
     paths = [path_or_paths] if isinstance(path_or_paths, (str, Path)) else list(path_or_paths)
     if not paths:
         raise AnalysisError('no bag given')
     bags = order_bags(paths)
     target = None if out is None else _check_out(Path(out), overwrite, bags)
-    stream = _Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
+    stream = Stream(runs, topic, diagnostics_rate, plot, stamp_source, _jobs(jobs))
     # the plots' process imports matplotlib meanwhile; not where drive workers may draw them
     plotter = (start_plotter() if plot and target is not None
                and (len(runs) == 1 or stream.jobs == 1) else None)
@@ -288,7 +291,8 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         for end in finished:
             if end.refusal:
                 raise AnalysisError(end.refusal)
-        stalled = stalled_stamps(analyses[0].summary)     # the drives share the stamps
+        summaries = [_drive_summary(analysis) for analysis in analyses]
+        stalled = summaries[0].estimator.stalled_stamps()     # the drives share the stamps
         if stalled:
             remedy = ("; analyse on the bag's record times instead: stamp_source='log' "
                       '(gear-phm analyze --stamp-source log)' if stamp_source == 'header'
@@ -297,25 +301,18 @@ def analyze_bag(path_or_paths: str | Path | Sequence[str | Path], ratio: float |
         # no filter update: the filter's prior is no estimate of the gearbox. One drive (or
         # every drive): an error. A bench's drive that did not move while others did: its
         # summary says so and its level is STALE, as the live node's for a drive without data
-        idle = [(run, analysis, why) for run, analysis in zip(runs, analyses)
-                if (why := _unmeasured(analysis.summary))]
-        if idle and len(idle) == len(runs):
-            run, _, why = idle[0]
+        if all(summary.no_measurement for summary in summaries):
+            run, why = runs[0], summaries[0].no_measurement
             which = '' if run.drive is None else \
                 f'{"no drive has one; " if len(runs) > 1 else ""}drive {run.drive}: '
             raise AnalysisError(f'topic {topic}: no efficiency measurement, {which}{why}')
-        for _, analysis, why in idle:
-            analysis.summary['no_measurement'] = why
-            analysis.summary['health'] = {**analysis.summary['health'], 'level': 'STALE',
-                                          'message': f'no efficiency measurement: {why}'}
         if transmissions is None:
             analysis = analyses[0]
         else:
             analysis = _combined(stream, analyses, bags, readers, elapsed)
         if staged is not None:
             written = staged.path
-            (written / 'summary.json').write_text(
-                json.dumps(analysis.summary, indent=2, default=_json) + '\n')
+            (written / 'summary.json').write_text(analysis.summary.to_json() + '\n')
             if plot:
                 pngs = [written / ('analysis.png' if run.drive is None
                                    else f'analysis_{run.drive}.png') for run in runs]
@@ -343,22 +340,14 @@ def _jobs(jobs: Any) -> int:
     return jobs
 
 
-def _unmeasured(summary: dict[str, Any]) -> str:
-    """Return why a run made no filter update, from its summary ('' if it made one).
-
-    The samples' reasons (SAMPLE_REASONS counts) and the windows' (too short, too little
-    energy, gated): with no update, u is the filter's prior, not an estimate.
-    """
-    if summary['filter_updates']:
-        return ''
-    counts = {name: count for name, count in summary['counts'].items() if count}
-    reasons = ', '.join(f'{name} {count}' for name, count in sorted(
-        counts.items(), key=lambda item: -item[1])) or 'none counted'
-    return (f"{summary['samples_seen']} samples, {summary['samples_used']} used, "
-            f"{summary.get('windows_measured', 0)} windows measured (rejections: {reasons})")
+def _drive_summary(analysis: Analysis) -> DriveSummary:
+    """Return the summary of one transmission's Analysis (each run's own)."""
+    summary = analysis.summary
+    assert isinstance(summary, DriveSummary), 'a run of one drive'
+    return summary
 
 
-def _refusal(run: _Run) -> str:
+def _refusal(run: DriveRun) -> str:
     """Return why a run's data contradict its parameters ('' when they do not).
 
     The estimator's checks (ratio against the speeds, energy out above energy in, a reversed
@@ -397,18 +386,15 @@ def _drives(transmissions: Any) -> tuple[Transmission, ...]:
     return drives
 
 
-def _combined(stream: _Stream, analyses: list[Analysis], bags: list[Path],
+def _combined(stream: Stream, analyses: list[Analysis], bags: list[Path],
               readers: list[str], elapsed: float) -> Analysis:
     """Return the Analysis of many drives: the combined summary, each drive's Analysis."""
-    messages = analyses[0].summary['messages']
-    one = len(bags) == 1
-    summary = {'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': stream.topic,
-               'messages': messages, 'reader': readers[0] if one else readers,
-               'seconds': elapsed,
-               'samples_per_second': messages / elapsed if elapsed > 0 else math.inf,
-               'workers': 0 if stream.drives is None else stream.drives.workers,
-               'transmissions': {run.drive: analysis.summary
-                                 for run, analysis in zip(stream.runs, analyses)}}
+    drives = {str(run.drive): _drive_summary(analysis)
+              for run, analysis in zip(stream.runs, analyses)}
+    messages = next(iter(drives.values())).run.messages
+    summary = RunSummary(RunInfo(tuple(str(b) for b in bags), stream.topic, messages,
+                                 tuple(readers), elapsed),
+                         0 if stream.drives is None else stream.drives.workers, drives)
     return Analysis(EstimateHistory.of([]), HealthHistory.of([]), summary, (), {},
                     transmissions={str(run.drive): analysis
                                    for run, analysis in zip(stream.runs, analyses)})
@@ -452,8 +438,8 @@ def _analysis_files(name: str, entry: Path) -> bool:
         and file[len(name) + 1:-len('.mcap')].isdigit())
 
 
-class _Run:
-    """One analysis: the pipeline, the assessor and what they produced."""
+class DriveRun:
+    """One drive's run: the pipeline, the assessor and what they produced."""
 
     def __init__(self, estimator_config: EstimatorConfig, health_config: HealthConfig,
                  motor_joint: str, load_joint: str, topic: str, transmission_name: str,
@@ -512,7 +498,7 @@ class _Run:
         summary = self._summary(bags, readers, elapsed)
         return self._analysis(summary)
 
-    def _analysis(self, summary: dict[str, Any]) -> Analysis:
+    def _analysis(self, summary: DriveSummary) -> Analysis:
         """Return the Analysis of what was kept."""
         estimates = (EstimateHistory(**self.estimates.first()) if self.estimates.count
                      else EstimateHistory.of([]))
@@ -578,7 +564,7 @@ class _Run:
                             {'stamp_ns': stamps[chosen], 'eta': eta[chosen]})
         self.pending.clear()
 
-    def _keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
+    def keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
         """Add ground-truth rows (stamps [ns], x, y, z) of topic ``name``."""
         columns = {'stamp_ns': stamps, 'x': values[:, 0], 'y': values[:, 1],
                    'z': values[:, 2]}
@@ -708,35 +694,30 @@ class _Run:
         self.first_seen.setdefault(LEVEL_NAMES[latest.level], stamp_ns)
         return (interfaces.health_status(latest, self.transmission_name, self.hardware_id),)
 
-    def _summary(self, bags: list[Path], readers: list[str], elapsed: float
-                 ) -> dict[str, Any]:
-        summary = self.pipeline.summary()
+    def _summary(self, bags: list[Path], readers: list[str], elapsed: float) -> DriveSummary:
+        """Return the run's summary, complete (STALE for a run with no filter update)."""
+        estimator = EstimatorSummary.from_dict(self.pipeline.summary())
+        windows = self.measurements.count
+        why = estimator.unmeasured(windows)
         latest = self.assessor.latest
-        dropped = dict(self.assessor.rejected)
+        first_seen, dropped = dict(self.first_seen), dict(self.assessor.rejected)
         if latest is None:
-            health: dict[str, Any] = {'level': 'none', 'first_seen_ns': self.first_seen,
-                                      'dropped': dropped}
+            health = HealthSummary('none', first_seen, dropped)
         else:
             trend = self.assessor.predictor.trend
-            health = {'level': LEVEL_NAMES[latest.level], 'message': latest.message,
-                      'values': dict(interfaces.health_key_values(latest)),
-                      'first_seen_ns': self.first_seen, 'dropped': dropped,
-                      'trend': {'model': trend.model, 'shape': trend.shape,
-                                'u_eol': self.assessor.u_eol}}
-        one = len(bags) == 1
-        summary.update({
-            'bag': str(bags[0]) if one else [str(b) for b in bags], 'topic': self.topic,
-            'messages': self.samples, 'reader': readers[0] if one else readers,
-            'seconds': elapsed,
-            'samples_per_second': self.samples / elapsed if elapsed > 0 else math.inf,
-            'windows_measured': self.measurements.count,
-            'config': self.estimator_config.as_dict(), 'health': health,
-        })
-        return summary
+            health = HealthSummary(
+                LEVEL_NAMES[latest.level], first_seen, dropped, latest.message,
+                dict(interfaces.health_key_values(latest)),
+                TrendSummary(trend.model, trend.shape, self.assessor.u_eol))
+        if why:     # the filter's prior is no estimate of the gearbox: no health level
+            health = replace(health, level='STALE', message=f'no efficiency measurement: {why}')
+        run = RunInfo(tuple(str(b) for b in bags), self.topic, self.samples, tuple(readers),
+                      elapsed)
+        return DriveSummary(estimator, run, windows, self.estimator_config, health, why or None)
 
 
-class _Stream:
-    """One JointState stream read once for one or many drives (:class:`_Run` each).
+class Stream:
+    """One JointState stream read once for one or many drives (:class:`DriveRun` each).
 
     One drive with ``drive`` None is today's single transmission: its outputs, statuses and
     summary are those of the nodes. Each batch is decoded once for all drives
@@ -744,7 +725,7 @@ class _Stream:
     array with every drive's estimator and health status.
     """
 
-    def __init__(self, runs: Sequence[_Run], topic: str, diagnostics_rate: float,
+    def __init__(self, runs: Sequence[DriveRun], topic: str, diagnostics_rate: float,
                  want_truth: bool, stamp_source: str = str(STAMP_SOURCE.default),
                  jobs: int = 1) -> None:
         self.runs = list(runs)
@@ -840,7 +821,7 @@ class _Stream:
                 upcoming = next(batches, None)
                 if drives.ahead:
                     submit(upcoming)
-                self._write(drives.collect(), current.ticks, writer)
+                self.write_batch(drives.collect(), current.ticks, writer)
                 bar.update(current.messages)
                 last_log_ns = current.last_log_ns
                 if not drives.ahead:
@@ -901,10 +882,10 @@ class _Stream:
             raise AnalysisError(msg)
         return _Prepared(decoded, len(raw), cuts, ticks, int(times[-1]))
 
-    def _write(self, made: list[Made], ticks: list[int], writer: Any) -> None:
+    def write_batch(self, made: list[Made], ticks: list[int], writer: Any) -> None:
         """Write one batch: each status after the outputs of the estimates before its mark.
 
-        ``made``: each drive's outputs and statuses (:meth:`_Run.advance`); ``ticks`` are the
+        ``made``: each drive's outputs and statuses (:meth:`DriveRun.advance`); ``ticks`` are the
         /diagnostics times [ns] of bag time inside the batch; the statuses report the state
         after the messages logged before each (marks of the pipeline, not cuts of the batch).
         """
@@ -981,12 +962,6 @@ def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHis
              np.column_stack([source[name] if name in source else getattr(history, name)
                               for name in names]).astype(float))
             for topic, names in interfaces.estimate_layout(no_load)]
-
-
-def _json(value: Any) -> Any:
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    return str(value)
 
 
 class _NoProgress:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 import csv
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 import json
 import math
 from pathlib import Path
@@ -33,6 +33,8 @@ import numpy as np
 from gear_phm import stopping
 from gear_phm.errors import GearPhmError
 from gear_phm.interfaces import JOINT_STATES
+from gear_phm.offline.records import Analysis
+from gear_phm.offline.summary import DriveSummary
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
                                  ParamSpec, RATIO, STAMP_SOURCE, TRANSMISSION_NAME)
 from gear_phm.prognostics import ShapePrior
@@ -62,8 +64,8 @@ UNIT_SPECS = (RATIO, MOTOR_JOINT, LOAD_JOINT, TRANSMISSION_NAME, HARDWARE_ID,
               ParamSpec('topic', JOINT_STATES, 'the JointState topic'))
 
 
-def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
-    """Return the fleet's wear-law prior from its units' analyses (summary.json dicts), or None.
+def population_prior(summaries: Sequence[DriveSummary | None]) -> ShapePrior | None:
+    """Return the fleet's wear-law prior from its units' summaries (None: a failed unit), or None.
 
     The units at end of life (u >= u_eol) whose fitted law has a shape (exponential, power or
     proportional) vote; the law of most votes, with at least :data:`PRIOR_MIN_UNITS`, gives
@@ -72,11 +74,9 @@ def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
     """
     shapes: dict[str, list[float]] = {}
     for summary in summaries:
-        if not _at_end_of_life(summary):
-            continue
-        trend = summary['health']['trend']
-        if trend['model'] in SHAPED and trend['shape'] > 0.0:
-            shapes.setdefault(trend['model'], []).append(math.log(trend['shape']))
+        trend = None if summary is None or not summary.at_end_of_life else summary.health.trend
+        if trend is not None and trend.model in SHAPED and trend.shape > 0.0:
+            shapes.setdefault(trend.model, []).append(math.log(trend.shape))
     if not shapes:
         return None
     model, logs = max(shapes.items(), key=lambda item: (len(item[1]), item[0]))
@@ -86,9 +86,8 @@ def population_prior(summaries: Sequence[dict[str, Any]]) -> ShapePrior | None:
     return ShapePrior(model, float(np.mean(logs)), max(spread, PRIOR_MIN_LOG_SIGMA))
 
 
-def _at_end_of_life(summary: dict[str, Any]) -> bool:
-    trend = summary.get('health', {}).get('trend')
-    return bool(trend) and summary.get('u', -math.inf) >= trend.get('u_eol', math.inf)
+def _at_end_of_life(summary: DriveSummary | None) -> bool:
+    return summary is not None and summary.at_end_of_life
 
 
 class FleetError(GearPhmError, ValueError):
@@ -102,9 +101,9 @@ class UnitResult:
     row: dict[str, Any]
     trend: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
     peak_rss_mib: float
-    #: The analysis's summary.json (without it for a FAILED unit): the fitted wear law
+    #: The analysis's summary (None for a FAILED unit): the fitted wear law
     #: (``health.trend``) feeds :func:`population_prior`.
-    summary: dict[str, Any] = field(default_factory=dict)
+    summary: DriveSummary | None = None
     #: The population prior the unit was analysed with (None: none).
     prior: ShapePrior | None = None
 
@@ -262,18 +261,18 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
             for drive, drive_analysis in analysis.transmissions.items()]
 
 
-def _result(name: str, recordings: int, analysis: Any, peak: float,
+def _result(name: str, recordings: int, analysis: Analysis, peak: float,
             prior: ShapePrior | None) -> UnitResult:
     """Return the row of one transmission's Analysis (a unit's, or one drive of a unit)."""
     s = analysis.summary
-    health = s['health']
-    values = health.get('values', {})
+    assert isinstance(s, DriveSummary), 'one transmission'
+    health, estimator = s.health, s.estimator
     row = {'unit': name, 'recordings': recordings,
-           'operating_time_s': float(s.get('operating_time_s', math.nan)),
-           'u': float(s['u']), 'u_sigma': float(s['sigma_u']),
-           'eta_opposing': float(s['eta_opposing']), 'eta_aiding': float(s['eta_aiding']),
-           **{key: float(values.get(key, 'nan')) for key in HEALTH_VALUES},
-           'level': health['level'], 'reason': health.get('message', '')}
+           'operating_time_s': estimator.operating_time_s,
+           'u': estimator.u, 'u_sigma': estimator.sigma_u,
+           'eta_opposing': estimator.eta_opposing, 'eta_aiding': estimator.eta_aiding,
+           **{key: health.value(key) for key in HEALTH_VALUES},
+           'level': health.level, 'reason': health.message or ''}
     e = analysis.estimates
     keep = np.unique(np.linspace(0, e.u.size - 1, min(TREND_POINTS, e.u.size)).astype(int))
     clock = e.operating_time if np.all(np.isfinite(e.operating_time)) else e.t - e.t[0]

@@ -1,7 +1,7 @@
 """The drives of one stream over the machine's cores: each drive's work in a worker process.
 
 A bag's drives are independent once each message is decoded: each has its own estimator and
-assessor (:class:`gear_phm.offline.engine._Run`). The stream reads and decodes each batch
+assessor (:class:`gear_phm.offline.engine.DriveRun`). The stream reads and decodes each batch
 once, in the calling process, and hands each drive its columns; it then writes what the
 drives made, in drive order, as :class:`Made` records. :class:`LocalDrives` runs the drives
 in the calling process; :class:`DrivePool` in worker processes, each owning a fixed share of
@@ -87,7 +87,7 @@ class Made:
 
 @dataclass(frozen=True)
 class Estimated:
-    """The estimator's half of what one drive made of one batch (``_Run.estimate``).
+    """The estimator's half of what one drive made of one batch (``DriveRun.estimate``).
 
     ``ends[i]``: its estimates before /diagnostics tick ``i``; ``statuses[i]``: the
     estimator's status there; ``limits[i]``: the stamp [ns] of the last estimate before it
@@ -113,7 +113,7 @@ class Estimated:
 
 @dataclass(frozen=True)
 class Assessed:
-    """The assessor's half of what one drive made of one batch (``_Run.assess``).
+    """The assessor's half of what one drive made of one batch (``DriveRun.assess``).
 
     ``statuses[i]``: the health status at /diagnostics tick ``i`` (none before a state);
     ``columns``: the health states' outputs (if written); ``state_ends[i]``: the states
@@ -145,12 +145,12 @@ class Finished:
 
 
 class DriveRun(Protocol):
-    """One drive's estimator and assessor (:class:`gear_phm.offline.engine._Run`)."""
+    """One drive's estimator and assessor (:class:`gear_phm.offline.engine.DriveRun`)."""
 
     def advance(self, decoded: JointBatch, messages: int, cuts: list[int], ticks: list[int],
                 write: bool) -> Made: ...
 
-    def _keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None: ...
+    def keep_truth(self, name: str, stamps: np.ndarray, values: np.ndarray) -> None: ...
 
     def final_statuses(self, stamp_ns: int) -> tuple[StatusOut, ...]: ...
 
@@ -207,7 +207,7 @@ class LocalDrives:
 
     def keep_truth(self, index: int, name: str, stamps: np.ndarray, values: np.ndarray) -> None:
         """Give drive ``index`` ground-truth rows (stamps [ns], x, y, z) of topic ``name``."""
-        self.runs[index]._keep_truth(name, stamps, values)
+        self.runs[index].keep_truth(name, stamps, values)
 
     def final(self, stamp_ns: int) -> list[tuple[StatusOut, ...]]:
         """Return each drive's statuses of the final /diagnostics array at ``stamp_ns``."""

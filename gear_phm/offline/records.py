@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from gear_phm.estimation import FrictionEstimate, Measurement
+from gear_phm.offline.summary import Summary
 from gear_phm.prognostics import HealthState
 
 
@@ -185,11 +186,16 @@ class MeasuredWindows(Sequence[tuple[int, Measurement, bool]]):
 
 @dataclass(frozen=True)
 class Analysis:
-    """Result of :func:`analyze_bag`: histories, the JSON summary, and where it was written."""
+    """Result of :func:`analyze_bag`: histories, the summary, and where it was written.
+
+    ``summary``: one transmission's :class:`~gear_phm.offline.summary.DriveSummary`, or for
+    many drives the :class:`~gear_phm.offline.summary.RunSummary` of them all (summary.json
+    is its ``to_json()``).
+    """
 
     estimates: EstimateHistory
     health: HealthHistory
-    summary: dict[str, Any]
+    summary: Summary
     #: (stamp of the window end [ns], the window's measurement, accepted by the filter) of
     #: the windows kept (up to 2 ``history``: each bin's first), built on reading
     measurements: Sequence[tuple[int, Measurement, bool]]
