@@ -21,7 +21,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gear_phm.cli.evaluate import read_vector_topic  # noqa: E402
+from gear_phm.bagio.series import read_vector_topic  # noqa: E402
 
 SETTLE_S = 120.0
 SETTLE_SHARE = 0.05
