@@ -8,6 +8,7 @@ import pytest
 
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.parameters import ParamSpec
+from helpers.params import other_value
 from helpers.plant import lever_plant
 
 #: The lever plant of the tests: u = 0.1, 100 Hz, the node test's noise figures.
@@ -30,19 +31,6 @@ def learned() -> EstimatorPipeline:
     return pipeline
 
 
-def other_value(spec: ParamSpec) -> object:
-    """Return a valid value of ``spec`` other than CONFIG's."""
-    value = getattr(CONFIG, spec.name)
-    if spec.kind is bool:
-        return not value
-    if spec.choices:
-        return next(choice for choice in spec.choices if choice != value)
-    if spec.kind is int:
-        return value + 1 if spec.high is None or value + 1 <= spec.high else value - 1
-    changed = 1.5 * value if value else 1e-3
-    return min(changed, spec.high) if spec.high is not None else changed
-
-
 def test_the_structural_settings_are_the_read_only_ones() -> None:
     assert [s.name for s in PARAMETERS if s.read_only] == [
         'ratio', 'motor_inertia', 'motor_effort_sign', 'load_effort_sign']
@@ -54,7 +42,7 @@ def test_each_live_setting_keeps_the_learned_state(spec: ParamSpec) -> None:
     before = pipeline.to_state()
     u, p = pipeline.filter.x[0], pipeline.filter.P[0, 0]
     assert abs(u - 0.1) < 0.01 and p < 1e-4                     # learned, far from the prior
-    config = CONFIG.replace(**{spec.name: other_value(spec)})
+    config = CONFIG.replace(**{spec.name: other_value(spec, getattr(CONFIG, spec.name))})
     pipeline.reconfigure(config)
     assert pipeline.config == config
     assert pipeline.filter.x[0] == u and pipeline.filter.P[0, 0] == p

@@ -7,8 +7,10 @@ import pytest
 
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies
+from gear_phm.parameters import ParamSpec
 from gear_phm.prognostics import HealthAssessor, HealthConfig, PARAMETERS
 from gear_phm.status import OK, WARN
+from helpers.params import other_value
 
 CONFIG = HealthConfig(ratio=3.0, warn_horizon=600.0, level_dwell=0.0, mc_samples=500)
 LIVE = [spec for spec in PARAMETERS if not spec.read_only]
@@ -35,29 +37,17 @@ def learned(config: HealthConfig = CONFIG) -> HealthAssessor:
     return assessor
 
 
-def other_value(name: str) -> object:
-    value = getattr(CONFIG, name)
-    table = {'eta_warn': 0.8, 'eta_opposing_min': 0.55, 'trend': 'linear', 'u_max': 0.5}
-    if name in table:
-        return table[name]
-    if isinstance(value, bool):
-        return not value
-    if isinstance(value, int):
-        return value + 1
-    spec = next(s for s in PARAMETERS if s.name == name)
-    return min(1.5 * value, spec.high) if spec.high is not None else 1.5 * value
-
-
 def test_only_the_ratio_is_structural() -> None:
     assert [s.name for s in PARAMETERS if s.read_only] == ['ratio']
 
 
-@pytest.mark.parametrize('name', [s.name for s in LIVE])
-def test_each_live_setting_keeps_the_history_and_the_levels(name: str) -> None:
+@pytest.mark.parametrize('spec', LIVE, ids=[s.name for s in LIVE])
+def test_each_live_setting_keeps_the_history_and_the_levels(spec: ParamSpec) -> None:
+    name = spec.name
     assessor = learned()
     before = assessor.to_state()
     assert before['levels']['eta_healthy'] != 'nan'               # learned
-    config = CONFIG.replace(**{name: other_value(name)})
+    config = CONFIG.replace(**{name: other_value(spec, getattr(CONFIG, name))})
     assessor.reconfigure(config)
     assert assessor.config == config
     after = assessor.to_state()
