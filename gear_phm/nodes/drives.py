@@ -39,26 +39,23 @@ def declare_transmissions(node: Node) -> list[str]:
 
 
 def declare_string_array(node: Node, name: str, description: str) -> list[str]:
-    """Declare a string array parameter, default empty, read at start only; its value.
+    """Declare a read-only string array parameter, default empty; its value.
 
-    rclpy types an empty default as a byte array, so the parameter is declared by type and
-    set to an empty string array when not given; changes after start are refused.
+    rclpy types an empty default as a byte array, so the parameter is declared by type, set to
+    an empty string array when not given, and then made read-only (its descriptor): a change
+    after start is refused by rclpy with its reason.
     """
     descriptor = ParameterDescriptor(description=f'{description} (read at start only)')
     try:
         value = node.declare_parameter(name, Parameter.Type.STRING_ARRAY, descriptor).value
         if value is None:
             node.set_parameters([Parameter(name, Parameter.Type.STRING_ARRAY, [])])
+        node.set_descriptor(name, ParameterDescriptor(
+            description=descriptor.description, read_only=True,
+            type=Parameter.Type.STRING_ARRAY.value))
     except ParameterException as exc:
         msg = f'parameter {name}: {" ".join(str(exc).split())}'
         raise ConfigError(msg) from None
-
-    def refuse(params: Sequence[Any]) -> SetParametersResult:
-        if any(p.name == name for p in params):
-            return SetParametersResult(successful=False,
-                                       reason=f'{name}: read at start only; restart the node')
-        return SetParametersResult(successful=True)
-    node.add_on_set_parameters_callback(refuse)
     return list(value or [])
 
 

@@ -320,8 +320,9 @@ class HealthAssessor:
         The RUL history and fit, the utilisation, the NIS window, the level latches, the
         learned healthy eta_D and the latest state go on (:meth:`to_state`, rebuilt with
         ``config``, :meth:`from_state`); end of life, the thresholds, dwells and windows are
-        the new ones from the next estimate on, an eta_warn left NaN is derived anew from the
-        learned eta_healthy, and a change of what the fit depends on (end of life, trend,
+        the new ones from the next estimate on (the latest state shows the new end-of-life u
+        and eta_warn at once), an eta_warn left NaN is derived anew from the learned
+        eta_healthy, and a change of what the fit depends on (end of life, trend,
         detect_z, eta_accuracy, the draws) refits at the next estimate. Raises ValueError
         when the ratio differs: the history is of one gearbox (:meth:`reset` instead).
         """
@@ -336,6 +337,9 @@ class HealthAssessor:
         if any(getattr(old, name) != getattr(config, name) for name in _FIT_SETTINGS) \
                 or fresh.u_eol != self.u_eol:
             fresh.predictor.refit_soon()
+        if fresh.latest is not None:        # the status shows the thresholds in force
+            fresh.latest = replace(fresh.latest, u_eol=fresh.u_eol,
+                                   eta_warn=fresh.levels.eta_warn)
         self.config, self.u_eol, self.eol_reason = config, fresh.u_eol, fresh.eol_reason
         self.predictor, self.divergence, self.levels = (fresh.predictor, fresh.divergence,
                                                         fresh.levels)

@@ -8,6 +8,7 @@ import pytest
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies
 from gear_phm.parameters import ParamSpec
+from gear_phm.persistence import encode_float
 from gear_phm.prognostics import HealthAssessor, HealthConfig, PARAMETERS
 from gear_phm.status import OK, WARN
 from helpers.params import other_value
@@ -52,7 +53,12 @@ def test_each_live_setting_keeps_the_history_and_the_levels(spec: ParamSpec) -> 
     assert assessor.config == config
     after = assessor.to_state()
     assert after['predictor']['history'] == before['predictor']['history']
-    assert after['levels'] == before['levels'] and after['latest'] == before['latest']
+    assert after['levels'] == before['levels']
+    # the latest state, with the end of life and WARN efficiency now in force
+    assert after['latest']['u_eol'] == assessor.u_eol
+    assert after['latest']['eta_warn'] == encode_float(assessor.levels.eta_warn)
+    same = {'u_eol': 0, 'eta_warn': 0}
+    assert {**after['latest'], **same} == {**before['latest'], **same}
     assert after['utilisation'] == before['utilisation']
     states = run(assessor, 1500, 1600)
     assert states[0].eta_healthy == assessor.levels.eta_healthy == pytest.approx(
