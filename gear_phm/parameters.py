@@ -161,6 +161,19 @@ def read_only_changes(specs: Iterable[ParamSpec], old: Mapping[str, object],
     return changed
 
 
+def refuse_read_only_changes(specs: Iterable[ParamSpec], old: Mapping[str, object],
+                             new: Mapping[str, object], instead: str) -> None:
+    """Raise ValueError naming the read-only specs that differ (:func:`read_only_changes`).
+
+    ``instead``: what to do instead, e.g. 'start a new pipeline'.
+    """
+    changed = read_only_changes(specs, old, new)
+    if changed:
+        msg = (f'cannot reconfigure {", ".join(changed)}: the learned state depends on '
+               f'{"them" if len(changed) > 1 else "it"}; {instead}')
+        raise ValueError(msg) from None
+
+
 def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
     """``{name: default}``."""
     return {spec.name: spec.default for spec in specs}

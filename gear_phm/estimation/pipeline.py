@@ -31,7 +31,7 @@ from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
-from gear_phm.parameters import read_only_changes
+from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.status import format_values, OK, StatusOut, WARN
 
@@ -236,11 +236,8 @@ class EstimatorPipeline:
         and a new pipeline instead).
         """
         old = self.config
-        changed = read_only_changes(PARAMETERS, old.as_dict(), config.as_dict())
-        if changed:
-            msg = (f'cannot reconfigure {", ".join(changed)}: the learned state depends on '
-                   f'{"them" if len(changed) > 1 else "it"}; start a new pipeline')
-            raise ValueError(msg) from None
+        refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
+                                 'start a new pipeline')
         state = self.to_state()
         kept = (self._status_mark, self.timed_out)
         self.config = config

@@ -26,7 +26,7 @@ import numpy as np
 
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies, efficiencies_array, readings, readings_array
-from gear_phm.parameters import read_only_changes
+from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig, PARAMETERS
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
@@ -327,11 +327,8 @@ class HealthAssessor:
         when the ratio differs: the history is of one gearbox (:meth:`reset` instead).
         """
         old = self.config
-        changed = read_only_changes(PARAMETERS, old.as_dict(), config.as_dict())
-        if changed:
-            msg = (f'cannot reconfigure {", ".join(changed)}: the learned state depends on '
-                   f'{"them" if len(changed) > 1 else "it"}; start a new assessor')
-            raise ValueError(msg) from None
+        refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
+                                 'start a new assessor')
         fresh = HealthAssessor(config, self.predictor.prior)
         fresh.from_state(self.to_state())
         if any(getattr(old, name) != getattr(config, name) for name in _FIT_SETTINGS) \
