@@ -36,8 +36,8 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
 #: The plant: u = 0.1, 100 Hz; one period of its duty cycle is 40 s.
 RUN = lever_plant(3, 40.0, 0.1, rate=100.0)
 ESTIMATOR_ARGS = ('ratio:=3.0', 'motor_torque_noise:=0.05', 'load_torque_noise:=0.05',
-                  'motor_inertia:=0.01', 'diagnostics_period:=0.2', 'state_save_period:=0.3')
-DIAGNOSTICS_ARGS = ('ratio:=3.0', 'rate:=5.0', 'state_save_period:=0.3')
+                  'motor_inertia:=0.01', 'diagnostics_period:=0.1', 'state_save_period:=0.3')
+DIAGNOSTICS_ARGS = ('ratio:=3.0', 'rate:=10.0', 'state_save_period:=0.3')
 ESTIMATOR_SPECS = {s.name: s for s in ESTIMATOR_PARAMETERS + estimator.NODE_PARAMETERS}
 DIAGNOSTICS_SPECS = {s.name: s for s in HEALTH_PARAMETERS + diagnostics.NODE_PARAMETERS}
 
@@ -237,9 +237,9 @@ def test_no_jump_back_to_the_prior_on_a_running_stream(rig: Rig) -> None:
     changes = [('gate_threshold', 12.0), ('publish_rate', 5.0), ('window', 0.8),
                ('frame_id', 'running'), ('motor_torque_noise', 0.06)]
     for name, value in changes:             # 2 s of stream between two sets, no pause
-        rig.feed(2.0, rate=1000.0)
+        rig.feed(2.0)
         assert rig.set_one('estimator', name, value).successful, name
-    last = rig.feed(4.0, rate=1000.0)
+    last = rig.feed(4.0)
     rig.driver.wait(lambda: rig.driver.stamps[FRICTION][-1] >= last - 10 ** 9, 20.0,
                     'outputs to the end')
     outputs = rig.driver.messages[FRICTION][first:]
