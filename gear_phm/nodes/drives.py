@@ -112,8 +112,16 @@ def _check_overrides(node: Node, names: list[str]) -> None:
             raise ConfigError(msg)
 
 
+#: The parameters a node serving many drives takes at run time: rclpy's clock switch and the
+#: estimator's frame_id (a label); the others are read at start only.
+LIVE_WITH_DRIVES = ('use_sim_time', 'frame_id')
+
+
 def refuse_changes(params: Sequence[Any]) -> SetParametersResult:
-    """On-set callback of a node serving many drives: its parameters are read at start only."""
-    names = ', '.join(p.name for p in params)
-    return SetParametersResult(successful=False, reason=f'{names}: with {TRANSMISSIONS} the '
-                               f'parameters are read at start only; restart the node')
+    """On-set callback of a node serving many drives: refuse all but :data:`LIVE_WITH_DRIVES`."""
+    refused = [p.name for p in params if p.name not in LIVE_WITH_DRIVES]
+    if not refused:
+        return SetParametersResult(successful=True)
+    return SetParametersResult(successful=False, reason=f'{", ".join(refused)}: with '
+                               f'{TRANSMISSIONS} the parameters are read at start only; '
+                               f'restart the node')

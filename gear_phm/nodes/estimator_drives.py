@@ -12,13 +12,15 @@ one status per drive, ``gear_phm estimator: <drive>`` (``hardware_id`` the drive
 ``gear-phm analyze --transmissions``),
 whose counters are that drive's alone (a missing, short or NaN joint of one drive counts
 against it only). A drive with no sample for its ``sensor_timeout`` is flagged on its own.
-The per-drive parameters are read-only (restart the node to change them). ``~/<drive>/reset``
+The per-drive parameters are read-only (restart the node to change them); ``frame_id`` and
+``use_sim_time`` apply at run time. ``~/<drive>/reset``
 resets one drive's learning, ``~/reset`` every drive's (``std_srvs/srv/Trigger``); each
 drive's status counts its resets (``resets``).
 """
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import replace
 from functools import partial
 import struct
@@ -97,7 +99,15 @@ class DrivesEstimator:
         for d in self.drives:
             reset_service(node, f'~/{d.drive.name}/reset', partial(self._reset, [d]))
         reset_service(node, '~/reset', lambda: self._reset(self.drives))
+        node.add_post_set_parameters_callback(self._apply_parameters)
         self.state.start_timer(self._save_state)
+
+    def _apply_parameters(self, params: Sequence[Any]) -> None:
+        """Post-set: a new frame_id labels the outputs from now on (the others are refused)."""
+        for param in params:
+            if param.name == 'frame_id':
+                for d in self.drives:
+                    d.outputs.frame_id = d.loss_outputs.frame_id = param.value
 
     def _reset(self, drives: list[_Drive]) -> str:
         """Forget what ``drives`` learned (a reset service); save the state file at once."""

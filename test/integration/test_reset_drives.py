@@ -1,4 +1,6 @@
-"""With ``transmissions``, ``~/<drive>/reset`` resets one drive and ``~/reset`` all of them.
+"""With ``transmissions``: ``~/<drive>/reset`` resets one drive, ``~/reset`` all of them.
+
+Only ``frame_id`` and ``use_sim_time`` change at run time; the rest is refused with a reason.
 
 Both nodes as real processes over DDS, no stream needed: the counts on /diagnostics and the
 responses show which drive was reset.
@@ -15,6 +17,8 @@ import yaml
 rclpy = pytest.importorskip('rclpy')
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402, I100
 from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from helpers.live import RELIABLE  # noqa: E402
@@ -81,3 +85,24 @@ def test_each_drive_resets_alone_and_all_together(graph: tuple[Node, dict], node
     response = call(node, f'/{node_name}/reset')
     assert response.success and 'learning reset of a, b:' in response.message
     wait(node, lambda: resets() == {'a': 1, 'b': 2}, 'both reset')
+
+
+def test_with_drives_only_the_clock_and_frame_id_change_at_run_time(
+        graph: tuple[Node, dict]) -> None:
+    node, _ = graph
+    client = AsyncParameterClient(node, 'estimator')
+    assert client.wait_for_services(timeout_sec=30.0)
+
+    def set_one(name: str, value: object) -> object:
+        future = client.set_parameters([Parameter(name, value=value)])
+        wait(node, future.done, f'set {name}')
+        return future.result().results[0]
+    assert set_one('frame_id', 'bench').successful
+    assert set_one('use_sim_time', False).successful
+    result = set_one('gate_threshold', 12.0)
+    assert not result.successful
+    assert result.reason == ('gate_threshold: with transmissions the parameters are read at '
+                             'start only; restart the node')
+    result = set_one('a.window', 2.0)
+    assert not result.successful and result.reason == \
+        'Trying to set a read-only parameter: a.window.'
