@@ -314,6 +314,7 @@ class EstimatorNode(Node):
             self.pipeline.reconfigure(config)
             self.config = config
             self._set_window_watch()
+            self._due = self.pipeline.next_output_stamp()       # a new publish_rate's grid
             if timeout_changed:
                 self.destroy_timer(self.watchdog)
                 self.watchdog = self._make_watchdog()
