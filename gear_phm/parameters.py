@@ -144,6 +144,36 @@ def check_values(specs: Iterable[ParamSpec], values: Mapping[str, object]) -> di
     return {name: table[name].check(value) for name, value in values.items()}
 
 
+def read_only_changes(specs: Iterable[ParamSpec], old: Mapping[str, object],
+                      new: Mapping[str, object]) -> list[str]:
+    """Return the names of the read-only specs whose value differs from ``old`` to ``new``.
+
+    A name absent from either mapping is skipped; NaN equals NaN.
+    """
+    changed = []
+    for spec in specs:
+        if not spec.read_only or spec.name not in old or spec.name not in new:
+            continue
+        a, b = old[spec.name], new[spec.name]
+        if a != b and not (isinstance(a, float) and isinstance(b, float)
+                           and math.isnan(a) and math.isnan(b)):
+            changed.append(spec.name)
+    return changed
+
+
+def refuse_read_only_changes(specs: Iterable[ParamSpec], old: Mapping[str, object],
+                             new: Mapping[str, object], instead: str) -> None:
+    """Raise ValueError naming the read-only specs that differ (:func:`read_only_changes`).
+
+    ``instead``: what to do instead, e.g. 'start a new pipeline'.
+    """
+    changed = read_only_changes(specs, old, new)
+    if changed:
+        msg = (f'cannot reconfigure {", ".join(changed)}: the learned state depends on '
+               f'{"them" if len(changed) > 1 else "it"}; {instead}')
+        raise ValueError(msg) from None
+
+
 def defaults(specs: Iterable[ParamSpec]) -> dict[str, Value]:
     """``{name: default}``."""
     return {spec.name: spec.default for spec in specs}
@@ -201,14 +231,15 @@ def specs_of(config: type) -> tuple[ParamSpec, ...]:
 #: The gearbox ratio, one parameter of the simulation (publisher), the estimator and the
 #: diagnostics alike: they must agree on it. Finite and positive; the bounds are those of a
 #: ratio the float arithmetic of eqs 10/12 handles (u/R and R u stay far from overflow).
+#: Read-only: the learned state (u, the RUL history) and the state file belong to one ratio.
 RATIO = ParamSpec('ratio', 3.0, 'ideal torque gain load/motor R = z2/z1 of the gearbox', '-',
-                  1e-6, 1e6)
+                  1e-6, 1e6, read_only=True)
 #: The joints' names in the JointState messages: the publisher's, the estimator's and
-#: ``gear-phm analyze``/``simulate``'s.
+#: ``gear-phm analyze``/``simulate``'s. Read-only: they name what the state was learned from.
 MOTOR_JOINT = ParamSpec('motor_joint', 'motor', 'name of the motor joint in the JointState '
-                        'messages')
+                        'messages', read_only=True)
 LOAD_JOINT = ParamSpec('load_joint', 'load', 'name of the load joint in the JointState '
-                       'messages')
+                       'messages', read_only=True)
 #: The /diagnostics status of the health: the diagnostics node's and ``gear-phm analyze``'s
 #: (whose option for ``rate`` is ``--diagnostics-rate``).
 TRANSMISSION_NAME = ParamSpec('transmission_name', 'gearbox',

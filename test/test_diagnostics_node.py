@@ -33,7 +33,7 @@ KEYS = ['u', 'u_sigma', 'eta_opposing', 'eta_aiding', 'rul_s', 'rul_p5_s', 'rul_
         'power_flow', 'samples_used', 'samples_rejected',
         'samples_missing', 'operating_time_s', 'rul_operating_s', 'rul_operating_p5_s',
         'rul_operating_p95_s', 'utilisation',
-        'eta_healthy', 'eta_warn']
+        'eta_healthy', 'eta_warn', 'resets']
 
 
 @pytest.fixture(scope='module')

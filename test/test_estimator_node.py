@@ -130,10 +130,13 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
     from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from sensor_msgs.msg import JointState
 
-    proc = subprocess.Popen(
-        [str(VENV_BIN / 'estimator'), '--ros-args', '-r', '__node:=joints_probe', '-p',
-         'ratio:=3.0', '-p', 'motor_joint:=rotor', '-p', 'diagnostics_period:=0.2'],
-        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    def start(motor_joint: str) -> subprocess.Popen:
+        return subprocess.Popen(
+            [str(VENV_BIN / 'estimator'), '--ros-args', '-r', '__node:=joints_probe', '-p',
+             'ratio:=3.0', '-p', f'motor_joint:={motor_joint}', '-p',
+             'diagnostics_period:=0.2'],
+            env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = start('rotor')
     rclpy.init()
     node = rclpy.create_node('joints_probe_driver')
     try:
@@ -170,13 +173,23 @@ def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advan
         publish(50, stamped=True)
         hint = "the first messages name the joints ['motor', 'load']"
         assert _wait(lambda: any(hint in m for m in messages), 20.0, spin), messages[-3:]
-        # the right joint name now (the parameter can change while running); no stamps
+        # the joint names are structural (read-only at run time): the right one needs a
+        # restart; then no stamps
         client = node.create_client(SetParameters, '/joints_probe/set_parameters')
         assert client.wait_for_service(timeout_sec=20.0)
         value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value='motor')
         future = client.call_async(SetParameters.Request(
             parameters=[Parameter(name='motor_joint', value=value)]))
-        assert _wait(future.done, 20.0, spin) and future.result().results[0].successful
+        assert _wait(future.done, 20.0, spin)
+        result = future.result().results[0]
+        assert not result.successful
+        assert result.reason == 'Trying to set a read-only parameter: motor_joint.'
+        proc.terminate()
+        proc.wait(timeout=10)
+        messages.clear()
+        proc = start('motor')
+        assert _wait(lambda: pub.get_subscription_count() > 0 and messages, 30.0, spin), \
+            'estimator did not come up again'
         messages.clear()
         publish(200, stamped=False)
         stalled = 'no efficiency measurement yet: the header stamps do not advance'

@@ -76,7 +76,7 @@ def test_specs_of_names_each_spec_after_its_field() -> None:
     assert [s.name for s in specs] == ['ratio', 'joint', 'noise', 'count', 'mode', 'flag',
                                        'level']
     assert specs[0] is RATIO
-    assert specs[1] == ParamSpec('joint', 'load', LOAD_JOINT.description)
+    assert specs[1] == ParamSpec('joint', 'load', LOAD_JOINT.description, read_only=True)
     assert specs[2] == ParamSpec('noise', 0.01, 'std dev of one sample', 'N m', 0.0, 1e6)
     assert specs[3] == ParamSpec('count', 3, 'how many', '-', 1, 10, read_only=True)
     assert specs[4] == ParamSpec('mode', 'a', 'the mode', choices=('a', 'b'))

@@ -5,6 +5,12 @@ field ``name: type = param(default, description, unit, low, high)`` (see
 :func:`gear_phm.parameters.param`; ``choices=`` for a text); :data:`PARAMETERS`, the node
 parameter and the ``gear-phm analyze`` option follow from it. Then give it a commented entry
 in config/estimator.yaml and, for a rule between fields, a check in ``__post_init__``.
+
+A field that gives the learned state its meaning is ``read_only=True`` (structural): the
+ratio, the effort signs (which way the samples read) and ``motor_inertia`` (the learned rotor
+inertia is what it leaves). The node refuses to change them at run time, and
+:meth:`~gear_phm.estimation.EstimatorPipeline.reconfigure` too; every other field applies
+live and keeps what was learned.
 """
 from __future__ import annotations
 
@@ -29,17 +35,17 @@ class EstimatorConfig:
     load_speed_noise: float = param(
         0.01, 'std dev of one load velocity sample', 'rad/s', 0.0, 1e6)
     motor_inertia: float = param(
-        0.0, 'rotor inertia J_m on the motor shaft', 'kg m^2', 0.0, 1e6)
+        0.0, 'rotor inertia J_m on the motor shaft', 'kg m^2', 0.0, 1e6, read_only=True)
     learn_motor_inertia: bool = param(
         True, 'learn the rotor inertia that motor_inertia leaves in the windows (a torque that '
         'includes J_m dw/dt; it matters at high ratios)')
     motor_effort_sign: int = param(
         1, '+1: the motor effort is the torque the motor applies to its shaft (README '
-        '"Conventions"); -1: the opposite sign', '-', -1, 1)
+        '"Conventions"); -1: the opposite sign', '-', -1, 1, read_only=True)
     load_effort_sign: int = param(
         1, '+1: the load effort is the torque the gearbox output applies to the load (README '
         '"Conventions"); -1: the opposite sign, e.g. a torque sensor that reads the reaction',
-        '-', -1, 1)
+        '-', -1, 1, read_only=True)
     load_inertia: float = param(
         0.0, 'inertia between the load torque sensor and the gear (usually 0)', 'kg m^2', 0.0,
         1e6)

@@ -21,7 +21,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from gear_phm.estimation.config import EstimatorConfig
+from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.inertia import InertiaLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
                                         predicted_stacked)
@@ -33,6 +33,7 @@ from gear_phm.estimation.summary import stalled_stamps
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
 from gear_phm.models.lever import efficiencies, efficiencies_array
 from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
+from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.status import format_values, OK, StatusOut, WARN
 
@@ -223,12 +224,45 @@ class EstimatorPipeline:
         self._carry: tuple[float, float, float, float, float] | None = None
 
     def reconfigure(self, config: EstimatorConfig) -> None:
-        """Apply new parameters; the filter and the open window restart, counters stay."""
+        """Apply new settings and keep what was learned.
+
+        The filter (u, its rate and direction offset with their covariance, the learned
+        process noise and model mismatch), the learned inertia, the open energy window, the
+        counters and the time axes go on as they were: :meth:`to_state`, rebuilt with
+        ``config``, :meth:`from_state`. The new settings take effect from the next sample:
+        thresholds and the gate, the noise figures of the windows that close from now on,
+        window lengths, the prior (for a later :meth:`reset`), the adaptation and the stamp
+        screen; a new ``publish_rate`` continues its grid from the newest sample; a new
+        ``process_noise`` replaces the learned one (the adaptation goes on from it). Raises
+        ValueError naming a structural (read-only) setting that differs: the learned state
+        has no meaning under another ratio, effort sign or motor_inertia (:meth:`reset`
+        and a new pipeline instead).
+        """
+        old = self.config
+        refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
+                                 'start a new pipeline')
+        state = self.to_state()
+        kept = (self._status_mark, self.timed_out)
         self.config = config
         self._reset_estimator()
-        self._max_stamp = None
+        self.from_state(state)
+        self._status_mark, self.timed_out = kept
+        if config.process_noise != old.process_noise:
+            self.filter.process_noise = self.filter.q_test = config.process_noise
+        if config.publish_rate != old.publish_rate and config.publish_rate > 0.0 \
+                and self._last_stamp is not None and self._origin_ns is not None:
+            self._grid = math.floor(self._t(self._last_stamp) * config.publish_rate)
         self.screen.configure(config.stamp_run, _ns(config.sensor_timeout),
                               _ns(config.period_hold), config.backwards_policy == 'reset')
+
+    def reset(self) -> None:
+        """Forget what was learned, on purpose (a new gearbox on the rig).
+
+        The filter goes back to the prior, and the learned inertia, the open window and the
+        time origin start afresh, as after a run of stamps far back; the counters stay.
+        """
+        self._reset_estimator()
+        self._max_stamp = None
 
     def to_state(self) -> dict[str, Any]:
         """Return what a restart needs to continue as if it never stopped (JSON-safe).

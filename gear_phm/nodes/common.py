@@ -154,6 +154,26 @@ def status_msg(status: StatusOut) -> DiagnosticStatus:
                             values=[KeyValue(key=k, value=v) for k, v in status.values])
 
 
+#: The /diagnostics key that counts the resets by ``~/reset`` since the node started.
+RESETS = 'resets'
+
+
+def reset_service(node: Node, name: str, reset: Callable[[], str]) -> Any:
+    """Serve ``std_srvs/srv/Trigger`` ``name`` (e.g. ``~/reset``): learning reset on purpose.
+
+    ``reset()`` forgets what was learned and returns what it did (the response's message and
+    one log line). Returns the service.
+    """
+    from std_srvs.srv import Trigger
+
+    def serve(_request: Any, response: Any) -> Any:
+        what = reset()
+        node.get_logger().info(f'{node.resolve_service_name(name)}: {what}')
+        response.success, response.message = True, what
+        return response
+    return node.create_service(Trigger, name, serve)
+
+
 class DropCounter:
     """Counts used and dropped messages by reason, for a node's own /diagnostics status."""
 

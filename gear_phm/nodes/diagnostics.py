@@ -11,6 +11,14 @@ passed (a one-shot timer restarted by each arrival), not only at
 the next status tick. The estimator publishes nothing about a sensor timeout, so only real
 samples keep the input fresh. ``samples_missing`` comes from ``gear_phm/sample_loss``.
 
+Parameters: a health parameter set at run time (``ros2 param set``) applies live and keeps
+what was learned (:meth:`~gear_phm.prognostics.HealthAssessor.reconfigure`: the RUL history,
+the level latches, the learned healthy efficiency); the structural ones (ratio,
+``transmissions``, state file, recording, rate, executor) are read-only. Learning is reset
+only on purpose: ``~/reset`` (``std_srvs/srv/Trigger``; with many drives also
+``~/<drive>/reset``) logs a line, counts in the status key ``resets`` (after the health keys)
+and writes the state file at once.
+
 Recording (``record_path`` non-empty): a rosbag2 MCAP directory with every topic this node
 publishes (and its inputs with ``record_inputs``). Messages are serialized in the callbacks
 (``rclpy.serialization.serialize_message``) and handed to a writer thread through a queue;
@@ -24,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
+from functools import partial
 import math
 import queue
 import threading
@@ -39,7 +48,8 @@ from rclpy.serialization import serialize_message
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
                                  ESTIMATOR_TOPICS, health_status, SAMPLE_LOSS,
                                  VECTOR3_STAMPED_TYPE)
-from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
+                                   RESETS, run_node, to_rclpy)
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
@@ -169,6 +179,7 @@ class Channel:
         self.assembler = EstimateAssembler()
         self.last_arrival_ns: int | None = None
         self.samples_missing = 0          # from the estimator's gear_phm/sample_loss
+        self.resets = 0                   # by ~/reset (or ~/<drive>/reset)
         self._stale_published = False
         self.health_pub = HealthPublisher(node, node._record, drive)
         self.stale_timer = self._make_stale_timer()
@@ -191,12 +202,17 @@ class Channel:
         return timer
 
     def reconfigure(self, changed: dict[str, Any]) -> None:
-        """Apply new health parameters; the assessor restarts."""
+        """Apply new health parameters; the assessor keeps what it learned."""
         self.health_config = self.health_config.replace(**changed)
-        self.assessor = HealthAssessor(self.health_config)
+        self.assessor.reconfigure(self.health_config)
         if 'stale_timeout' in changed:
             self.node.destroy_timer(self.stale_timer)
             self.stale_timer = self._make_stale_timer()
+
+    def reset(self) -> None:
+        """Forget what the assessor learned (a reset service)."""
+        self.assessor.reset()
+        self.resets += 1
 
     @property
     def dropped(self) -> dict[str, int]:
@@ -281,7 +297,8 @@ class Channel:
         for level, problem in problems:
             state = replace(state, level=max(state.level, level),
                             message=f'{state.message}; {problem}')
-        return health_status(state, self.transmission_name, self.hardware_id), state
+        status = health_status(state, self.transmission_name, self.hardware_id)
+        return replace(status, values=status.values + ((RESETS, str(self.resets)),)), state
 
     def mark_stale(self, state: HealthState) -> None:
         """After a STALE status: the STALE marker on the health topic, once per outage."""
@@ -342,6 +359,11 @@ class DiagnosticsNode(Node):
             self.add_post_set_parameters_callback(self._apply_parameters)
         if values['record_path']:
             self._start_recorder(values)
+        if names:
+            for channel in self.channels:
+                reset_service(self, f'~/{channel.transmission_name}/reset',
+                              partial(self._reset, [channel]))
+        reset_service(self, '~/reset', partial(self._reset, self.channels))
         self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
         self.state.start_timer()
 
@@ -352,6 +374,14 @@ class DiagnosticsNode(Node):
             parts[channel.transmission_name] = (self._identities[channel.transmission_name],
                                                 state, stamp_ns)
         return drives_state(parts)
+
+    def _reset(self, channels: list[Channel]) -> str:
+        """Forget what ``channels`` learned (a reset service); save the state file at once."""
+        for channel in channels:
+            channel.reset()
+        self.state.save()
+        names = ', '.join(channel.transmission_name for channel in channels)
+        return f'learning reset of {names}: RUL history, levels and healthy efficiency'
 
     # -- parameters (one transmission; with transmissions they are read-only) ----------------
     def _check_parameters(self, params: Sequence[Any]) -> SetParametersResult:
@@ -377,7 +407,8 @@ class DiagnosticsNode(Node):
         if changed:
             channel.reconfigure(changed)
             self.state.identity = channel.identity()
-            self.get_logger().info(f'health parameters changed: {changed}; assessor restarted')
+            self.get_logger().info(f'health parameters set: {changed}; the learned state is '
+                                   f'kept')
 
     # -- recording --------------------------------------------------------------------------
     def _start_recorder(self, values: dict[str, Any]) -> None:

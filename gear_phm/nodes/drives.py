@@ -39,26 +39,23 @@ def declare_transmissions(node: Node) -> list[str]:
 
 
 def declare_string_array(node: Node, name: str, description: str) -> list[str]:
-    """Declare a string array parameter, default empty, read at start only; its value.
+    """Declare a read-only string array parameter, default empty; its value.
 
-    rclpy types an empty default as a byte array, so the parameter is declared by type and
-    set to an empty string array when not given; changes after start are refused.
+    rclpy types an empty default as a byte array, so the parameter is declared by type, set to
+    an empty string array when not given, and then made read-only (its descriptor): a change
+    after start is refused by rclpy with its reason.
     """
     descriptor = ParameterDescriptor(description=f'{description} (read at start only)')
     try:
         value = node.declare_parameter(name, Parameter.Type.STRING_ARRAY, descriptor).value
         if value is None:
             node.set_parameters([Parameter(name, Parameter.Type.STRING_ARRAY, [])])
+        node.set_descriptor(name, ParameterDescriptor(
+            description=descriptor.description, read_only=True,
+            type=Parameter.Type.STRING_ARRAY.value))
     except ParameterException as exc:
         msg = f'parameter {name}: {" ".join(str(exc).split())}'
         raise ConfigError(msg) from None
-
-    def refuse(params: Sequence[Any]) -> SetParametersResult:
-        if any(p.name == name for p in params):
-            return SetParametersResult(successful=False,
-                                       reason=f'{name}: read at start only; restart the node')
-        return SetParametersResult(successful=True)
-    node.add_on_set_parameters_callback(refuse)
     return list(value or [])
 
 
@@ -115,8 +112,16 @@ def _check_overrides(node: Node, names: list[str]) -> None:
             raise ConfigError(msg)
 
 
+#: The parameters a node serving many drives takes at run time: rclpy's clock switch and the
+#: estimator's frame_id (a label); the others are read at start only.
+LIVE_WITH_DRIVES = ('use_sim_time', 'frame_id')
+
+
 def refuse_changes(params: Sequence[Any]) -> SetParametersResult:
-    """On-set callback of a node serving many drives: its parameters are read at start only."""
-    names = ', '.join(p.name for p in params)
-    return SetParametersResult(successful=False, reason=f'{names}: with {TRANSMISSIONS} the '
-                               f'parameters are read at start only; restart the node')
+    """On-set callback of a node serving many drives: refuse all but :data:`LIVE_WITH_DRIVES`."""
+    refused = [p.name for p in params if p.name not in LIVE_WITH_DRIVES]
+    if not refused:
+        return SetParametersResult(successful=True)
+    return SetParametersResult(successful=False, reason=f'{", ".join(refused)}: with '
+                               f'{TRANSMISSIONS} the parameters are read at start only; '
+                               f'restart the node')

@@ -18,6 +18,13 @@ So the batch cost is paid about publish_rate times a second whatever the input r
 outputs leave as soon as their sample arrives. Timers run only while samples flow: idle, the
 node wakes only for its status.
 
+Parameters: a parameter set at run time (``ros2 param set``) applies live and keeps what was
+learned (:meth:`~gear_phm.estimation.EstimatorPipeline.reconfigure`); the structural ones
+(ratio, joints, effort signs, motor_inertia, ``transmissions``, state file, executor and
+periods) are read-only and refused with rclpy's reason. Learning is reset only on purpose: the
+``~/reset`` service (``std_srvs/srv/Trigger``; per drive ``~/<drive>/reset`` with many) logs
+a line and counts in the status key ``resets``; the state file is written at once.
+
 With the ``transmissions`` parameter non-empty the node serves many drives in one stream
 (:mod:`gear_phm.nodes.estimator_drives`; parameters :mod:`gear_phm.nodes.drives`); empty (the
 default), it is the single transmission above, unchanged.
@@ -37,7 +44,8 @@ from gear_phm import interfaces
 from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import ConfigError, declare_parameters, OUTPUT_QOS, run_node, to_rclpy
+from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
+                                   RESETS, run_node, to_rclpy)
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.executors import executor_parameter, spin_executor
@@ -85,7 +93,7 @@ def joint_names_problem(values: dict[str, Any]) -> str:
 
 
 class EstimatorNode(Node):
-    """Friction estimator; every parameter can be changed at run time (the filter restarts)."""
+    """Friction estimator; a parameter set at run time keeps what was learned (module doc)."""
 
     def __init__(self) -> None:
         super().__init__('estimator')
@@ -133,7 +141,10 @@ class EstimatorNode(Node):
         self.watchdog = self._make_watchdog()
         self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
         self.subscription = subscribe_joint_states_raw(self, self._on_message)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.resets = 0
+        reset_service(self, '~/reset', self._reset)
         self.state.start_timer(self._save_state)
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
@@ -278,35 +289,50 @@ class EstimatorNode(Node):
             self.pipeline.status(self.status_name, self.messages_received),
             self.pipeline.samples_seen, self.values['motor_joint'], self.values['load_joint']))
         status = replace(status, values=status.values + (
-            (OUTPUTS_MATCHED, str(self.outputs.matched())),))
+            (OUTPUTS_MATCHED, str(self.outputs.matched())), (RESETS, str(self.resets))))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 
-    def _on_set_parameters(self, params: Sequence[Any]) -> SetParametersResult:
-        values = dict(self.values)
-        for param in params:
-            values[param.name] = param.value
-        problem = joint_names_problem(values)
-        if problem:
-            return SetParametersResult(successful=False, reason=problem)
+    def _check_parameters(self, params: Sequence[Any]) -> SetParametersResult:
+        """On-set: the whole resulting configuration must be valid (else the reason).
+
+        The read-only (structural) parameters never get here: rclpy refuses them first.
+        """
         try:
-            config = config_from_values(values)
+            config_from_values({**self.values, **{p.name: p.value for p in params}})
         except ValueError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        self._flush()
-        self.values = values
-        timeout_changed = config.sensor_timeout != self.config.sensor_timeout
-        self.config = config
-        self.outputs.frame_id = self.loss_outputs.frame_id = values['frame_id']
-        self.decoder = JointStateDecoder(values['motor_joint'], values['load_joint'])
-        self.joint_names = JointNames()
-        self.pipeline.reconfigure(config)
-        self.state.identity = state_identity(values)
-        self._set_window_watch()
-        if timeout_changed:
-            self.destroy_timer(self.watchdog)
-            self.watchdog = self._make_watchdog()
         return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params: Sequence[Any]) -> None:
+        """Post-set: apply the new values live; the learned state is kept (reconfigure)."""
+        self._flush()
+        self.values = {**self.values, **{p.name: p.value for p in params}}
+        self.outputs.frame_id = self.loss_outputs.frame_id = self.values['frame_id']
+        config = config_from_values(self.values)
+        if config != self.config:
+            timeout_changed = config.sensor_timeout != self.config.sensor_timeout
+            self.pipeline.reconfigure(config)
+            self.config = config
+            self._set_window_watch()
+            self._due = self.pipeline.next_output_stamp()       # a new publish_rate's grid
+            if timeout_changed:
+                self.destroy_timer(self.watchdog)
+                self.watchdog = self._make_watchdog()
+        names = ', '.join(f'{p.name}={p.value!r}' for p in params)
+        self.get_logger().info(f'parameters set: {names}; the learned state is kept')
+
+    def _reset(self) -> str:
+        """``~/reset``: forget what was learned, save the state file at once."""
+        self._flush()
+        self.pipeline.reset()
+        self._set_window_watch()
+        self._due = None
+        self.resets += 1
+        self.state.save()
+        c = self.config
+        return (f'learning reset ({self.resets} since start): u back to the prior '
+                f'{c.initial_u:g} (sigma {c.initial_u_sigma:g})')
 
 
 def _spin(node: EstimatorNode) -> None:

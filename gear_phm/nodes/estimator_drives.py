@@ -12,12 +12,17 @@ one status per drive, ``gear_phm estimator: <drive>`` (``hardware_id`` the drive
 ``gear-phm analyze --transmissions``),
 whose counters are that drive's alone (a missing, short or NaN joint of one drive counts
 against it only). A drive with no sample for its ``sensor_timeout`` is flagged on its own.
-The per-drive parameters are read-only (restart the node to change them).
+The per-drive parameters are read-only (restart the node to change them); ``frame_id`` and
+``use_sim_time`` apply at run time. ``~/<drive>/reset``
+resets one drive's learning, ``~/reset`` every drive's (``std_srvs/srv/Trigger``); each
+drive's status counts its resets (``resets``).
 """
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import replace
+from functools import partial
 import struct
 from typing import Any
 
@@ -28,7 +33,7 @@ from gear_phm import interfaces
 from gear_phm.codec import decode_joint_state_pairs, packed
 from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, to_rclpy
+from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, reset_service, RESETS, to_rclpy
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
@@ -54,6 +59,7 @@ class _Drive:
         self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
         self.status_name = f'gear_phm estimator: {drive.name}'
         self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]
+        self.resets = 0                             # by ~/reset or ~/<drive>/reset
 
     @property
     def identity(self) -> dict[str, Any]:
@@ -91,7 +97,29 @@ class DrivesEstimator:
         self.batch_timer.cancel()
         node.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
         self.subscription = subscribe_joint_states_raw(node, self._on_message)
+        for d in self.drives:
+            reset_service(node, f'~/{d.drive.name}/reset', partial(self._reset, [d]))
+        reset_service(node, '~/reset', lambda: self._reset(self.drives))
+        node.add_post_set_parameters_callback(self._apply_parameters)
         self.state.start_timer(self._save_state)
+
+    def _apply_parameters(self, params: Sequence[Any]) -> None:
+        """Post-set: a new frame_id labels the outputs from now on (the others are refused)."""
+        for param in params:
+            if param.name == 'frame_id':
+                for d in self.drives:
+                    d.outputs.frame_id = d.loss_outputs.frame_id = param.value
+
+    def _reset(self, drives: list[_Drive]) -> str:
+        """Forget what ``drives`` learned (a reset service); save the state file at once."""
+        self.flush()
+        for d in drives:
+            d.pipeline.reset()
+            d.resets += 1
+        self._due = None
+        self.state.save()
+        names = ', '.join(d.drive.name for d in drives)
+        return f'learning reset of {names}: u back to the prior'
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
         parts = {}
@@ -183,7 +211,8 @@ class DrivesEstimator:
                 d.pipeline.samples_seen, d.drive.motor_joint, d.drive.load_joint)
             statuses.append(self.state.flagged(replace(
                 status, hardware_id=d.drive.name,
-                values=status.values + ((OUTPUTS_MATCHED, str(d.outputs.matched())),))))
+                values=status.values + ((OUTPUTS_MATCHED, str(d.outputs.matched())),
+                                        (RESETS, str(d.resets))))))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
         for d in self.drives:
             d.loss_outputs.publish(d.pipeline)

@@ -26,8 +26,9 @@ import numpy as np
 
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.models.lever import efficiencies, efficiencies_array, readings, readings_array
+from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.persistence import decode_float, encode_float
-from gear_phm.prognostics.config import HealthConfig
+from gear_phm.prognostics.config import HealthConfig, PARAMETERS
 from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
 from gear_phm.prognostics.fits import (frozen_instance, ShapePrior, Trend, trend_from_state,
                                        trend_to_state)
@@ -39,6 +40,9 @@ from gear_phm.status import ERROR, OK, STALE
 #: |eta_D(u, own ratio) - reported eta_D| above which the two ratios differ [-]; float noise
 #: of eq 10 is ~1e-16, a 0.1 % ratio error at u = 0.05 moves eta_D by ~4e-5.
 RATIO_TOLERANCE = 1e-9
+#: The settings the RUL fit depends on besides end of life: a change refits
+#: (:meth:`HealthAssessor.reconfigure`).
+_FIT_SETTINGS = ('trend', 'detect_z', 'eta_accuracy', 'mc_samples', 'seed')
 
 
 @dataclass(frozen=True)
@@ -310,6 +314,47 @@ class HealthAssessor:
             return self.latest.operating_time
         return estimate.t
 
+    def reconfigure(self, config: HealthConfig) -> None:
+        """Apply new settings and keep what was learned.
+
+        The RUL history and fit, the utilisation, the NIS window, the level latches, the
+        learned healthy eta_D and the latest state go on (:meth:`to_state`, rebuilt with
+        ``config``, :meth:`from_state`); end of life, the thresholds, dwells and windows are
+        the new ones from the next estimate on (the latest state shows the new end-of-life u
+        and eta_warn at once), an eta_warn left NaN is derived anew from the learned
+        eta_healthy, and a change of what the fit depends on (end of life, trend,
+        detect_z, eta_accuracy, the draws) refits at the next estimate. Raises ValueError
+        when the ratio differs: the history is of one gearbox (:meth:`reset` instead).
+        """
+        old = self.config
+        refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
+                                 'start a new assessor')
+        fresh = HealthAssessor(config, self.predictor.prior)
+        fresh.from_state(self.to_state())
+        if any(getattr(old, name) != getattr(config, name) for name in _FIT_SETTINGS) \
+                or fresh.u_eol != self.u_eol:
+            fresh.predictor.refit_soon()
+        if fresh.latest is not None:        # the status shows the thresholds in force
+            fresh.latest = replace(fresh.latest, u_eol=fresh.u_eol,
+                                   eta_warn=fresh.levels.eta_warn)
+        self.config, self.u_eol, self.eol_reason = config, fresh.u_eol, fresh.eol_reason
+        self.predictor, self.divergence, self.levels = (fresh.predictor, fresh.divergence,
+                                                        fresh.levels)
+        self.utilisation, self.latest, self.rejected = (fresh.utilisation, fresh.latest,
+                                                        fresh.rejected)
+
+    def reset(self) -> None:
+        """Forget what was learned, on purpose (a new gearbox on the rig).
+
+        The RUL history and fit, the utilisation, the NIS window, the level latches, the
+        healthy eta_D and the latest state; the rejected counts stay.
+        """
+        self.predictor.reset()
+        self.divergence.reset()
+        self.levels.reset()
+        self.utilisation.reset()
+        self.latest = None
+
     def to_state(self) -> dict[str, Any]:
         """Return what a restart needs (JSON-safe, see :mod:`gear_phm.persistence`).
 
@@ -327,7 +372,7 @@ class HealthAssessor:
 
         KeyError/ValueError/TypeError on a malformed dict (the assessor is then unchanged).
         """
-        fresh = HealthAssessor(self.config)
+        fresh = HealthAssessor(self.config, self.predictor.prior)
         fresh.predictor.from_state(state['predictor'])
         fresh.divergence.from_state(state['divergence'])
         fresh.levels.from_state(state['levels'])

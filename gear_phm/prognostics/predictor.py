@@ -157,6 +157,10 @@ class RulPredictor:
             self.detected = False
             self._curved = frozenset()
 
+    def refit_soon(self) -> None:
+        """Refit at the next :attr:`trend` (new settings: end of life, law, draws)."""
+        self._fitted_at, self._due = self.history.opened, 0
+
     def shift(self, offset: float) -> None:
         """Move the history and the fit by ``offset`` [s] in time (onto another time axis)."""
         self.history.shift(offset)
