@@ -99,8 +99,9 @@ class NoLoadEstimate:
 
     ``coulomb`` T_0 [N m], ``viscous`` c_v [N m s/rad], ``offset`` d [N m] (does not flip with
     the motion), ``reference_speed`` [rad/s] and ``torque`` T_0 + c_v w_ref [N m] there with
-    its ``torque_sigma`` [N m]; ``identified``: the newest window's correction was within the
-    tolerance; ``cold``: the part learned first after the last start (NaN before any).
+    its ``torque_sigma`` [N m]; ``identified``: a window's correction has been within the
+    tolerance since the last start (the no-load part is known); ``cold_torque``: the torque
+    learned first after the last start (NaN before any).
     """
 
     coulomb: float
@@ -153,6 +154,7 @@ class NoLoadLearner:
         self.cold: np.ndarray | None = None     # [a_+, a_-, c_v] first identified after start
         self._seek_cold = True
         self.identified = False         # the newest correction's verdict
+        self.known = False              # a correction was identified since the last start
         self.windows = 0
         self.held = 0
         #: the first windows, kept until the scales are known (:meth:`observe`)
@@ -200,6 +202,7 @@ class NoLoadLearner:
         self.kf.P[:, NO_LOAD] = 0.0
         self.kf.P[NO_LOAD, NO_LOAD] = prior[NO_LOAD, NO_LOAD]
         self.kf.x[NO_LOAD, 0] = 0.0 if self.cold is None else self.cold
+        self.known = False
         self._seek_cold = self.cold is None
 
     # --- per window ------------------------------------------------------------------------
@@ -274,6 +277,7 @@ class NoLoadLearner:
         var_corr = max(float(phi @ p_theta @ phi), 0.0)
         walk = float(phi @ kf.Q[NO_LOAD, NO_LOAD] @ phi)
         self.identified = math.sqrt(var_corr) <= self.tolerance
+        self.known = self.known or self.identified
         if not self.identified:
             self.held += 1
         elif self._seek_cold:
@@ -326,7 +330,7 @@ class NoLoadLearner:
         cold = math.nan if self.cold is None else float(
             0.5 * (self.cold[0] + self.cold[1]) + self.cold[2] * (speed - self.speed_scale))
         return NoLoadEstimate(coulomb, viscous, offset, speed, coulomb + viscous * speed,
-                              sigma, self.identified, cold)
+                              sigma, self.known, cold)
 
     def to_state(self) -> dict[str, Any]:
         """Return the filter, its scales, the cold value and the counters (JSON-safe)."""
@@ -339,7 +343,7 @@ class NoLoadLearner:
             'times': encode_floats([self._t_end, self._operating]),
             'scatter': encode_float(self.scatter), 'gated': self.gated,
             'cold': None if self.cold is None else encode_floats(self.cold.tolist()),
-            'seek_cold': self._seek_cold, 'identified': self.identified,
+            'seek_cold': self._seek_cold, 'identified': self.identified, 'known': self.known,
             'windows': self.windows, 'held': self.held,
             'first': [encode_floats(list(row)) for row in self._first]}
 
@@ -366,6 +370,7 @@ class NoLoadLearner:
         self.cold = cold
         self._seek_cold = bool(state['seek_cold'])
         self.identified = bool(state['identified'])
+        self.known = bool(state.get('known', self.identified))
         self.windows, self.held = int(state['windows']), int(state['held'])
         self._first = [tuple(decode_floats(row)) for row in state.get('first', [])]
         if any(len(row) != 14 for row in self._first):
