@@ -7,6 +7,7 @@ under a constant load it cannot, and says so without an alarm.
 """
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -45,7 +46,7 @@ def health_levels(out: Path) -> list[str]:
 
 def _simulate(out: Path, *options: str) -> Path:
     assert gear_phm(['simulate', '--out', str(out), '--duration', '600', '--rate', '100',
-                     *DRAG, *options]) == 0
+                     *DRAG, *options]) == 0          # a later --duration wins
     return out
 
 
@@ -77,3 +78,18 @@ def test_drag_under_a_constant_load_is_not_identifiable_and_no_alarm(
     assert summary['filter_updates'] == 0
     assert summary['counts']['not_identifiable'] > 100
     assert set(health_levels(tmp_path / 'on')) == {'OK'}
+
+
+def test_fleet_table_holds_the_no_load_torque(tmp_path: Path) -> None:
+    unit = tmp_path / 'fleet' / 'unit_a'
+    unit.mkdir(parents=True)
+    _simulate(unit / 'rec_1', '--load-scale-min', '0.3', '--load-scale-max', '1.0',
+              '--duration', '300')
+    out = tmp_path / 'out'
+    assert gear_phm(['fleet', str(tmp_path / 'fleet'), '--ratio', '30', '--out', str(out),
+                     '--param', 'no_load_model=true', '--workers', '1', '--no-plot']) == 0
+    with (out / 'fleet.csv').open() as handle:
+        row = next(csv.DictReader(handle))
+    # cold: above the warm drag, below its cold value
+    assert 0.034 < float(row['no_load_torque']) < 3.0 * 0.034
+    assert row['total_efficiency'] == 'nan'             # no rated point given
