@@ -75,19 +75,24 @@ def _step(directory: Path, command: list[str], reuse: bool) -> None:
     (directory / 'done').write_text(result.stdout, encoding='utf-8')
 
 
-def run_life(task: tuple[Path, int, float, bool, bool, str]) -> dict[str, Any]:
+def run_life(task: tuple[Path, int, float, bool, bool, str, str, tuple[str, ...]]
+             ) -> dict[str, Any]:
     """Simulate, analyse and evaluate one life; return its life.json and evaluation.json."""
-    out, seed, rate, reuse, prepare_only, prior = task
+    out, seed, rate, reuse, prepare_only, prior, name, extra = task
     started = time.perf_counter()
-    bag, analysis = out / 'bag', out / 'a'
+    bag, analysis = out / 'bag', out / name
     _step(bag, [*_nice(), *GEAR_PHM, 'simulate', '--random-life', str(seed), '--rate', repr(rate),
                 '--prior', prior, '--out', str(bag),
                 '--truth-every', str(max(1, round(rate / 10.0)))], reuse)
     life = json.loads((bag / 'life.json').read_text())
     health = ['--ratio', repr(life['ratio']), '--eta-opposing-min',
               repr(life['eta_opposing_min'])]
-    _step(analysis, [*_nice(), *GEAR_PHM, 'analyze', str(bag), *health, '--out', str(analysis),
-                     '--no-plot', '--no-progress'], reuse)
+    try:
+        _step(analysis, [*_nice(), *GEAR_PHM, 'analyze', str(bag), *health, *extra, '--out',
+                         str(analysis), '--no-plot', '--no-progress'], reuse)
+    except RuntimeError as exc:         # a life the analysis refuses counts as failed
+        return {'life': life, 'failed': str(exc).splitlines()[-1], 'directory': str(out),
+                'seconds': time.perf_counter() - started}
     if prepare_only:
         return {'life': life, 'seconds': time.perf_counter() - started}
     evaluation = analysis / 'evaluation.json'
@@ -286,6 +291,12 @@ def main() -> int:
                         help='niceness of simulate/analyze/evaluate (default 19)')
     parser.add_argument('--reuse', action='store_true',
                         help='keep lives already simulated and analysed in OUT')
+    parser.add_argument('--analysis', default='a', metavar='NAME',
+                        help="each life's analysis folder (default a): several configurations "
+                             'of the same lives side by side, the bags shared')
+    parser.add_argument('--analyze-arg', action='append', default=[], metavar='ARG',
+                        help='one more argument of gear-phm analyze (repeat it), e.g. '
+                             '--analyze-arg=--param --analyze-arg=no_load_model=true')
     parser.add_argument('--prepare-only', action='store_true',
                         help='only simulate and analyse (no scoring)')
     parser.add_argument('--progpy', action='store_true',
@@ -306,12 +317,19 @@ def main() -> int:
             if rate > 100.0 and operating > FAST_RATE_MAX_DURATION:
                 continue
             tasks.append((args.out / f'{rate:g}hz' / f'life_{seed}', seed, rate, args.reuse,
-                          args.prepare_only, args.prior))
+                          args.prepare_only, args.prior, args.analysis,
+                          tuple(args.analyze_arg)))
     args.out.mkdir(parents=True, exist_ok=True)
-    results = []
+    results: list[dict[str, Any]] = []
+    failed: list[dict[str, Any]] = []
     print(LIFE_HEADER, flush=True)
     with Pool(args.workers) as pool:
         for result in pool.imap(run_life, tasks):
+            if 'failed' in result:
+                failed.append(result)
+                print(f"failed: life {result['life']['seed']} at {result['life']['rate_hz']:g} "
+                      f"Hz: {result['failed']}", flush=True)
+                continue
             results.append(result)
             if args.prepare_only:
                 print(f"prepared {result['life']['seed']} at {result['life']['rate_hz']:g} Hz "
@@ -321,10 +339,15 @@ def main() -> int:
     if args.prepare_only:
         return 0
     text = ['\n'.join([LIFE_HEADER] + [life_row(r) for r in results]), tables(results)]
+    if failed:
+        text.append('Lives the analysis refused (not in the tables): ' + '; '.join(
+            f"{r['life']['seed']} at {r['life']['rate_hz']:g} Hz ({r['failed']})"
+            for r in failed))
     commit = subprocess.run(['git', '-C', str(ROOT), 'describe', '--always', '--dirty'],
                             capture_output=True, text=True).stdout.strip()
     text.insert(0, f'Commit {commit}; command: {" ".join(sys.argv)}')
     summary: dict[str, Any] = {'commit': commit, 'lives': len(results),
+                               'failed': [r['life']['seed'] for r in failed],
                                'gear_phm': groups(results)}
     if args.progpy:
         from progpy_ensemble import progpy_results
@@ -332,9 +355,10 @@ def main() -> int:
         text.append(progpy_tables(results, scored))
         summary['progpy'] = {name: groups(rows) for name, rows in scored.items()}
     print('\n\n'.join(text[2:]))
-    (args.out / 'table.md').write_text('\n\n'.join(text) + '\n', encoding='utf-8')
-    (args.out / 'ensemble.json').write_text(json.dumps(_json_ready(summary), indent=2) + '\n',
-                                            encoding='utf-8')
+    tables_name = '' if args.analysis == 'a' else f'_{args.analysis}'
+    (args.out / f'table{tables_name}.md').write_text('\n\n'.join(text) + '\n', encoding='utf-8')
+    (args.out / f'ensemble{tables_name}.json').write_text(
+        json.dumps(_json_ready(summary), indent=2) + '\n', encoding='utf-8')
     return 0
 
 

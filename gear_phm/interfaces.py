@@ -43,6 +43,7 @@ COUNTS = 'gear_phm/counts'
 OPERATING_TIME = 'gear_phm/operating_time'
 DIRECTION_OFFSET = 'gear_phm/direction_offset'
 SAMPLE_LOSS = 'gear_phm/sample_loss'
+NO_LOAD = 'gear_phm/no_load'
 HEALTH_RUL = 'gear_phm/health/rul'
 HEALTH_EFFICIENCY = 'gear_phm/health/efficiency'
 DIAGNOSTICS = '/diagnostics'
@@ -82,6 +83,22 @@ ESTIMATE_LAYOUT: Layout = (
     (DIRECTION_OFFSET, ('direction_offset', 'measurement_direction', 'measurement_bias')),
     (OPERATING_TIME, ('operating_time', 'measurement', 'measurement_variance')),
 )
+#: With the no-load model (``no_load_model``) the estimator also publishes, in the same group
+#: and after the others: x = no-load torque at the motor at the reference speed [N m], y =
+#: its std dev [N m], z = total efficiency at the rated point [-] (NaN without one).
+NO_LOAD_LAYOUT: Layout = (
+    (NO_LOAD, ('no_load_torque', 'no_load_sigma', 'total_efficiency')),
+)
+
+
+def estimate_layout(no_load: bool) -> Layout:
+    """Return the estimator's output layout.
+
+    :data:`ESTIMATE_LAYOUT`, with ``no_load`` also :data:`NO_LOAD_LAYOUT`.
+    """
+    return ESTIMATE_LAYOUT + NO_LOAD_LAYOUT if no_load else ESTIMATE_LAYOUT
+
+
 #: The diagnostics node's outputs and the :class:`~gear_phm.prognostics.HealthState`
 #: attributes they hold (RUL [s] of elapsed time; level 0 OK .. 3 STALE).
 HEALTH_LAYOUT: Layout = (
@@ -167,15 +184,19 @@ def _getters(layout: Layout) -> tuple[tuple[str, Callable[[Any], tuple[Any, ...]
     return tuple((topic, operator.attrgetter(*names)) for topic, names in layout)
 
 
-_ESTIMATE_GETTERS = _getters(ESTIMATE_LAYOUT)
+_ESTIMATE_GETTERS = {False: _getters(ESTIMATE_LAYOUT), True: _getters(estimate_layout(True))}
 _HEALTH_GETTERS = _getters(HEALTH_LAYOUT)
 
 
-def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '') -> list[Vector3Out]:
-    """Return the estimator topics of one update (:data:`ESTIMATE_LAYOUT`), in publishing order."""
+def estimate_outputs(estimate: FrictionEstimate, frame_id: str = '',
+                     no_load: bool = False) -> list[Vector3Out]:
+    """Return the estimator topics of one update, in publishing order.
+
+    :data:`ESTIMATE_LAYOUT`, with ``no_load`` also :data:`NO_LOAD_LAYOUT`.
+    """
     stamp = estimate.stamp_ns
     outputs = []
-    for topic, get in _ESTIMATE_GETTERS:
+    for topic, get in _ESTIMATE_GETTERS[no_load]:
         x, y, z = get(estimate)
         outputs.append(Vector3Out(topic, stamp, float(x), float(y), float(z), frame_id))
     return outputs

@@ -20,8 +20,7 @@ from gear_phm.interfaces import COUNTS, EFFICIENCY, FRICTION
 from gear_phm.models.lever import eta_aiding, eta_opposing
 from gear_phm.simulation import config_from_parameters
 from gear_phm.simulation.recording import write_simulation
-from helpers.live import Driver
-from helpers.processes import spawn, stop
+from helpers.live import replay_to_nodes
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
@@ -52,24 +51,11 @@ def test_healthy_mismatched_gearbox_stays_ok_with_steady_u(tmp_path: Path) -> No
     bag = tmp_path / 'mismatch'
     write_simulation(bag, config_from_parameters(PLANT), DURATION, RATE)
     eta_d, eta_i = float(eta_opposing(U, RATIO)), float(eta_aiding(U + OFFSET, RATIO))
-    diagnostics = spawn('diagnostics', f'ratio:={RATIO}', 'eta_opposing_min:=0.8',
-                        'rate:=5.0', 'transmission_name:=mismatch')
-    estimator = spawn('estimator', f'ratio:={RATIO}', 'publish_rate:=20.0')
-    procs = [diagnostics, estimator]
-    driver = Driver('direction_offset_test', (FRICTION, COUNTS, EFFICIENCY))  # those it reads
-    try:
-        driver.wait(lambda: driver.latest('gear_phm'), 30.0, 'the diagnostics node')
-        publisher = spawn('publisher', 'mode:=replay', f'bag_path:={bag}', 'rate_factor:=2.0',
-                          'wait_for_subscribers:=1')
-        procs.append(publisher)
-        driver.wait(lambda: publisher.poll() is not None, DURATION / 2.0 + 60.0,
-                    'the replay to end')
-        driver.settle('gear_phm estimator')
-        driver.spin(1.0)
-    finally:
-        driver.close()
-        codes = [stop(p) for p in reversed(procs)]
-    assert codes[0] == 0, publisher.stderr.read() if publisher.stderr else ''
+    driver, code, error = replay_to_nodes(
+        'direction_offset_test', (FRICTION, COUNTS, EFFICIENCY), bag, DURATION,
+        (f'ratio:={RATIO}', 'eta_opposing_min:=0.8', 'rate:=5.0', 'transmission_name:=mismatch'),
+        (f'ratio:={RATIO}', 'publish_rate:=20.0'))
+    assert code == 0, error
 
     # levels: never WARN or ERROR (STALE once the replay has ended), RUL inf
     health = [s for s in driver.statuses['gear_phm'] if 'rul_s' in s]

@@ -70,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from gear_phm.estimation.pipeline import NOT_IDENTIFIABLE
     from gear_phm.offline import AnalysisError, analyze_bag
     from gear_phm.offline.parallel import ParallelError
     from gear_phm.offline.summary import DriveSummary
@@ -112,6 +113,11 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             continue
         e = drive.estimator
+        if e.held:                                  # the no-load model held every window
+            print(f'{name + ": " if name else ""}{NOT_IDENTIFIABLE} at its prior '
+                  f"({e.counts['not_identifiable']} windows held)"
+                  + ('' if name else f'; {rate}'), file=sys.stderr)
+            continue
         print(f'{name + ": " if name else ""}u = {e.u:.5f} +/- {e.sigma_u:.5f}, '
               f'eta_D = {e.eta_opposing:.4f}, eta_I = {e.eta_aiding:.4f}'
               + ('' if name else f'; {rate}'), file=sys.stderr)

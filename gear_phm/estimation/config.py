@@ -101,6 +101,33 @@ class EstimatorConfig:
     period_hold: float = param(
         5.0, 'a longer sample period must last this long (in stamp time) before it is taken '
         "as the rig's new rate; until then its gaps count as samples_missing", 's', 0.0, 1e6)
+    no_load_model: bool = param(
+        False, 'learn the load-independent (no-load) loss at the motor (T_0 sign(w_m) + c_v w_m '
+        'and a torque offset) jointly with u, and fuse into u only the windows where it is '
+        'identified (false: the paper model, every loss is friction)', read_only=True)
+    no_load_tolerance: float = param(
+        0.004, "largest std dev of a window's no-load correction, relative to its load energy "
+        '(about the efficiency), for the window to be fused into u; above it the window is '
+        'held as not identifiable', '-', 1e-6, 1.0)
+    no_load_cool_gap: float = param(
+        3600.0, 'after an idle gap longer than this (stamp time) the no-load loss starts again '
+        'from its cold value', 's', 0.0, 1e9)
+    no_load_reference_speed: float = param(
+        0.0, 'motor speed at which the no-load torque is reported (0: the typical speed of the '
+        'windows)', 'rad/s', 0.0, 1e9)
+    no_load_band_time: float = param(
+        3600.0, "operating time over which the no-load loss's healthy band is learned (a cold "
+        'start included); after it, a loss above no_load_band_factor times that band is WARN',
+        's', 0.0, 1e9)
+    no_load_band_factor: float = param(
+        1.5, 'the no-load loss is above its healthy band beyond this multiple of the highest '
+        'healthy value (WARN: seal or lubrication, never end of life)', '-', 1.0, 1e3)
+    rated_load_torque: float = param(
+        0.0, 'output torque of the rated point for the total efficiency (0: not reported)',
+        'N m', 0.0, 1e12)
+    rated_speed: float = param(
+        0.0, 'output speed of the rated point for the total efficiency (0: not reported)',
+        'rad/s', 0.0, 1e9)
     loss_warn: float = param(
         0.01, 'WARN when the share of samples missing over the last status period exceeds '
         'this', '-', 0.0, 1.0)

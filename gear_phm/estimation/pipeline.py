@@ -25,6 +25,7 @@ from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
 from gear_phm.estimation.inertia import InertiaLearner
 from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
                                         predicted_stacked)
+from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
@@ -48,7 +49,8 @@ MESSAGE_REASON_TEXT = {
     'truncated': 'truncated', 'bad_encoding': 'not in little-endian CDR',
     'bad_message': 'not a readable JointState'}
 #: Window / measurement reasons and events (do not count as rejected samples).
-WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated')
+WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated',
+                  'not_identifiable')
 EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
 #: The summary values of the estimator's status, in its order (after messages_received).
 _STATUS_SUMMARY_KEYS = (
@@ -57,6 +59,10 @@ _STATUS_SUMMARY_KEYS = (
     'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
     'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s')
 _STATUS_SUMMARY = operator.itemgetter(*_STATUS_SUMMARY_KEYS)
+#: With ``no_load_model``, the status also holds these summary values, after the others.
+_NO_LOAD_STATUS_KEYS = ('no_load_torque', 'no_load_torque_sigma', 'no_load_coulomb',
+                        'no_load_viscous', 'no_load_offset', 'no_load_identified',
+                        'total_efficiency')
 
 
 @functools.lru_cache(maxsize=16)
@@ -65,6 +71,13 @@ def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(f'windows_rejected_{reason}' if reason in WINDOW_REASONS
                  else f'events_{reason}' if reason in EVENTS else f'dropped_{reason}'
                  for reason in reasons)
+
+
+#: The no-load filter's gains walk by this multiple of the wear rate (:meth:`_gain_rates`).
+GAIN_RATE_MARGIN = 3.0
+#: The status message while windows are held because the no-load loss is not identified.
+NOT_IDENTIFIABLE = ('no-load loss not identifiable (the load does not vary enough to tell it '
+                    'from friction): u held')
 
 
 #: :meth:`EstimatorPipeline.reversed_torque`: the share of samples out of the deadband that
@@ -128,6 +141,7 @@ class _PredictionBase:
     bias: tuple[float, float]
     fixed: tuple[float, float, float, float]
     mismatch: tuple[float, float]
+    no_load: tuple[float, float, float]
 
 
 class EstimatorPipeline:
@@ -194,6 +208,9 @@ class EstimatorPipeline:
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
         self.inertia = InertiaLearner(c.motor_inertia)
+        self.no_load = NoLoadLearner(c.no_load_tolerance, c.no_load_cool_gap,
+                                     c.no_load_reference_speed)
+        self.no_load_band = NoLoadBand(c.no_load_band_time, c.no_load_band_factor)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
@@ -266,6 +283,7 @@ class EstimatorPipeline:
             'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
             'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
             'inertia': self.inertia.to_state(), 'window': self.integrator.to_state(),
+            'no_load': self.no_load.to_state(), 'no_load_band': self.no_load_band.to_state(),
         }
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -295,8 +313,14 @@ class EstimatorPipeline:
             fresh.inertia.from_state(state['inertia'])
         if 'window' in state:               # added within schema 2
             fresh.integrator.from_state(state['window'])
+        if 'no_load' in state:              # a state without it starts the no-load part anew
+            fresh.no_load.from_state(state['no_load'])
+            if 'no_load_band' in state:
+                fresh.no_load_band.from_state(state['no_load_band'])
         self.filter = fresh.filter
         self.inertia = fresh.inertia
+        self.no_load = fresh.no_load
+        self.no_load_band = fresh.no_load_band
         self.integrator = fresh.integrator
         self.counts = counts
         self._carry = carried
@@ -762,6 +786,24 @@ class EstimatorPipeline:
                 or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
         result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
                                 inertia)
+        no_load = (0.0, 0.0)
+        if c.no_load_model and isinstance(result, Measurement):
+            # the no-load part as known before this window (gear_phm.estimation.no_load); a
+            # window where it is not identified is held: it would read drag as friction
+            correction = self.no_load.observe(
+                0 if window.code == OPPOSING else 1, window.t_start, window.t_end,
+                self._window_operating_time(window),
+                window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
+                window.motor_energy_variance, window.load_energy_variance,
+                window.motor_travel, window.motor_travel_square,
+                window.motion, self._gain_rates(), window.motor_kinetic)
+            if not correction.identified:
+                self.counts['not_identifiable'] += 1
+                return []
+            no_load = (correction.energy, correction.shared * correction.variance)
+            self.no_load_band.add(self._window_operating_time(window), self.no_load.estimate())
+            result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
+                                    c.model_sigma, inertia, no_load)
         if isinstance(result, str):
             self.counts[result] += 1
             return []
@@ -799,7 +841,7 @@ class EstimatorPipeline:
             # the wear of a unit's first 14 s of operation (bags/fleet/unit_00: WARN at 16 s
             # became WARN a week later, at its next recording)
             applied = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                     c.model_sigma, self.inertia.correction)
+                                     c.model_sigma, self.inertia.correction, no_load)
             if isinstance(applied, Measurement):
                 u_variance = applied.u_variance
         variance = u_variance + self.filter.mismatch_variance(direction)
@@ -814,6 +856,20 @@ class EstimatorPipeline:
                                 operating - 0.5 * window.duration,
                                 0.5 if direction else -0.5, update.bias))]
 
+    def _gain_rates(self) -> tuple[float, float]:
+        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s].
+
+        :data:`GAIN_RATE_MARGIN` times the filter's |du/dt|: the rate lags a wear that speeds
+        up, and a gain that cannot follow the wear passes it into the no-load part.
+        """
+        u, rate = float(self.filter.x[0]), GAIN_RATE_MARGIN * float(self.filter.x[1])
+        r = self.config.ratio
+        if not (math.isfinite(u) and math.isfinite(rate) and u > -1.0):
+            return 0.0, 0.0
+        # d(1/eta_D)/du = R (R + 1) / (R - u)^2, d(eta_I)/du = -R (R + 1) / (R + u)^2
+        return (abs(rate) * r * (r + 1.0) / max(r - u, 1e-6) ** 2,
+                -abs(rate) * r * (r + 1.0) / (r + u) ** 2)
+
     def _prediction_base(self) -> _PredictionBase:
         """Return what the estimates published before the next filter update are predicted from."""
         f = self.filter
@@ -822,7 +878,16 @@ class EstimatorPipeline:
             f.x, f.P, math.inf if f.t is None else f.t,
             f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
             (self._last_eta, last.innovation, last.innovation_variance, last.nis),
-            (f.mismatch_variance(0), f.mismatch_variance(1)))
+            (f.mismatch_variance(0), f.mismatch_variance(1)), self._no_load_fields())
+
+    def _no_load_fields(self) -> tuple[float, float, float]:
+        """Return an estimate's no-load torque, its std dev and the total efficiency (NaN off)."""
+        if not self.config.no_load_model:
+            return math.nan, math.nan, math.nan
+        values = self._no_load_summary(efficiencies(
+            float(self.filter.x[0]) + self.filter.direction_bias(0), self.config.ratio)[0])
+        return (values['no_load_torque'], values['no_load_torque_sigma'],
+                values['total_efficiency'])
 
     def _predictions(self, outputs: list[FrictionEstimate],
                      runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
@@ -858,11 +923,14 @@ class EstimatorPipeline:
         for (at, _, base), size in zip(runs_at, sizes):
             fixed, q, mismatch = base.fixed, base.q, base.mismatch
             offset = base.bias[1] - base.bias[0]
+            torque, sigma, total = base.no_load
             outputs[at:at + size] = [
                 FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
                                  rejected, flow, process_noise=q, mismatch_variance=mismatch,
                                  operating_time=time, measurement=nan,
-                                 measurement_variance=nan, direction_offset=offset)
+                                 measurement_variance=nan, direction_offset=offset,
+                                 no_load_torque=torque, no_load_sigma=sigma,
+                                 total_efficiency=total)
                 for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
                 in itertools.islice(rows, size)]
 
@@ -894,6 +962,7 @@ class EstimatorPipeline:
         if measurement is not None:
             z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
             h, bias = measurement[3], measurement[4]
+        torque, sigma, total = self._no_load_fields()
         return FrictionEstimate(
             stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
             self._last_eta, last.innovation, last.innovation_variance, last.nis,
@@ -904,7 +973,8 @@ class EstimatorPipeline:
                                self.filter.mismatch_variance(1)),
             operating_time=at, measurement=z, measurement_variance=variance,
             direction_offset=self.filter.direction_offset, measurement_direction=h,
-            measurement_bias=bias)
+            measurement_bias=bias, no_load_torque=torque, no_load_sigma=sigma,
+            total_efficiency=total)
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
@@ -929,11 +999,30 @@ class EstimatorPipeline:
             'samples_missing': self.samples_missing,
             'sample_period_s': (math.nan if self.screen.period_ns is None
                                 else self.screen.period_ns * 1e-9),
-            'counts': dict(self.counts), 'timed_out': self.timed_out,
+            'counts': (dict(self.counts) if self.config.no_load_model else {
+                reason: count for reason, count in self.counts.items()
+                if reason != 'not_identifiable'}),
+            'timed_out': self.timed_out,
             'reversed_torque': self.reversed_torque(),
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
             'windows_over_unity': self.windows_over_unity, 'over_unity': self.over_unity(),
+            **(self._no_load_summary(eta_d) if self.config.no_load_model else {}),
         }
+
+    def _no_load_summary(self, eta_opposing: float) -> dict[str, Any]:
+        """Return the no-load loss and the total efficiency at the rated point (summary keys)."""
+        c = self.config
+        learned = self.no_load.estimate()
+        return {
+            'no_load_torque': learned.torque, 'no_load_torque_sigma': learned.torque_sigma,
+            'no_load_coulomb': learned.coulomb, 'no_load_viscous': learned.viscous,
+            'no_load_offset': learned.offset,
+            'no_load_reference_speed': learned.reference_speed,
+            'no_load_cold_torque': learned.cold_torque,
+            'no_load_identified': learned.identified,
+            'no_load_band': self.no_load_band.message(learned.torque),
+            'total_efficiency': learned.total_efficiency(eta_opposing, c.ratio,
+                                                         c.rated_load_torque, c.rated_speed)}
 
     def reversed_torque(self) -> str:
         """Return which effort's sign looks reversed, as advice; '' when nothing does.
@@ -1033,6 +1122,8 @@ class EstimatorPipeline:
                  else summary['consecutive_gated'])
         if summary['timed_out']:
             level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
+        elif summary['filter_updates'] == 0 and summary['counts'].get('not_identifiable', 0):
+            level, message = OK, NOT_IDENTIFIABLE
         elif summary['filter_updates'] == 0:
             stalled = stalled_stamps(summary['samples_seen'], summary['filter_updates'],
                                      summary['counts'].get('duplicate_stamp', 0))
@@ -1042,12 +1133,15 @@ class EstimatorPipeline:
             level, message = WARN, f'{gated} measurement(s) gated'
         else:
             level, message = OK, 'estimating'
+        if level == OK and summary['filter_updates'] and summary.get('no_load_identified') \
+                is False and summary['counts'].get('not_identifiable', 0):
+            message += f'; {NOT_IDENTIFIABLE}'
         drift = summary.get('direction_offset_drift_z', math.nan)
         if abs(drift) > OFFSET_DRIFT_Z:     # a report of its own, not a level (not wear)
             message += (f'; direction offset drifted {drift:+.3g} sigma since it settled '
                         f'(now {summary["direction_offset"]:.4g})')
         for problem in (summary.get('reversed_torque', ''), summary.get('ratio_check', ''),
-                        summary.get('over_unity', '')):
+                        summary.get('over_unity', ''), summary.get('no_load_band', '')):
             if problem:
                 message = problem if level == OK else f'{message}; {problem}'
                 level = WARN
@@ -1056,11 +1150,13 @@ class EstimatorPipeline:
             message = text if level == OK else f'{message}; {text}'
             level = WARN
         counts = sorted(summary['counts'].items())
+        no_load = _NO_LOAD_STATUS_KEYS if self.config.no_load_model else ()
         keys = ((('messages_received',) if messages_received is not None else ())
-                + _STATUS_SUMMARY_KEYS + ('loss_ratio',) + _count_keys(tuple(
+                + _STATUS_SUMMARY_KEYS + no_load + ('loss_ratio',) + _count_keys(tuple(
                     reason for reason, _ in counts)))
         values = itertools.chain(
             (messages_received,) if messages_received is not None else (),
-            _STATUS_SUMMARY(summary), (loss,), (count for _, count in counts))
+            _STATUS_SUMMARY(summary), (summary[key] for key in no_load), (loss,),
+            (count for _, count in counts))
         return StatusOut(level, name, message, 'gear_phm',
                          tuple(zip(keys, format_values(values))))

@@ -55,7 +55,10 @@ class FrictionEstimate:
     merged into one estimate); ``measurement_bias`` [-]: the bias h d subtracted from the
     measurement with d as it was then. With the offset learned since, the measurement reads
     ``measurement + measurement_bias - h d`` (the RUL's history re-corrects it so,
-    :class:`~gear_phm.prognostics.history.WearHistory`).
+    :class:`~gear_phm.prognostics.history.WearHistory`). With the no-load model
+    (:mod:`gear_phm.estimation.no_load`): ``no_load_torque`` [N m] at the motor at the
+    reference speed, its std dev ``no_load_sigma`` [N m], and ``total_efficiency`` [-] at the
+    rated point (NaN without one); NaN without the model.
     """
 
     stamp_ns: int
@@ -80,6 +83,9 @@ class FrictionEstimate:
     direction_offset: float = math.nan
     measurement_direction: float = math.nan
     measurement_bias: float = math.nan
+    no_load_torque: float = math.nan
+    no_load_sigma: float = math.nan
+    total_efficiency: float = math.nan
 
     @property
     def t(self) -> float:

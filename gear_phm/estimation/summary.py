@@ -127,13 +127,19 @@ class EstimatorSummary:
         return stalled_stamps(self.samples_seen, self.filter_updates,
                               self.counts.get('duplicate_stamp', 0))
 
+    @property
+    def held(self) -> bool:
+        """Return whether u never moved because no window's no-load loss was identified."""
+        return not self.filter_updates and self.counts.get('not_identifiable', 0) > 0
+
     def unmeasured(self, windows_measured: int) -> str:
         """Return why the run made no filter update ('' if it made one).
 
         The samples' reasons (the counts, most first) and the windows measured: with no
-        update, u is the filter's prior, not an estimate.
+        update, u is the filter's prior, not an estimate. A run whose windows the no-load
+        model held (:attr:`held`) measured: it says why u did not move.
         """
-        if self.filter_updates:
+        if self.filter_updates or self.held:
             return ''
         found = {name: count for name, count in self.counts.items() if count}
         reasons = ', '.join(f'{name} {count}' for name, count in sorted(

@@ -46,6 +46,12 @@ class Window:
     #: (w_m,end^2 - w_m,start^2) / 2 [rad^2/s^2]: a motor inertia J leaves J times this in
     #: the motor energy (:mod:`gear_phm.estimation.inertia`)
     motor_kinetic: float = 0.0
+    #: int |w_m| dt [rad] and int w_m^2 dt [rad^2/s]: a no-load torque T_0 sign(w_m) + c_v w_m
+    #: costs T_0 times the first and c_v times the second (:mod:`gear_phm.estimation.no_load`)
+    motor_travel: float = 0.0
+    motor_travel_square: float = 0.0
+    #: sign of w_m over the window (+1 or -1; 0 if unknown)
+    motion: int = 0
 
     @property
     def duration(self) -> float:
@@ -79,6 +85,8 @@ class _Open:
     e_l: float = 0.0
     v_m: float = 0.0
     v_l: float = 0.0
+    a: float = 0.0          # int |w_m| dt
+    b: float = 0.0          # int w_m^2 dt
 
 
 class EnergyIntegrator:
@@ -106,7 +114,8 @@ class EnergyIntegrator:
     def reset(self) -> None:
         """Forget the open window and the previous sample."""
         self._open: _Open | None = None
-        self._last: tuple[float, float, float, int] | None = None   # t, P_m, P_l, code
+        # t, P_m, P_l, code, w_m of the previous sample
+        self._last: tuple[float, float, float, int, float] | None = None
         self._last_usable = False
 
     def to_state(self) -> dict[str, Any]:
@@ -114,7 +123,8 @@ class EnergyIntegrator:
         open_ = None if self._open is None else [
             v if isinstance(v, int) else encode_float(v) for v in astuple(self._open)]
         last = None if self._last is None else [
-            *(encode_float(v) for v in self._last[:3]), self._last[3]]
+            *(encode_float(v) for v in self._last[:3]), self._last[3],
+            encode_float(self._last[4])]
         return {'open': open_, 'last': last, 'last_usable': self._last_usable}
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -125,12 +135,14 @@ class EnergyIntegrator:
         open_, last = state['open'], state['last']
         restored = None
         if open_ is not None:
-            if len(open_) != len(fields(_Open)):
+            # a state written before the travel integrals has two values fewer (0 travel)
+            if len(open_) not in (len(fields(_Open)), len(fields(_Open)) - 2):
                 raise ValueError(f'open window of {len(open_)} values')
             restored = _Open(int(open_[0]), decode_float(open_[1]), decode_float(open_[2]),
                              int(open_[3]), *(decode_float(v) for v in open_[4:]))
         previous = None if last is None else (
-            decode_float(last[0]), decode_float(last[1]), decode_float(last[2]), int(last[3]))
+            decode_float(last[0]), decode_float(last[1]), decode_float(last[2]), int(last[3]),
+            decode_float(last[4]) if len(last) > 4 else 0.0)
         self._open, self._last = restored, previous
         self._last_usable = bool(state['last_usable'])
 
@@ -152,7 +164,8 @@ class EnergyIntegrator:
         v_m = w.v_m + (jm * s_wm) ** 2 * (w.w_m_start ** 2 + w.w_m_end ** 2)
         v_l = w.v_l + (jl * s_wl) ** 2 * (w.w_l_start ** 2 + w.w_l_end ** 2)
         return Window(w.code, w.t_start, w.t_end, w.samples, e_m, e_l, v_m, v_l, close_index,
-                      0.5 * (w.w_m_end ** 2 - w.w_m_start ** 2))
+                      0.5 * (w.w_m_end ** 2 - w.w_m_start ** 2), w.a, w.b,
+                      1 if w.w_m_start > 0.0 else -1 if w.w_m_start < 0.0 else 0)
 
     def flush(self, close_index: int = 0) -> list[Window]:
         """Close the open window now (e.g. on a sensor timeout)."""
@@ -184,9 +197,9 @@ class EnergyIntegrator:
         tm_c, tl_c = tau_m[idx], tau_l[idx]
         p_m, p_l = tm_c * wm_c, -tl_c * wl_c
         if self._last is not None:
-            t_prev0, pm_prev0, pl_prev0, code_prev0 = self._last
+            t_prev0, pm_prev0, pl_prev0, code_prev0, wm_prev0 = self._last
         else:
-            t_prev0, pm_prev0, pl_prev0, code_prev0 = -math.inf, 0.0, 0.0, -9
+            t_prev0, pm_prev0, pl_prev0, code_prev0, wm_prev0 = -math.inf, 0.0, 0.0, -9, 0.0
         t_prev = np.concatenate(([t_prev0], t_c[:-1]))
         dt = t_c - t_prev
         breaks = np.empty(idx.size, dtype=bool)
@@ -204,6 +217,9 @@ class EnergyIntegrator:
             (wm_c * wm_c * s_tm * s_tm + tm_c * tm_c * s_wm * s_wm) * dt2)))
         c_vl = np.concatenate(([0.0], np.cumsum(
             (wl_c * wl_c * s_tl * s_tl + tl_c * tl_c * s_wl * s_wl) * dt2)))
+        wm_prev = np.concatenate(([wm_prev0], wm_c[:-1]))
+        c_a = np.concatenate(([0.0], np.cumsum(0.5 * (np.abs(wm_prev) + np.abs(wm_c)) * dt)))
+        c_b = np.concatenate(([0.0], np.cumsum(0.5 * (wm_prev * wm_prev + wm_c * wm_c) * dt)))
         break_at = np.flatnonzero(breaks)
         n = idx.size
         skippable, resume = self._short_segments(t_c, break_at, n, bool(usable[-1]))
@@ -238,6 +254,8 @@ class EnergyIntegrator:
                 win.e_l += float(c_el[lim] - c_el[first])
                 win.v_m += float(c_vm[lim] - c_vm[first])
                 win.v_l += float(c_vl[lim] - c_vl[first])
+                win.a += float(c_a[lim] - c_a[first])
+                win.b += float(c_b[lim] - c_b[first])
                 win.samples += lim - first
                 win.t_end = float(t_c[lim - 1])
                 win.w_m_end, win.w_l_end = float(wm_c[lim - 1]), float(wl_c[lim - 1])
@@ -245,7 +263,8 @@ class EnergyIntegrator:
                 closed.append(self._finish(win, int(idx[lim - 1]) + 1 if lim else 0))
                 self._open = None
             pos = lim
-        self._last = (float(t_c[-1]), float(p_m[-1]), float(p_l[-1]), int(code_c[-1]))
+        self._last = (float(t_c[-1]), float(p_m[-1]), float(p_l[-1]), int(code_c[-1]),
+                      float(wm_c[-1]))
         self._last_usable = bool(usable[-1])
         if not self._last_usable and self._open is not None:
             closed.append(self._finish(self._open, int(idx[-1]) + 1))
@@ -274,12 +293,14 @@ class EnergyIntegrator:
 
 
 def to_measurement(window: Window, ratio: float, min_window: float, min_energy: float,
-                   model_sigma: float = 0.0, inertia: tuple[float, float] = (0.0, 0.0)
-                   ) -> Measurement | str:
+                   model_sigma: float = 0.0, inertia: tuple[float, float] = (0.0, 0.0),
+                   no_load: tuple[float, float] = (0.0, 0.0)) -> Measurement | str:
     """Efficiency and pseudo-measurement of u for ``window``, or the rejection reason.
 
     ``inertia``: a learned rotor inertia dJ [kg m^2] still in the window's motor energy and
-    its variance: E_m - dJ K is used, its variance increased by K^2 var(dJ).
+    its variance: E_m - dJ K is used, its variance increased by K^2 var(dJ). ``no_load``: the
+    no-load loss energy [J] in the motor energy and its variance [J^2]
+    (:mod:`gear_phm.estimation.no_load`), removed likewise.
 
     Opposing: eta_D = -E_l / E_m, u from eq 13. Aiding and self-locking: eta_I = -E_m / E_l,
     u from eq 13 (aiding). var(eta) to first order from the energy variances; var(u) =
@@ -289,10 +310,11 @@ def to_measurement(window: Window, ratio: float, min_window: float, min_energy: 
     if window.duration < min_window or window.samples < 2:
         return 'short_window'
     e_l = window.load_energy
-    e_m = window.motor_energy - inertia[0] * window.motor_kinetic
+    e_m = window.motor_energy - inertia[0] * window.motor_kinetic - no_load[0]
     if abs(e_m) < min_energy or abs(e_l) < min_energy or e_m == 0.0 or e_l == 0.0:
         return 'low_energy'
-    motor_variance = window.motor_energy_variance + window.motor_kinetic ** 2 * inertia[1]
+    motor_variance = (window.motor_energy_variance + window.motor_kinetic ** 2 * inertia[1]
+                      + no_load[1])
     rel_var = motor_variance / e_m ** 2 + window.load_energy_variance / e_l ** 2
     if window.code == OPPOSING:
         if not (e_m > 0.0 > e_l):

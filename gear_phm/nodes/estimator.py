@@ -119,7 +119,8 @@ class EstimatorNode(Node):
         self.state = StateKeeper(self, values, 'estimator', state_identity(values),
                                  self._current_state)
         self.state.load(self.pipeline.from_state)
-        self.outputs = EstimatePublisher(self, values['frame_id'])
+        self.outputs = EstimatePublisher(self, values['frame_id'],
+                                         no_load=self.pipeline.config.no_load_model)
         self.loss_outputs = SampleLossPublisher(self, values['frame_id'])
         self.diag_pub = self.create_publisher(DiagnosticArray, interfaces.DIAGNOSTICS,
                                               OUTPUT_QOS)

@@ -54,7 +54,8 @@ class _Drive:
             self.pipeline = EstimatorPipeline(drive.estimator_config())
         except ValueError as exc:
             raise ConfigError(f'drive {drive.name}: {exc}') from None
-        self.outputs = EstimatePublisher(node, frame_id, drive.name)
+        self.outputs = EstimatePublisher(node, frame_id, drive.name,
+                                         no_load=self.pipeline.config.no_load_model)
         self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
         self.status_name = f'gear_phm estimator: {drive.name}'
         self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]

@@ -96,11 +96,13 @@ class EstimatePublisher:
     ``drive``: a drive of many (``transmissions``): its topics ``gear_phm/<drive>/...``.
     """
 
-    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None) -> None:
+    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None,
+                 no_load: bool = False) -> None:
         self.frame_id = frame_id
+        self.no_load = no_load          # also gear_phm/no_load (the no-load model's outputs)
         self._publishers = {topic: node.create_publisher(Vector3Stamped,
                                                          topic_of(drive, topic), OUTPUT_QOS)
-                            for topic in interfaces.ESTIMATOR_TOPICS}
+                            for topic, _ in interfaces.estimate_layout(no_load)}
 
     def matched(self) -> int:
         """Return the subscriptions matched by every one of the seven topics' publishers.
@@ -117,7 +119,7 @@ class EstimatePublisher:
         rclpy's ``publish`` takes CDR bytes: no Python message object per output.
         """
         for estimate in estimates:
-            for output in interfaces.estimate_outputs(estimate, self.frame_id):
+            for output in interfaces.estimate_outputs(estimate, self.frame_id, self.no_load):
                 self._publishers[output.topic].publish(interfaces.vector3_stamped_cdr(output))
 
 

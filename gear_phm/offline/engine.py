@@ -41,6 +41,7 @@ from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
 from gear_phm.offline.parallel import (Assessed, Column, drives_for, Estimated, Finished,
                                        HealthHalf, LocalDrives, Made, start_plotter)
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
+                                      NO_LOAD,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
                                       measurements_key)
 from gear_phm.offline.summary import (DriveSummary, HealthSummary, RunInfo, RunSummary,
@@ -71,6 +72,8 @@ _TRUTH_COLUMNS = ('stamp_ns', 'x', 'y', 'z')
 #: about 7M samples of 1 kHz; as columns, 57 bytes.
 _MEASUREMENT_COLUMNS = ('stamp_ns', 'code', 'accepted', *MEASUREMENT_FIELDS)
 ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
+#: The no-load envelope's columns (:data:`gear_phm.offline.records.NO_LOAD`).
+_NO_LOAD_COLUMNS = ('no_load_torque', 'no_load_low', 'no_load_high')
 
 
 class AnalysisError(GearPhmError, ValueError):
@@ -468,6 +471,9 @@ class DriveRun:
             HEALTH: Binned(ENVELOPE_BINS, ('stamp_ns', 'level', 'rul_median', 'rul_p5',
                                            'rul_p95', 'u_eol'),
                            ('level', 'rul_median', 'rul_p5', 'rul_p95', 'u_eol', 'rul_unknown'))}
+        if estimator_config.no_load_model:
+            self.envelopes[NO_LOAD] = Binned(ENVELOPE_BINS, ('stamp_ns', *_NO_LOAD_COLUMNS),
+                                             _NO_LOAD_COLUMNS)
         self.first_seen: dict[str, int] = {}
         self.truth: dict[str, tuple[Binned, Binned]] = {}    # by topic: history, envelope
         self.true_end_of_life_ns: int | None = None
@@ -521,7 +527,8 @@ class DriveRun:
             return MeasuredWindows({})
         return MeasuredWindows(self.measurements.first())
 
-    def _keep_estimates(self, history: EstimateHistory) -> None:
+    def _keep_estimates(self, history: EstimateHistory,
+                        estimates: Sequence[FrictionEstimate]) -> None:
         """Add a batch's estimates and measured windows to the histories."""
         if history.stamp_ns.size:
             columns = {f.name: getattr(history, f.name) for f in fields(history)}
@@ -529,6 +536,12 @@ class DriveRun:
             sigma = history.u_sigma
             self.envelopes[ESTIMATES].extend(
                 {**columns, 'u_low': history.u - 2 * sigma, 'u_high': history.u + 2 * sigma})
+            if NO_LOAD in self.envelopes:
+                torque, spread = np.array([(e.no_load_torque, 2.0 * e.no_load_sigma)
+                                           for e in estimates], dtype=float).reshape(-1, 2).T
+                self.envelopes[NO_LOAD].extend(
+                    {'stamp_ns': history.stamp_ns, 'no_load_torque': torque,
+                     'no_load_low': torque - spread, 'no_load_high': torque + spread})
         self._keep_measurements()
 
     def _keep_states(self, states: Sequence[HealthState]) -> None:
@@ -593,7 +606,7 @@ class DriveRun:
             decoded.stamp_ns, decoded.motor_velocity, decoded.motor_effort,
             decoded.load_velocity, decoded.load_effort, marks, rejected_at)
         history = EstimateHistory.of(estimates)     # the columns kept and written
-        self._keep_estimates(history)
+        self._keep_estimates(history, estimates)
         statuses = tuple(self.pipeline.status(self.estimator_status_name, self.samples + cut,
                                               snapshot)
                          for cut, snapshot in zip(cuts, snapshots))
@@ -604,7 +617,9 @@ class DriveRun:
             estimates, ends, statuses,
             tuple(int(stamps[end - 1]) if end else -1 for end in ends),
             bool(np.all(np.diff(stamps) > 0)),
-            tuple(self._topics(estimate_columns(estimates, history))) if write else ())
+            tuple(self._topics(estimate_columns(estimates, history,
+                                                self.pipeline.config.no_load_model)))
+            if write else ())
 
     def assess(self, estimates: Sequence[FrictionEstimate], ends: Sequence[int],
                ticks: Sequence[int], write: bool) -> Assessed:
@@ -781,7 +796,8 @@ class Stream:
         """Return {bag topic: (run index, canonical truth topic)} of the truth the bag holds."""
         found = {}
         for index, run in enumerate(self.runs if self.want_truth else ()):
-            for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY):
+            for name in (interfaces.TRUTH_FRICTION, interfaces.TRUTH_EFFICIENCY,
+                         interfaces.TRUTH_NO_LOAD):
                 topic = bag.resolve_topic(name if run.drive is None
                                           else interfaces.drive_topic(run.drive, name))
                 if topic in bag.topics:
@@ -937,17 +953,19 @@ class _Prepared:
 
 #: The estimate fields written from the estimates themselves (not :class:`EstimateHistory`).
 _FROM_ESTIMATES = ('measurement', 'measurement_variance', 'direction_offset',
-                   'measurement_direction', 'measurement_bias')
+                   'measurement_direction', 'measurement_bias', 'no_load_torque',
+                   'no_load_sigma', 'total_efficiency')
 
 
-def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory
-                     ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHistory,
+                     no_load: bool = False) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Return :func:`gear_phm.interfaces.vector3_columns` of estimates, from their ``history``.
 
     The estimator's outputs as ``(topic, stamps [ns], xyz)`` columns, in publishing order
     (:data:`gear_phm.interfaces.ESTIMATE_LAYOUT`; the diagnostics node's are
     ``vector3_columns(states, HEALTH_LAYOUT)``). The measurements and the direction offset,
-    which the history does not hold, are read from the estimates.
+    which the history does not hold, are read from the estimates; with ``no_load`` also
+    :data:`gear_phm.interfaces.NO_LOAD_LAYOUT`.
     """
     row = operator.attrgetter(*_FROM_ESTIMATES)
     measured = np.array([row(e) for e in estimates], dtype=float).reshape(
@@ -957,7 +975,7 @@ def estimate_columns(estimates: Sequence[FrictionEstimate], history: EstimateHis
     return [(topic, history.stamp_ns,
              np.column_stack([source[name] if name in source else getattr(history, name)
                               for name in names]).astype(float))
-            for topic, names in interfaces.ESTIMATE_LAYOUT]
+            for topic, names in interfaces.estimate_layout(no_load)]
 
 
 class _NoProgress:

@@ -48,8 +48,11 @@ from gear_phm.transmissions import (DRIVE_OWN, drive_own_given, parse_transmissi
 #: same in elapsed time at the unit's utilisation so far (the /diagnostics keys of that name).
 OPERATING_RUL = ('rul_operating_s', 'rul_operating_p5_s', 'rul_operating_p95_s')
 HEALTH_VALUES = (*OPERATING_RUL, 'rul_s', 'rul_p5_s', 'rul_p95_s', 'utilisation')
+#: The no-load model's values of a unit (NaN without ``no_load_model``): the no-load torque
+#: at the motor at the reference speed [N m] and the total efficiency at the rated point.
+NO_LOAD_VALUES = ('no_load_torque', 'total_efficiency')
 COLUMNS = ('unit', 'recordings', 'operating_time_s', 'u', 'u_sigma', 'eta_opposing',
-           'eta_aiding', *HEALTH_VALUES, 'level', 'reason')
+           'eta_aiding', *HEALTH_VALUES, 'level', 'reason', *NO_LOAD_VALUES)
 #: Points of each unit's u trend kept for the fleet plot.
 TREND_POINTS = 200
 #: Units at end of life needed before their wear law becomes the fleet's prior.
@@ -261,6 +264,11 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
             for drive, drive_analysis in analysis.transmissions.items()]
 
 
+def _number(value: object) -> float:
+    """Return a summary value as a float, NaN when it is not a number."""
+    return float(value) if isinstance(value, (int, float)) else math.nan
+
+
 def _result(name: str, recordings: int, analysis: Analysis, peak: float,
             prior: ShapePrior | None) -> UnitResult:
     """Return the row of one transmission's Analysis (a unit's, or one drive of a unit)."""
@@ -272,7 +280,8 @@ def _result(name: str, recordings: int, analysis: Analysis, peak: float,
            'u': estimator.u, 'u_sigma': estimator.sigma_u,
            'eta_opposing': estimator.eta_opposing, 'eta_aiding': estimator.eta_aiding,
            **{key: health.value(key) for key in HEALTH_VALUES},
-           'level': health.level, 'reason': health.message or ''}
+           'level': health.level, 'reason': health.message or '',
+           **{key: _number(estimator.extra.get(key)) for key in NO_LOAD_VALUES}}
     e = analysis.estimates
     keep = np.unique(np.linspace(0, e.u.size - 1, min(TREND_POINTS, e.u.size)).astype(int))
     clock = e.operating_time if np.all(np.isfinite(e.operating_time)) else e.t - e.t[0]

@@ -28,7 +28,6 @@ from typing import Any, Protocol, Sequence, TYPE_CHECKING
 
 import numpy as np
 
-from gear_phm import interfaces
 from gear_phm.errors import GearPhmError
 from gear_phm.status import StatusOut
 
@@ -108,7 +107,7 @@ class Estimated:
         return Made(tuple((status, *health) for status, health in
                           zip(self.statuses, assessed.statuses)),
                     self.limits, self.increasing, self.columns + assessed.columns,
-                    len(interfaces.ESTIMATE_LAYOUT), self.ends, assessed.state_ends,
+                    len(self.columns), self.ends, assessed.state_ends,
                     len(self.estimates))
 
 

@@ -1,7 +1,7 @@
 """``analysis.png`` of an :class:`~gear_phm.offline.Analysis` (matplotlib, Agg backend)."""
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 import math
 from pathlib import Path
 from typing import Any
@@ -11,7 +11,8 @@ import numpy as np
 from gear_phm import interfaces
 from gear_phm.models import eta_aiding, eta_opposing
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
-from gear_phm.offline.records import Analysis, Envelope, ESTIMATES, HEALTH, measurements_key
+from gear_phm.offline.records import (Analysis, Envelope, ESTIMATES, HEALTH, measurements_key,
+                                      NO_LOAD)
 from gear_phm.prognostics.metrics import ALPHA, true_end_of_life_index
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE, WARN
 
@@ -70,10 +71,15 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
     t_end = max(float(t[-1]), float(seconds(analysis.estimates.stamp_ns[-1:]).max(initial=0.0)))
     # a Figure on its own Agg canvas: no pyplot (its import and figure manager cost more
     # than the drawing)
-    fig = Figure(figsize=(10, 11))
+    no_load = analysis.envelopes.get(NO_LOAD)
+    shown = no_load is not None and bool(no_load.stamp_ns.size)
+    fig = Figure(figsize=(10, 13.5 if shown else 11))
     FigureCanvasAgg(fig)
-    ax_eta, ax_u, ax_rul, ax_level = fig.subplots(
-        4, 1, sharex=True, gridspec_kw={'height_ratios': [3, 3, 3, 0.5]})
+    axes = fig.subplots(5 if shown else 4, 1, sharex=True, gridspec_kw={
+        'height_ratios': [3, 3, 2, 3, 0.5] if shown else [3, 3, 3, 0.5]})
+    ax_eta, ax_u, ax_rul, ax_level = axes[0], axes[1], axes[-2], axes[-1]
+    if shown and no_load is not None:
+        _plot_no_load(axes[2], no_load, analysis, seconds)
     # fixed margins: a layout engine (tight or constrained) measures every text first and
     # cost more than the drawing
     fig.subplots_adjust(left=0.085, right=0.985, top=0.975, bottom=0.045, hspace=0.08)
@@ -145,6 +151,36 @@ def plot_analysis(path: Path, analysis: Analysis, ratio: float, bags: Sequence[P
         _plot_levels(ax_level, seconds(h.stamp_ns), h.high['level'].astype(int))
     ax_level.set_xlabel('bag time [s]')
     fig.savefig(path, dpi=110, pil_kwargs={'compress_level': 1})
+
+
+def _plot_no_load(ax: Any, e: Envelope, analysis: Analysis,
+                  seconds: Callable[[np.ndarray], np.ndarray]) -> None:
+    """No-load torque at the reference speed with its 2-sigma band; the truth when known.
+
+    The truth (``gear_phm/truth/no_load``: y = T_0, z = c_v at the oil's temperature) is
+    drawn at the estimate's reference speed, T_0 + c_v w_ref.
+    """
+    t = seconds(e.stamp_ns)
+    speed = _reference_speed(analysis)
+    ax.fill_between(t, e.low['no_load_low'], e.high['no_load_high'], color='C5', alpha=0.3,
+                    lw=0, label='no-load torque +/- 2 sigma')
+    ax.plot(t, e.first['no_load_torque'], color='C5',
+            label=f'no-load torque at {speed:.3g} rad/s (estimated)')
+    truth = analysis.envelopes.get(interfaces.TRUTH_NO_LOAD)
+    if truth is not None and truth.stamp_ns.size and math.isfinite(speed):
+        ax.plot(seconds(truth.stamp_ns), truth.first['y'] + truth.first['z'] * speed, 'k--',
+                lw=1, label='true no-load torque')
+    ax.set_ylabel('no-load torque [N m]')
+    ax.legend(loc='best', fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+def _reference_speed(analysis: Analysis) -> float:
+    """Return the motor speed at which the no-load torque is reported [rad/s] (NaN if none)."""
+    summary = analysis.summary
+    extra = getattr(getattr(summary, 'estimator', None), 'extra', {})
+    value = extra.get('no_load_reference_speed') if isinstance(extra, Mapping) else None
+    return float(value) if isinstance(value, (int, float)) else math.nan
 
 
 def _band(ax: Any, t: np.ndarray, low: np.ndarray, high: np.ndarray, colour: str) -> None:

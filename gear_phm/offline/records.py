@@ -109,8 +109,10 @@ class HealthHistory:
 
 
 #: Keys of :attr:`Analysis.envelopes`: the estimates' and the health states' (the truth
-#: topics' are their topic names, the measurements' those of :func:`measurements_key`).
-ESTIMATES, HEALTH = 'estimates', 'health'
+#: topics' are their topic names, the measurements' those of :func:`measurements_key`), and
+#: with the no-load model the no-load torque's (``no_load_torque``, its 2-sigma band
+#: ``no_load_low``/``no_load_high``).
+ESTIMATES, HEALTH, NO_LOAD = 'estimates', 'health', 'no_load'
 
 
 def measurements_key(code: int, accepted: bool) -> str:

@@ -6,6 +6,7 @@ paced publishing.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 import sys
 import time
 
@@ -20,6 +21,7 @@ from sensor_msgs.msg import JointState
 
 from gear_phm.interfaces import (ESTIMATOR_TOPICS, HEALTH_EFFICIENCY, HEALTH_RUL, SAMPLE_LOSS,
                                  stamp_to_ns)
+from helpers.processes import spawn, stop
 
 #: Outputs and /diagnostics: reliable, deep enough for a burst.
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -223,3 +225,31 @@ def publish_acked(driver: Driver, messages: list[JointState], rate: float, ahead
         driver.pub.publish(msg)
         if i % 10 == 9:
             driver.spin_once(0.0)
+
+
+def replay_to_nodes(name: str, topics: tuple[str, ...], bag: Path, duration: float,
+                    diagnostics: tuple[str, ...], estimator: tuple[str, ...],
+                    rate_factor: float = 2.0) -> tuple[Driver, int, str]:
+    """Replay ``bag`` (``duration`` s of bag time) to a diagnostics and an estimator node.
+
+    The nodes are started with the ``node:=value`` arguments given, the publisher replays at
+    ``rate_factor`` once the diagnostics node reports; the :class:`Driver` ``name`` records
+    ``topics`` and every status until the estimator's status settles. Returns the (closed)
+    driver, the publisher's exit code and its standard error.
+    """
+    procs = [spawn('diagnostics', *diagnostics), spawn('estimator', *estimator)]
+    driver = Driver(name, topics)
+    try:
+        driver.wait(lambda: driver.latest('gear_phm'), 30.0, 'the diagnostics node')
+        publisher = spawn('publisher', 'mode:=replay', f'bag_path:={bag}',
+                          f'rate_factor:={rate_factor}', 'wait_for_subscribers:=1')
+        procs.append(publisher)
+        driver.wait(lambda: publisher.poll() is not None, duration / rate_factor + 90.0,
+                    'the replay to end')
+        driver.settle('gear_phm estimator')
+        driver.spin(1.0)
+    finally:
+        driver.close()
+        codes = [stop(p) for p in reversed(procs)]
+    error = publisher.stderr.read() if publisher.stderr else ''
+    return driver, codes[0], error
