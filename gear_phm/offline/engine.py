@@ -41,9 +41,8 @@ from gear_phm.offline.decimate import Binned, ENVELOPE_BINS
 from gear_phm.offline.parallel import (Assessed, Column, drives_for, Estimated, Finished,
                                        HealthHalf, LocalDrives, Made, start_plotter)
 from gear_phm.offline.records import (Analysis, Envelope, EstimateHistory, ESTIMATES, HEALTH,
-                                      NO_LOAD,
                                       HealthHistory, MeasuredWindows, MEASUREMENT_FIELDS,
-                                      measurements_key)
+                                      measurements_key, NO_LOAD)
 from gear_phm.offline.summary import (DriveSummary, HealthSummary, RunInfo, RunSummary,
                                       TrendSummary)
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT, RATIO,

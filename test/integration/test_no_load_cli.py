@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import csv
 import json
-import struct
 from pathlib import Path
+import struct
 
 import pytest
 
