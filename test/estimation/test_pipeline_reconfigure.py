@@ -33,7 +33,7 @@ def learned() -> EstimatorPipeline:
 
 def test_the_structural_settings_are_the_read_only_ones() -> None:
     assert [s.name for s in PARAMETERS if s.read_only] == [
-        'ratio', 'motor_inertia', 'motor_effort_sign', 'load_effort_sign']
+        'ratio', 'motor_inertia', 'motor_effort_sign', 'load_effort_sign', 'no_load_model']
 
 
 @pytest.mark.parametrize('spec', LIVE, ids=[s.name for s in LIVE])

@@ -1,0 +1,1 @@
+"""Unit tests of gear_phm.cli, one module per source module."""

@@ -1,0 +1,1 @@
+"""End-to-end tests: node processes over DDS, the CLI, bags written and read back."""
