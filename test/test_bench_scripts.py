@@ -299,3 +299,11 @@ def test_bench_analyze_floor_tiny() -> None:
                                           'plot draw [s]')]
     assert number(row['floor [s]']) == pytest.approx(sum(parts), abs=0.02)
     assert_ratio(row['floor / budget'], row['floor [s]'], row['budget of 3x [s]'])
+
+
+def test_bench_no_load_cost_tiny() -> None:
+    result = subprocess.run([sys.executable, str(BENCH / 'no_load_cost.py'), '--duration',
+                             '30', '--rate', '100', '--repeat', '1'],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert '| ratio B / A |' in result.stdout
