@@ -164,6 +164,7 @@ def test_bench_monitor_vs_processes_tiny(tmp_path: Path) -> None:
         assert 0.03 < number(row['last u reported']) < 0.08      # healthy: u = 0.05
 
 
+@pytest.mark.long(12)
 def test_bench_fleet_scale_tiny() -> None:
     out = run('fleet_scale.py', '--units', '2', '--recordings', '2', '--duration', '5',
               '--repeat', '1')

@@ -38,6 +38,7 @@ STALE_TIMEOUT = 1.0
 DIAGNOSTICS_RATE = 10.0
 
 
+@pytest.mark.long(15)
 def test_three_processes_levels_recording_and_stale(tmp_path: Path,
                                                     sigkill_safe_env: dict[str, str]) -> None:
     record = tmp_path / 'diag'

@@ -36,6 +36,7 @@ def test_bad_parameter_is_refused_with_reason() -> None:
     assert 'min_window must be < window' in result.stderr
 
 
+@pytest.mark.long(12)
 def test_node_survives_garbage_and_keeps_estimating() -> None:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -117,6 +118,7 @@ def test_node_survives_garbage_and_keeps_estimating() -> None:
         proc.wait(timeout=10)
 
 
+@pytest.mark.long(20)
 def test_status_says_which_joints_the_messages_name_and_that_stamps_do_not_advance() -> None:
     """The estimator's status says why it has no measurement, on /diagnostics.
 

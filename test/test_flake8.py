@@ -10,6 +10,7 @@ PATHS = ['gear_phm', 'launch', 'test', 'bench', 'setup.py']
 
 @pytest.mark.flake8
 @pytest.mark.linter
+@pytest.mark.long(20)
 def test_flake8(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(ROOT)     # PATHS and setup.cfg are relative to the root
     rc, errors = main_with_errors(argv=['--config', 'setup.cfg', *PATHS])

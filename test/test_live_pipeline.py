@@ -61,6 +61,7 @@ def test_10khz_burst_every_sample_used_rejected_or_counted_missing() -> None:
           f'missing {missing}')
 
 
+@pytest.mark.long(12)
 def test_zero_and_past_stamp_amid_good_data_change_nothing_and_are_counted() -> None:
     run = lever_plant(3, 40.0, 0.1, rate=100.0)
     columns = [run.stamp_ns, run.motor_velocity, run.motor_effort, run.load_velocity,

@@ -85,6 +85,7 @@ def test_population_prior_comes_from_units_at_end_of_life_only() -> None:
     assert tight is not None and tight.log_sigma == 0.1              # the spread's floor
 
 
+@pytest.mark.long(15)
 def test_fleet_cli_population_prior(tmp_path: Path) -> None:
     root, out = tmp_path / 'fleet', tmp_path / 'out'
     simulate = subprocess.run(

@@ -503,6 +503,7 @@ def _same_summary(ours: object, theirs: object) -> None:
         assert ours == theirs
 
 
+@pytest.mark.long(15)
 def test_jobs_split_the_drives_over_processes_with_the_same_results(
         bench: Path, tmp_path: Path) -> None:
     """``gear-phm analyze --jobs 2``: the drives in two worker processes, the same outputs.
