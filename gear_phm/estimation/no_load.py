@@ -14,13 +14,14 @@ Integrated over an energy window of one power-flow direction and one sense of mo
     E_m = g L + (T_0 + s d) A + c_v B          L = -E_l, A = int |w_m| dt, B = int w_m^2 dt
 
 with g = 1 / eta_D (opposing) or eta_I (aiding). Written about the typical motor speed W
-(that of the first window, B / A), (T_0 + s d) A + c_v B = a_s A + c_v (B - W A) with
+(the median B / A of the first windows), (T_0 + s d) A + c_v B = a_s A + c_v (B - W A) with
 a_s = T_0 + s d + c_v W, the no-load torque at W: windows of one speed profile then measure
-a_s well even though they cannot split it into its Coulomb and viscous parts. Divided by
-|L|, each window is one linear measurement of the state x = [g_D, g_I, a_+, a_-, c_v], which
-filterpy's
-``KalmanFilter`` tracks: every part is a random walk in operating time (g with wear, the
-no-load part with the oil temperature). The no-load part is identifiable only from windows
+a_s well even though they cannot split it into its Coulomb and viscous parts. The rotor
+inertia that ``motor_inertia`` leaves costs dJ K more (K = (w_m,end^2 - w_m,start^2) / 2), a
+nuisance of the ramps' windows. Divided by |L|, each window is one linear measurement of the
+state x = [g_D, g_I, a_+, a_-, c_v, dJ], which filterpy's ``KalmanFilter`` tracks: the gains
+walk with the wear (by the friction filter's wear rate), the no-load part with the oil
+temperature, dJ is constant. The no-load part is identifiable only from windows
 whose ratio L / A differs, i.e. a load that varies: under one constant load the gain and the
 no-load torque are collinear and the filter's covariance says so.
 
@@ -51,7 +52,7 @@ START_WINDOWS = 8
 #: Prior std dev of each direction's gain g [-] (eta from 0 to 2 within one sigma of 1).
 GAIN_SIGMA = 1.0
 #: Prior std dev of T_0 and of c_v times the typical speed, as shares of the typical motor
-#: torque of the first window [-]; of the offset d.
+#: torque of the first windows [-]; of the offset d.
 NO_LOAD_SHARE = 0.3
 OFFSET_SHARE = 0.05
 #: Prior std dev of the rotor inertia left: this share of the first windows' median motor
