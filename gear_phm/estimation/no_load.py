@@ -156,8 +156,6 @@ class NoLoadLearner:
         self._seek_cold = True
         self.identified = False         # the newest correction's verdict
         self.known = False              # a correction was identified since the last start
-        self.windows = 0
-        self.held = 0
         #: the first windows, kept until the scales are known (:meth:`observe`)
         self._first: list[tuple[float, ...]] = []
         self._estimate: NoLoadEstimate | None = None     # estimate() until the next window
@@ -231,14 +229,12 @@ class NoLoadLearner:
         if not (all(math.isfinite(v) for v in values) and travel > 0.0
                 and travel_square > 0.0 and load != 0.0):
             return NoLoadCorrection(0.0, math.inf, False)
-        self.windows += 1
         row = (direction, t_start, t_end, operating, motor_energy, load, motor_variance,
                load_variance, travel, travel_square, motion, *gain_rates, kinetic)
         if self.kf is None:
             # the scales (the prior's, the walks' and the typical speed W) are the medians of
             # the first START_WINDOWS windows, which are then learned from in order
             self._first.append(row)
-            self.held += 1
             if len(self._first) < START_WINDOWS:
                 return NoLoadCorrection(0.0, math.inf, False)
             first = np.array(self._first)
@@ -279,9 +275,7 @@ class NoLoadLearner:
         walk = float(phi @ kf.Q[NO_LOAD, NO_LOAD] @ phi)
         self.identified = math.sqrt(var_corr) <= self.tolerance
         self.known = self.known or self.identified
-        if not self.identified:
-            self.held += 1
-        elif self._seek_cold:
+        if self.identified and self._seek_cold:
             self.cold = kf.x[NO_LOAD, 0].copy()
             self._seek_cold = False
         gain = float(kf.x[column, 0])
@@ -345,7 +339,6 @@ class NoLoadLearner:
             'scatter': encode_float(self.scatter), 'gated': self.gated,
             'cold': None if self.cold is None else encode_floats(self.cold.tolist()),
             'seek_cold': self._seek_cold, 'identified': self.identified, 'known': self.known,
-            'windows': self.windows, 'held': self.held,
             'first': [encode_floats(list(row)) for row in self._first]}
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -371,9 +364,8 @@ class NoLoadLearner:
         self.cold = cold
         self._seek_cold = bool(state['seek_cold'])
         self.identified = bool(state['identified'])
-        self.known = bool(state.get('known', self.identified))
-        self.windows, self.held = int(state['windows']), int(state['held'])
-        self._first = [tuple(decode_floats(row)) for row in state.get('first', [])]
+        self.known = bool(state['known'])
+        self._first = [tuple(decode_floats(row)) for row in state['first']]
         if any(len(row) != 14 for row in self._first):
             raise ValueError('no_load: malformed state')
 

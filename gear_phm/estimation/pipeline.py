@@ -315,8 +315,7 @@ class EstimatorPipeline:
             fresh.integrator.from_state(state['window'])
         if 'no_load' in state:              # a state without it starts the no-load part anew
             fresh.no_load.from_state(state['no_load'])
-            if 'no_load_band' in state:
-                fresh.no_load_band.from_state(state['no_load_band'])
+            fresh.no_load_band.from_state(state['no_load_band'])
         self.filter = fresh.filter
         self.inertia = fresh.inertia
         self.no_load = fresh.no_load
@@ -786,13 +785,15 @@ class EstimatorPipeline:
                 or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
         result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
                                 inertia)
+        # the filter runs on operating time; a window is motion throughout, so its age
+        # (half its duration) is the same in stamp and in operating time
+        operating = self._window_operating_time(window)
         no_load = (0.0, 0.0)
         if c.no_load_model and isinstance(result, Measurement):
             # the no-load part as known before this window (gear_phm.estimation.no_load); a
             # window where it is not identified is held: it would read drag as friction
             correction = self.no_load.observe(
-                0 if window.code == OPPOSING else 1, window.t_start, window.t_end,
-                self._window_operating_time(window),
+                0 if window.code == OPPOSING else 1, window.t_start, window.t_end, operating,
                 window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
                 window.motor_energy_variance, window.load_energy_variance,
                 window.motor_travel, window.motor_travel_square,
@@ -801,7 +802,7 @@ class EstimatorPipeline:
                 self.counts['not_identifiable'] += 1
                 return []
             no_load = (correction.energy, correction.shared * correction.variance)
-            self.no_load_band.add(self._window_operating_time(window), self.no_load.estimate())
+            self.no_load_band.add(operating, self.no_load.estimate())
             result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
                                     c.model_sigma, inertia, no_load)
         if isinstance(result, str):
@@ -811,9 +812,6 @@ class EstimatorPipeline:
         if result.eta - 1.0 > OVER_UNITY_Z * math.sqrt(max(result.eta_variance, 0.0)):
             self.windows_over_unity += 1
             self.largest_efficiency = max(self.largest_efficiency, result.eta)
-        # the filter runs on operating time; a window is motion throughout, so its age
-        # (half its duration) is the same in stamp and in operating time
-        operating = self._window_operating_time(window)
         direction = 0 if result.code == OPPOSING else 1
         update = self.filter.update(result.u, result.u_variance, operating, direction,
                                     0.5 * window.duration, informative)
@@ -882,12 +880,14 @@ class EstimatorPipeline:
 
     def _no_load_fields(self) -> tuple[float, float, float]:
         """Return an estimate's no-load torque, its std dev and the total efficiency (NaN off)."""
-        if not self.config.no_load_model:
+        c = self.config
+        if not c.no_load_model:
             return math.nan, math.nan, math.nan
-        values = self._no_load_summary(efficiencies(
-            float(self.filter.x[0]) + self.filter.direction_bias(0), self.config.ratio)[0])
-        return (values['no_load_torque'], values['no_load_torque_sigma'],
-                values['total_efficiency'])
+        learned = self.no_load.estimate()
+        eta_d = efficiencies(float(self.filter.x[0]) + self.filter.direction_bias(0),
+                             c.ratio)[0]
+        return (learned.torque, learned.torque_sigma,
+                learned.total_efficiency(eta_d, c.ratio, c.rated_load_torque, c.rated_speed))
 
     def _predictions(self, outputs: list[FrictionEstimate],
                      runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
