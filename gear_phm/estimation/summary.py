@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+import math
 
 from gear_phm.jsonfields import (counts, flag, integer, JsonObject, JsonValue, number, scalar,
                                  text)
@@ -126,6 +127,16 @@ class EstimatorSummary:
         """
         return stalled_stamps(self.samples_seen, self.filter_updates,
                               self.counts.get('duplicate_stamp', 0))
+
+    def extra_number(self, key: str) -> float:
+        """Return the unnamed summary value ``key`` as a float (NaN if absent or no number).
+
+        E.g. the no-load model's ``no_load_torque``, which runs without the model lack.
+        """
+        value = self.extra.get(key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return math.nan
+        return float(value)
 
     @property
     def held(self) -> bool:

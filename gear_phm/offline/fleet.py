@@ -264,11 +264,6 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
             for drive, drive_analysis in analysis.transmissions.items()]
 
 
-def _number(value: object) -> float:
-    """Return a summary value as a float, NaN when it is not a number."""
-    return float(value) if isinstance(value, (int, float)) else math.nan
-
-
 def _result(name: str, recordings: int, analysis: Analysis, peak: float,
             prior: ShapePrior | None) -> UnitResult:
     """Return the row of one transmission's Analysis (a unit's, or one drive of a unit)."""
@@ -281,7 +276,7 @@ def _result(name: str, recordings: int, analysis: Analysis, peak: float,
            'eta_opposing': estimator.eta_opposing, 'eta_aiding': estimator.eta_aiding,
            **{key: health.value(key) for key in HEALTH_VALUES},
            'level': health.level, 'reason': health.message or '',
-           **{key: _number(estimator.extra.get(key)) for key in NO_LOAD_VALUES}}
+           **{key: estimator.extra_number(key) for key in NO_LOAD_VALUES}}
     e = analysis.estimates
     keep = np.unique(np.linspace(0, e.u.size - 1, min(TREND_POINTS, e.u.size)).astype(int))
     clock = e.operating_time if np.all(np.isfinite(e.operating_time)) else e.t - e.t[0]

@@ -1,7 +1,7 @@
 """``analysis.png`` of an :class:`~gear_phm.offline.Analysis` (matplotlib, Agg backend)."""
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 import math
 from pathlib import Path
 from typing import Any
@@ -13,6 +13,7 @@ from gear_phm.models import eta_aiding, eta_opposing
 from gear_phm.models.power_flow import AIDING, OPPOSING, SELF_LOCKING
 from gear_phm.offline.records import (Analysis, Envelope, ESTIMATES, HEALTH, measurements_key,
                                       NO_LOAD)
+from gear_phm.offline.summary import DriveSummary
 from gear_phm.prognostics.metrics import ALPHA, true_end_of_life_index
 from gear_phm.status import ERROR, LEVEL_NAMES, OK, STALE, WARN
 
@@ -177,10 +178,10 @@ def _plot_no_load(ax: Any, e: Envelope, analysis: Analysis,
 
 def _reference_speed(analysis: Analysis) -> float:
     """Return the motor speed at which the no-load torque is reported [rad/s] (NaN if none)."""
-    summary = analysis.summary
-    extra = getattr(getattr(summary, 'estimator', None), 'extra', {})
-    value = extra.get('no_load_reference_speed') if isinstance(extra, Mapping) else None
-    return float(value) if isinstance(value, (int, float)) else math.nan
+    summary = analysis.summary        # a drive's plot: its DriveSummary
+    if not isinstance(summary, DriveSummary):
+        return math.nan
+    return summary.estimator.extra_number('no_load_reference_speed')
 
 
 def _band(ax: Any, t: np.ndarray, low: np.ndarray, high: np.ndarray, colour: str) -> None:
