@@ -153,8 +153,9 @@ def _linear_wear(utilisation: float, gap: float = 0.0) -> HealthAssessor:
 def test_rul_runs_on_operating_time_and_converts_by_the_utilisation() -> None:
     """Issue 13: the fit runs on operating time, so rul_operating is the same whatever the stamps.
 
-    rul (elapsed time) = rul_operating / utilisation, here 0.25 (and a week-long idle gap lowers
-    it to operating / elapsed over the whole history).
+    rul (elapsed time) = rul_operating / utilisation, here 0.25. A week-long idle gap lowers
+    the utilisation to operating / elapsed over the whole history; the elapsed RUL takes the
+    duty of the newest RUL's worth of operation, which holds the week.
     """
     full, quarter = _linear_wear(1.0).latest, _linear_wear(0.25).latest
     assert full is not None and quarter is not None
@@ -166,18 +167,20 @@ def test_rul_runs_on_operating_time_and_converts_by_the_utilisation() -> None:
     assert full.utilisation == pytest.approx(1.0)
     assert full.rul.median == pytest.approx(full.rul_operating.median, rel=1e-12)
     assert quarter.utilisation == pytest.approx(0.25)
-    for name in ('median', 'p5', 'p95'):
+    for name in ('median', 'p5', 'p95'):          # the recent duty: 0.25 to its first update
         assert getattr(quarter.rul, name) == pytest.approx(
-            getattr(quarter.rul_operating, name) / 0.25, rel=1e-9)
+            getattr(quarter.rul_operating, name) / 0.25, rel=5e-3)
     values = dict(interfaces.health_key_values(quarter))
-    assert float(values['rul_s']) == pytest.approx(4.0 * float(values['rul_operating_s']))
+    assert float(values['rul_s']) == pytest.approx(4.0 * float(values['rul_operating_s']),
+                                                   rel=5e-3)
     assert float(values['operating_time_s']) == 1990.0
     # a week idle halfway: the same operating RUL, utilisation 1990 / (1990 + 604800)
     week = _linear_wear(1.0, gap=7 * 86400.0)
     gapped = week.latest
     assert gapped is not None and gapped.rul_operating == full.rul_operating
     assert gapped.utilisation == pytest.approx(1990.0 / (1990.0 + 7 * 86400.0))
-    assert gapped.rul.median == pytest.approx(full.rul.median / gapped.utilisation)
+    # the newest ~1680 s of operation (the median RUL) reach back over the week
+    assert gapped.rul.median == pytest.approx(full.rul.median + 7 * 86400.0, rel=1e-6)
     # the level's horizon is on the operating RUL: median ~1680 s < 3000 s < ~6600 s elapsed
     assert quarter.rul.p5 > 3000.0 > quarter.rul_operating.median
     assert quarter.level == WARN and quarter.message.startswith('RUL 16')

@@ -148,7 +148,7 @@ class HealthAssessor:
                                    level_dwell=config.level_dwell,
                                    level_clear_dwell=config.level_clear_dwell,
                                    eta_opposing_min=config.eta_opposing_min)
-        self.utilisation = Utilisation()
+        self.utilisation = Utilisation(config.utilisation_window)
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
 
@@ -253,14 +253,16 @@ class HealthAssessor:
         # RUL 0 at 1-2 s, from the initial state, where u_eol is near the healthy u)
         rul_operating = predictor.predict(operating, u - EOL_Z * u_sigma)
         utilisation = self.utilisation.fraction
-        rul = rul_operating.in_elapsed_time(utilisation)
+        rul = rul_operating.in_elapsed_time(self.utilisation)
         levels = self.levels
         level, message = levels.update(t, u + reading, estimate.eta_opposing,
                                        rul_operating.p5, filter_check, u_sigma,
                                        rul_operating.median, predictor.law_past_eol(operating))
         if level == 0 and rul.model != 'none':
+            recent = (rul_operating.median / rul.median
+                      if 0.0 < rul.median < math.inf else utilisation)
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
-                       f'({rul.median:.4g} s at utilisation {utilisation:.3g})')
+                       f'({rul.median:.4g} s at utilisation {recent:.3g})')
         mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i)) if suspect else ''
         if mismatch:
             level, message = ERROR, mismatch

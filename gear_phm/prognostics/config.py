@@ -69,6 +69,10 @@ class HealthConfig:
     warn_horizon: float = param(
         3600.0, 'WARN when the RUL median in operating time is below this; it clears once the '
         f'RUL 5 % bound is above {RUL_CLEAR_FACTOR:g} times this', 's', 0.0, 1e12)
+    utilisation_window: float = param(
+        600.0, 'the elapsed-time RUL assumes the utilisation of the newest max(RUL, this) of '
+        'operation (a night idle before a run stops counting after this much operation)', 's',
+        0.0, 1e12)
     detect_z: float = param(
         2.0, 'degradation is seen when the fitted du/dt at the newest time > detect_z '
         'sigma(du/dt); otherwise RUL = inf', '-', 0.0, 100.0)

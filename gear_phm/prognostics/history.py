@@ -22,12 +22,17 @@ bases (docs/prognostics.md).
 """
 from __future__ import annotations
 
+import bisect
 import math
 from typing import Any
 
 import numpy as np
 
 from gear_phm.persistence import decode_float, decode_floats, encode_float, encode_floats
+
+
+#: Most (operating, elapsed) checkpoints :class:`Utilisation` keeps.
+CHECKPOINTS = 1024
 
 
 class Utilisation:
@@ -37,9 +42,19 @@ class Utilisation:
     previous one: elapsed t - t_prev and operating s - s_prev. An increment where either time
     went back is not counted. :attr:`fraction` is 1 until some time has elapsed (a RUL then
     means the same in both time bases), and at most 1.
+
+    :meth:`elapsed_for` maps a time of operation ahead onto elapsed time at the *recent* duty:
+    the utilisation over the newest ``max(q, window)`` seconds of operation, not over the
+    whole history. A night's idle gap before today's run then stops counting once the run
+    holds ``window`` of operation, while the weeks between a fleet's short recordings, which
+    are its duty, still count. The newest updates are kept as checkpoints of (operating,
+    elapsed) [s]; beyond :data:`CHECKPOINTS` the older half is thinned pairwise, so memory is
+    bounded and the recent past stays dense.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, window: float = 600.0) -> None:
+        #: operating time [s] over which the recent duty is measured at least
+        self.window = float(window)
         self.reset()
 
     def reset(self) -> None:
@@ -47,6 +62,7 @@ class Utilisation:
         self.operating = 0.0
         self.elapsed = 0.0
         self._last: tuple[float, float] | None = None
+        self._points: list[tuple[float, float]] = []     # (operating, elapsed) cumulative
 
     def add(self, t: float, s: float) -> None:
         """Add the update at stamp time ``t`` [s] with operating time ``s`` [s]."""
@@ -58,25 +74,73 @@ class Utilisation:
                 self.elapsed += dt
                 self.operating += ds
         self._last = (t, s)
+        points = self._points
+        if points and points[-1][0] == self.operating:
+            points[-1] = (self.operating, self.elapsed)     # no operation: the idle grows
+        else:
+            points.append((self.operating, self.elapsed))
+        if len(points) > CHECKPOINTS:
+            half = len(points) // 2
+            self._points = points[:half:2] + points[half:]
 
     @property
     def fraction(self) -> float:
         """Operating over elapsed time [-] (1 before any time elapsed)."""
         return min(self.operating / self.elapsed, 1.0) if self.elapsed > 0.0 else 1.0
 
+    def recent_fraction(self, span: float) -> float:
+        """Return the utilisation over the newest ``span`` seconds of operation [-].
+
+        The whole history's (:attr:`fraction`) when it holds less operation than that.
+        """
+        if not (span < self.operating) or len(self._points) < 2:
+            return self.fraction
+        start = self.operating - span
+        ops = [p[0] for p in self._points]
+        if start <= ops[0]:
+            return self.fraction
+        i = bisect.bisect_right(ops, start)
+        (s0, e0), (s1, e1) = self._points[i - 1], self._points[i]
+        # the elapsed time at operating position ``start``: an idle stretch sits at the end of
+        # its checkpoint interval (the operation came first, then the wait before the next
+        # update), so that an idle gap older than ``span`` is left out whole
+        e_start = e0 + (start - s0) if s1 > s0 else e1
+        e_start = min(e_start, e1)
+        elapsed = self.elapsed - e_start
+        return min(span / elapsed, 1.0) if elapsed > 0.0 else 1.0
+
+    def elapsed_for(self, operating: float) -> float:
+        """Return the elapsed time [s] that ``operating`` seconds of operation take.
+
+        At the recent duty, :meth:`recent_fraction` over ``max(operating, window)``; 0 and NaN
+        stay as they are, a positive time at utilisation 0 is inf.
+        """
+        if operating == 0.0 or operating != operating:
+            return operating
+        fraction = self.recent_fraction(max(operating, self.window))
+        return operating / fraction if fraction > 0.0 else math.inf
+
     def to_state(self) -> dict[str, Any]:
-        """Return the accumulated times and the last update (JSON-safe)."""
+        """Return the accumulated times, the last update and the checkpoints (JSON-safe)."""
         return {'operating': encode_float(self.operating), 'elapsed': encode_float(self.elapsed),
-                'last': None if self._last is None else encode_floats(self._last)}
+                'last': None if self._last is None else encode_floats(self._last),
+                'points': encode_floats([v for point in self._points for v in point])}
 
     def from_state(self, state: dict[str, Any]) -> None:
-        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed."""
+        """Restore :meth:`to_state`; ValueError/KeyError/TypeError if malformed.
+
+        A state without checkpoints (an older file) starts them at its totals.
+        """
         last = None if state['last'] is None else decode_floats(state['last'])
         if last is not None and len(last) != 2:
             raise ValueError('utilisation: last needs 2 values')
         operating, elapsed = decode_float(state['operating']), decode_float(state['elapsed'])
+        flat = decode_floats(state['points']) if 'points' in state else [operating, elapsed]
+        if len(flat) % 2:
+            raise ValueError('utilisation: points need pairs of values')
         self.operating, self.elapsed = operating, elapsed
         self._last = None if last is None else (last[0], last[1])
+        self._points = list(zip(flat[::2], flat[1::2]))
 
 
 class WearHistory:

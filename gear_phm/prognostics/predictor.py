@@ -40,7 +40,7 @@ from gear_phm.prognostics.changepoint import (DETECT_MIN_POINTS, regime_start, R
 from gear_phm.prognostics.config import DEFAULTS
 from gear_phm.prognostics.fits import (DETECT_RELEASE, fit_laws, frozen_instance, replaced,
                                        ShapePrior, Trend, trend_from_state, trend_to_state)
-from gear_phm.prognostics.history import WearHistory
+from gear_phm.prognostics.history import Utilisation, WearHistory
 from gear_phm.prognostics.laws import LINEAR, MODELS, NONE
 
 
@@ -63,18 +63,14 @@ class RulEstimate:
     p95: float
     model: str
 
-    def in_elapsed_time(self, utilisation: float) -> RulEstimate:
-        """Return this RUL of operating time as elapsed time [s] at ``utilisation`` [-].
+    def in_elapsed_time(self, utilisation: Utilisation) -> RulEstimate:
+        """Return this RUL of operating time as elapsed time [s] at ``utilisation``'s duty.
 
-        ``utilisation`` is operating over elapsed time: each quantile is divided by it; a
-        positive RUL at utilisation 0 is inf (no wear while it stands still), 0 stays 0.
+        Each quantile through :meth:`Utilisation.elapsed_for
+        <gear_phm.prognostics.history.Utilisation.elapsed_for>`: at the utilisation of the
+        recent past, a positive RUL at utilisation 0 is inf, 0 and NaN stay as they are.
         """
-        median, p5, p95 = self.median, self.p5, self.p95
-        if utilisation > 0.0:
-            # v / utilisation keeps 0 and NaN as they are
-            median, p5, p95 = median / utilisation, p5 / utilisation, p95 / utilisation
-        else:
-            median, p5, p95 = (v if v == 0.0 or v != v else math.inf for v in (median, p5, p95))
+        median, p5, p95 = (utilisation.elapsed_for(v) for v in (self.median, self.p5, self.p95))
         return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
                                              'model': self.model})
 
