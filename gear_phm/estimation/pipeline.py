@@ -828,9 +828,11 @@ class EstimatorPipeline:
         if code is not None:
             self._last_code = code
         if c.learn_motor_inertia:       # gear_phm.estimation.inertia
-            self.inertia.add(direction, window.t_end, window.motor_energy, window.load_energy,
-                             window.motor_kinetic, window.motor_energy_variance,
-                             window.load_energy_variance)
+            # less the no-load energy: a drag costs energy along the travel, which differs
+            # between a ramp's windows and a cruise's as K does, and was read as inertia
+            self.inertia.add(direction, window.t_end, window.motor_energy - no_load[0],
+                             window.load_energy, window.motor_kinetic,
+                             window.motor_energy_variance, window.load_energy_variance)
         u_variance = result.u_variance
         if inertia[1] != self.inertia.correction[1]:
             # the RUL's history takes the window with the applied correction's variance only:

@@ -70,7 +70,7 @@ class HealthConfig:
         3600.0, 'WARN when the RUL median in operating time is below this; it clears once the '
         f'RUL 5 % bound is above {RUL_CLEAR_FACTOR:g} times this', 's', 0.0, 1e12)
     utilisation_window: float = param(
-        600.0, 'the elapsed-time RUL assumes the utilisation of the newest max(RUL, this) of '
+        60.0, 'the elapsed-time RUL assumes the utilisation of the newest max(RUL, this) of '
         'operation (a night idle before a run stops counting after this much operation)', 's',
         0.0, 1e12)
     detect_z: float = param(

@@ -52,7 +52,7 @@ class Utilisation:
     bounded and the recent past stays dense.
     """
 
-    def __init__(self, window: float = 600.0) -> None:
+    def __init__(self, window: float = 60.0) -> None:
         #: operating time [s] over which the recent duty is measured at least
         self.window = float(window)
         self.reset()
