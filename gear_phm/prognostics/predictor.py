@@ -66,12 +66,14 @@ class RulEstimate:
     def in_elapsed_time(self, utilisation: Utilisation) -> RulEstimate:
         """Return this RUL of operating time as elapsed time [s] at ``utilisation``'s duty.
 
-        Each quantile through :meth:`Utilisation.elapsed_for
-        <gear_phm.prognostics.history.Utilisation.elapsed_for>`: at the utilisation of the
-        recent past, a positive RUL at utilisation 0 is inf, 0 and NaN stay as they are.
+        The median and p95 through :meth:`Utilisation.elapsed_for
+        <gear_phm.prognostics.history.Utilisation.elapsed_for>`, at the utilisation of the
+        recent past (a positive RUL at utilisation 0 is inf, 0 and NaN stay as they are). The
+        p5 stays the operating time's: the lower bound assumes that the gearbox runs without
+        a pause from now on, the fastest it can wear, whatever its past duty.
         """
-        median, p5, p95 = (utilisation.elapsed_for(v) for v in (self.median, self.p5, self.p95))
-        return frozen_instance(RulEstimate, {'median': median, 'p5': p5, 'p95': p95,
+        median, p95 = utilisation.elapsed_for(self.median), utilisation.elapsed_for(self.p95)
+        return frozen_instance(RulEstimate, {'median': median, 'p5': self.p5, 'p95': p95,
                                              'model': self.model})
 
 
