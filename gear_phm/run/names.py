@@ -37,8 +37,8 @@ class DriveNames:
     estimator_status: str
     #: the drive's topic of a single transmission's topic (picklable: workers get it)
     topic: Callable[[str], str]
-    #: the plot's file name in the output directory
-    plot_file: str
+    #: the end of the names of the drive's files ('' alone, '_<name>' of a list)
+    file_suffix: str
     #: the start of a message about this drive ('drive <name>: '; '' alone)
     label: str
     #: the drive named beside a message about it (' (drive <name>)'; '' alone)
@@ -56,12 +56,26 @@ class DriveNames:
                estimator_status: str = ESTIMATOR_STATUS_NAME) -> DriveNames:
         """Return the names of the single transmission (the global parameters)."""
         return cls('', transmission_name, hardware_id, estimator_status, same_topic,
-                   'analysis.png', '', '', '--ratio', '--param {0}={1}', False)
+                   '', '', '', '--ratio', '--param {0}={1}', False)
 
     @classmethod
     def of(cls, drive: str) -> DriveNames:
         """Return the names of drive ``drive`` of a ``transmissions`` list."""
         entry = f'in the entry of drive {drive}'
         return cls(drive, drive, drive, f'gear_phm estimator: {drive}',
-                   partial(drive_topic, drive), f'analysis_{drive}.png', f'drive {drive}: ',
+                   partial(drive_topic, drive), f'_{drive}', f'drive {drive}: ',
                    f' (drive {drive})', f'the ratio {entry}', f'{{0}}: {{1}} {entry}', True)
+
+    @classmethod
+    def chosen(cls, drive: str | None) -> DriveNames:
+        """Return the names of an optional drive: ``drive`` of a list, or (None) the single one.
+
+        The one place where a user's optional drive name (``gear-phm evaluate --drive``) becomes
+        a drive's names.
+        """
+        return cls.single() if drive is None else cls.of(drive)
+
+    @property
+    def plot_file(self) -> str:
+        """The plot's file name in the output directory."""
+        return f'analysis{self.file_suffix}.png'
