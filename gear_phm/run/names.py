@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 
 from gear_phm.interfaces import drive_topic
 from gear_phm.parameters import HARDWARE_ID, TRANSMISSION_NAME
@@ -22,6 +21,17 @@ ESTIMATOR_STATUS_NAME = 'gear_phm estimator: estimator'
 def same_topic(topic: str) -> str:
     """Return ``topic`` itself: the single transmission's topics are today's names."""
     return topic
+
+
+@dataclass(frozen=True)
+class DriveTopic:
+    """A listed drive's topics: ``gear_phm/friction`` -> ``gear_phm/<drive>/friction``."""
+
+    drive: str
+
+    def __call__(self, topic: str) -> str:
+        """Return the drive's own ``topic`` (:func:`gear_phm.interfaces.drive_topic`)."""
+        return drive_topic(self.drive, topic)
 
 
 @dataclass(frozen=True)
@@ -63,7 +73,7 @@ class DriveNames:
         """Return the names of drive ``drive`` of a ``transmissions`` list."""
         entry = f'in the entry of drive {drive}'
         return cls(drive, drive, drive, f'gear_phm estimator: {drive}',
-                   partial(drive_topic, drive), f'_{drive}', f'drive {drive}: ',
+                   DriveTopic(drive), f'_{drive}', f'drive {drive}: ',
                    f' (drive {drive})', f'the ratio {entry}', f'{{0}}: {{1}} {entry}', True)
 
     @classmethod
