@@ -186,7 +186,7 @@ class Channel:
 
     @property
     def assessor(self) -> HealthAssessor:
-        """The run's assessor."""
+        """Return the run's assessor."""
         return self.run.assessor
 
     def _make_stale_timer(self) -> Any:

@@ -44,7 +44,7 @@ class DriveRun:
 
     @property
     def drive(self) -> str:
-        """The drive's name in a ``transmissions`` list ('' for the single transmission)."""
+        """Return the drive's name in a ``transmissions`` list ('' for the single one)."""
         return self.names.drive
 
     def _on_measurement(self, measurement: Measurement, accepted: bool) -> None:

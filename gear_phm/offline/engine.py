@@ -137,9 +137,9 @@ def analyze(path_or_paths: str | Path | Sequence[str | Path],
         finished, readers, elapsed = stream.execute(
             bags, None if staged is None else staged.path, options.progress)  # closed: finally
         analyses = _analyses(finished, runs, options)
-        if options.transmissions is None:
+        if not any(run.names.listed for run in runs):     # the single transmission's own
             analysis = analyses[0]
-        else:
+        else:                                   # a transmissions list: the summary of all
             info = run_info(bags, stream.topic, summary_of(analyses[0]).run.messages, readers,
                             elapsed)
             analysis = combined([run.names.drive for run in runs], analyses, info,

@@ -87,5 +87,5 @@ class DriveNames:
 
     @property
     def plot_file(self) -> str:
-        """The plot's file name in the output directory."""
+        """Return the plot's file name in the output directory."""
         return f'analysis{self.file_suffix}.png'
