@@ -24,7 +24,7 @@ from gear_phm.bagio.writer import vector3_stamped_cdr
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.interfaces import (DiagnosticsOut, estimate_outputs, health_outputs, StatusOut,
                                  Vector3Out)
-from gear_phm.offline.engine import estimate_columns
+from gear_phm.offline.drive import estimate_columns
 from gear_phm.offline.records import EstimateHistory
 from gear_phm.prognostics import RulEstimate, Trend
 from gear_phm.prognostics.assessor import HealthState

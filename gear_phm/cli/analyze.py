@@ -71,7 +71,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gear_phm.estimation.pipeline import NOT_IDENTIFIABLE
-    from gear_phm.offline import AnalysisError, analyze_bag
+    from gear_phm.offline import AnalysisError, analyze_bag, AnalyzeOptions
     from gear_phm.offline.parallel import ParallelError
     from gear_phm.offline.summary import DriveSummary
 
@@ -94,11 +94,11 @@ def run(args: argparse.Namespace) -> int:
                        load_joint=args.load_joint, transmission_name=args.transmission_name,
                        hardware_id=args.hardware_id)
     try:
-        analysis = analyze_bag(
-            args.bag, topic=args.topic, out=args.out, overwrite=args.overwrite,
+        analysis = analyze_bag(args.bag, AnalyzeOptions.of(
+            topic=args.topic, out=args.out, overwrite=args.overwrite,
             plot=not args.no_plot, progress=not args.no_progress and sys.stderr.isatty(),
             diagnostics_rate=args.diagnostics_rate, stamp_source=args.stamp_source,
-            jobs=args.jobs, **options)
+            jobs=args.jobs, **options))
     except (AnalysisError, ParallelError) as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary

@@ -32,6 +32,7 @@ from gear_phm.offline.evaluation import evaluate_run, EvaluationError, find_bag,
 from gear_phm.offline.truth import LIFE_HEALTH, read_life, TruthError
 from gear_phm.parameters import RATIO
 from gear_phm.prognostics.metrics import ALPHA, BAND_FROM, LAMBDAS
+from gear_phm.run import DriveNames
 from gear_phm.simulation.lives import LIFE_FILE
 from gear_phm.staging import write_atomic
 from gear_phm.transmissions import load_transmissions, TransmissionsError
@@ -190,7 +191,7 @@ def _output(args: argparse.Namespace, bag: Path) -> Path:
     bags), a file in the truth's directory, an existing file other than ``evaluation*.json``
     in the run's.
     """
-    name = 'evaluation' if args.drive is None else f'evaluation_{args.drive}'
+    name = f'evaluation{DriveNames.chosen(args.drive).file_suffix}'
     output: Path = args.output or (bag / f'{name}.json' if bag.is_dir()
                                    else bag.with_suffix(f'.{name}.json'))
     if output.is_dir():
@@ -235,8 +236,9 @@ def _write(args: argparse.Namespace, bag: Path, output: Path, metrics: dict[str,
     """Add u_eol and the paths to ``metrics``, write it as JSON to ``output`` atomically."""
     metrics['u_eol'] = u_eol
     metrics['run'] = str(bag)
-    if args.drive is not None:
-        metrics['drive'] = args.drive
+    names = DriveNames.chosen(args.drive)
+    if names.listed:
+        metrics['drive'] = names.drive
     metrics['truth'] = str(args.truth)
     try:
         write_atomic(output, json.dumps(metrics, indent=2) + '\n')

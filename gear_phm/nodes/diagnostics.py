@@ -46,7 +46,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
-                                 ESTIMATOR_TOPICS, health_status, SAMPLE_LOSS,
+                                 ESTIMATOR_TOPICS, SAMPLE_LOSS,
                                  VECTOR3_STAMPED_TYPE)
 from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
                                    RESETS, run_node, to_rclpy)
@@ -54,11 +54,12 @@ from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_
 from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   state_parameters, StateKeeper)
-from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher, topic_of
+from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
                                  TRANSMISSION_NAME)
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
+from gear_phm.run import DriveHealth, DriveNames
 from gear_phm.status import OK, STALE, StatusOut, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
@@ -162,57 +163,44 @@ class Recorder:
 
 
 class Channel:
-    """One transmission's health: its estimator inputs, assessor, health topics and status.
+    """One drive's health run (:class:`~gear_phm.run.DriveHealth`) with its ROS ends.
 
-    ``drive`` None: the single transmission (today's topics); else a drive of
-    ``transmissions`` (topics ``gear_phm/<drive>/...``, status ``gear_phm: <drive>``).
+    Its estimator inputs, health topics and status, named by the run's
+    :class:`~gear_phm.run.DriveNames`: the single transmission's are today's topics, a drive
+    of ``transmissions`` has topics ``gear_phm/<drive>/...`` and status ``gear_phm: <drive>``.
     """
 
-    def __init__(self, node: DiagnosticsNode, config: HealthConfig, name: str,
-                 hardware_id: str, drive: str | None = None) -> None:
+    def __init__(self, node: DiagnosticsNode, run: DriveHealth) -> None:
         self.node = node
-        self.drive = drive
-        self.transmission_name = name
-        self.hardware_id = hardware_id
-        self.health_config = config
-        self.assessor = HealthAssessor(config)
+        self.run = run
         self.assembler = EstimateAssembler()
         self.last_arrival_ns: int | None = None
         self.samples_missing = 0          # from the estimator's gear_phm/sample_loss
-        self.resets = 0                   # by ~/reset (or ~/<drive>/reset)
         self._stale_published = False
-        self.health_pub = HealthPublisher(node, node._record, drive)
+        topics = run.names.topic
+        self.health_pub = HealthPublisher(node, node._record, topics)
         self.stale_timer = self._make_stale_timer()
-        self.assembler.subscribe(node, INPUT_QOS, self._on_estimates, self._on_message, drive)
-        node.create_subscription(Vector3Stamped, topic_of(drive, SAMPLE_LOSS),
+        self.assembler.subscribe(node, INPUT_QOS, self._on_estimates, self._on_message, topics)
+        node.create_subscription(Vector3Stamped, topics(SAMPLE_LOSS),
                                  self._on_sample_loss, INPUT_QOS)
 
-    def identity(self) -> dict[str, Any]:
-        """Return what a state_file must match: the ratio (this node knows no joint names)."""
-        return {'ratio': float(self.health_config.ratio)}
-
-    def current_state(self) -> tuple[dict[str, Any], int | None]:
-        latest = self.assessor.latest
-        return self.assessor.to_state(), None if latest is None else latest.stamp_ns
+    @property
+    def assessor(self) -> HealthAssessor:
+        """Return the run's assessor."""
+        return self.run.assessor
 
     def _make_stale_timer(self) -> Any:
         """One-shot: fires stale_timeout after the last arrival (restarted by each)."""
-        timer = self.node.create_timer(self.health_config.stale_timeout, self._on_stale_timer)
+        timer = self.node.create_timer(self.run.config.stale_timeout, self._on_stale_timer)
         timer.cancel()
         return timer
 
     def reconfigure(self, changed: dict[str, Any]) -> None:
         """Apply new health parameters; the assessor keeps what it learned."""
-        self.health_config = self.health_config.replace(**changed)
-        self.assessor.reconfigure(self.health_config)
+        self.run.reconfigure(changed)
         if 'stale_timeout' in changed:
             self.node.destroy_timer(self.stale_timer)
             self.stale_timer = self._make_stale_timer()
-
-    def reset(self) -> None:
-        """Forget what the assessor learned (a reset service)."""
-        self.assessor.reset()
-        self.resets += 1
 
     @property
     def dropped(self) -> dict[str, int]:
@@ -255,11 +243,11 @@ class Channel:
         if latest is None:
             latest = waiting_state(now_ns, self.assessor.u_eol)
         silence = (now_ns - self.last_arrival_ns) * 1e-9
-        timeout = self.health_config.stale_timeout
+        timeout = self.run.config.stale_timeout
         if silence >= timeout:
             return latest.as_stale(silence)
         others = self.node.last_arrival_ns
-        if self.drive is not None and others is not None and silent_among_others(
+        if len(self.node.channels) > 1 and others is not None and silent_among_others(
                 silence, timeout, (now_ns - others) * 1e-9, self._behind_others):
             return replace(latest, level=max(latest.level, WARN),
                            message=f'no estimator input for {silence:.3g} s while other '
@@ -297,8 +285,8 @@ class Channel:
         for level, problem in problems:
             state = replace(state, level=max(state.level, level),
                             message=f'{state.message}; {problem}')
-        status = health_status(state, self.transmission_name, self.hardware_id)
-        return replace(status, values=status.values + ((RESETS, str(self.resets)),)), state
+        status = self.run.status_of(state)
+        return replace(status, values=status.values + ((RESETS, str(self.run.resets)),)), state
 
     def mark_stale(self, state: HealthState) -> None:
         """After a STALE status: the STALE marker on the health topic, once per outage."""
@@ -334,14 +322,15 @@ class DiagnosticsNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, OUTPUT_QOS)
         if names:
             drives = declare_drives(self, names, PARAMETERS, values)
-            self.channels = [Channel(self, drive.health_config(), drive.name, drive.name,
-                                     drive.name) for drive in drives]
+            self.channels = [Channel(self, DriveHealth(drive.health_config(),
+                                                       DriveNames.of(drive.name)))
+                             for drive in drives]
             identities = {d.name: {'ratio': d.ratio, 'motor_joint': d.motor_joint,
                                    'load_joint': d.load_joint} for d in drives}
             self.state = StateKeeper(self, values, 'diagnostics', DRIVES_IDENTITY,
                                      self._current_state)
             self.state.load(drives_restorer(self.state, identities, {
-                channel.transmission_name: channel.assessor.from_state
+                channel.run.names.drive: channel.assessor.from_state
                 for channel in self.channels}))
             self._identities = identities
             self.add_on_set_parameters_callback(refuse_changes)
@@ -350,18 +339,19 @@ class DiagnosticsNode(Node):
                 config = HealthConfig(**{k: values[k] for k in HEALTH_FIELDS})
             except ValueError as exc:
                 raise ConfigError(f'invalid health parameters: {exc}') from None
-            self.channels = [Channel(self, config, values['transmission_name'],
-                                     values['hardware_id'])]
-            self.state = StateKeeper(self, values, 'diagnostics', self.channels[0].identity(),
-                                     self.channels[0].current_state)
+            single = DriveNames.single(values['transmission_name'], values['hardware_id'])
+            self.channels = [Channel(self, DriveHealth(config, single))]
+            run = self.channels[0].run
+            self.state = StateKeeper(self, values, 'diagnostics', run.identity(),
+                                     run.current_state)
             self.state.load(self.channels[0].assessor.from_state)
             self.add_on_set_parameters_callback(self._check_parameters)
             self.add_post_set_parameters_callback(self._apply_parameters)
         if values['record_path']:
             self._start_recorder(values)
-        if names:
-            for channel in self.channels:
-                reset_service(self, f'~/{channel.transmission_name}/reset',
+        for channel in self.channels:        # a drive of transmissions: a reset of its own
+            if channel.run.names.listed:
+                reset_service(self, f'~/{channel.run.names.drive}/reset',
                               partial(self._reset, [channel]))
         reset_service(self, '~/reset', partial(self._reset, self.channels))
         self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
@@ -370,23 +360,23 @@ class DiagnosticsNode(Node):
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
         parts = {}
         for channel in self.channels:
-            state, stamp_ns = channel.current_state()
-            parts[channel.transmission_name] = (self._identities[channel.transmission_name],
-                                                state, stamp_ns)
+            state, stamp_ns = channel.run.current_state()
+            drive = channel.run.names.drive
+            parts[drive] = (self._identities[drive], state, stamp_ns)
         return drives_state(parts)
 
     def _reset(self, channels: list[Channel]) -> str:
         """Forget what ``channels`` learned (a reset service); save the state file at once."""
         for channel in channels:
-            channel.reset()
+            channel.run.reset()
         self.state.save()
-        names = ', '.join(channel.transmission_name for channel in channels)
+        names = ', '.join(channel.run.names.transmission_name for channel in channels)
         return f'learning reset of {names}: RUL history, levels and healthy efficiency'
 
     # -- parameters (one transmission; with transmissions they are read-only) ----------------
     def _check_parameters(self, params: Sequence[Any]) -> SetParametersResult:
         """On-set: types, choices and cross-field rules of the whole resulting config."""
-        merged: dict[str, Any] = self.channels[0].health_config.as_dict()
+        merged: dict[str, Any] = self.channels[0].run.config.as_dict()
         for param in params:
             if param.name in merged:
                 merged[param.name] = param.value
@@ -399,14 +389,13 @@ class DiagnosticsNode(Node):
     def _apply_parameters(self, params: Sequence[Any]) -> None:
         channel = self.channels[0]
         changed = {p.name: p.value for p in params if p.name in HEALTH_FIELDS}
-        for param in params:
-            if param.name == 'transmission_name':
-                channel.transmission_name = param.value
-            elif param.name == 'hardware_id':
-                channel.hardware_id = param.value
+        renamed = {p.name: p.value for p in params
+                   if p.name in ('transmission_name', 'hardware_id')}
+        if renamed:
+            channel.run.names = replace(channel.run.names, **renamed)
         if changed:
             channel.reconfigure(changed)
-            self.state.identity = channel.identity()
+            self.state.identity = channel.run.identity()
             self.get_logger().info(f'health parameters set: {changed}; the learned state is '
                                    f'kept')
 
@@ -420,7 +409,7 @@ class DiagnosticsNode(Node):
                 topics.append((name, VECTOR3_STAMPED_TYPE))
             if values['record_inputs']:
                 for topic in ESTIMATOR_TOPICS:
-                    topic = topic_of(channel.drive, topic)
+                    topic = channel.run.names.topic(topic)
                     name = self.resolve_topic_name(topic)
                     self._record_names[topic] = name
                     topics.append((name, VECTOR3_STAMPED_TYPE))

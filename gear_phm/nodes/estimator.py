@@ -53,6 +53,7 @@ from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeep
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
                                       SampleLossPublisher, subscribe_joint_states_raw)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
+from gear_phm.run import DriveEstimator, DriveNames
 
 #: Parameters of the node itself (the estimator's are :data:`gear_phm.estimation.PARAMETERS`).
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
@@ -115,7 +116,9 @@ class EstimatorNode(Node):
             self.config = config_from_values(values)
         except ValueError as exc:
             raise ConfigError(f'estimator parameters: {exc}') from None
-        self.pipeline = EstimatorPipeline(self.config)
+        self.run = DriveEstimator(self.config, DriveNames.single(
+            estimator_status=f'gear_phm estimator: {self.get_name()}'))
+        self.pipeline = self.run.pipeline
         self.state = StateKeeper(self, values, 'estimator', state_identity(values),
                                  self._current_state)
         self.state.load(self.pipeline.from_state)
@@ -134,7 +137,6 @@ class EstimatorNode(Node):
         self._due: int | None = None              # stamp from which an output is due [ns]
         self._set_window_watch()
         self.last_batch_ns: int | None = None     # node clock at the newest batch [ns]
-        self.status_name = f'gear_phm estimator: {self.get_name()}'
         # one-shot timers, restarted by samples: the buffer's tail, the sensor timeout
         self.batch_timer = self.create_timer(self.batch_period, self._flush)
         self.batch_timer.cancel()
@@ -143,7 +145,6 @@ class EstimatorNode(Node):
         self.subscription = subscribe_joint_states_raw(self, self._on_message)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self.resets = 0
         reset_service(self, '~/reset', self._reset)
         self.state.start_timer(self._save_state)
 
@@ -286,10 +287,10 @@ class EstimatorNode(Node):
         now = self.get_clock().now().nanoseconds
         self._flush()
         status = self.state.flagged(self.joint_names.status(
-            self.pipeline.status(self.status_name, self.messages_received),
+            self.run.status(self.messages_received),
             self.pipeline.samples_seen, self.values['motor_joint'], self.values['load_joint']))
         status = replace(status, values=status.values + (
-            (OUTPUTS_MATCHED, str(self.outputs.matched())), (RESETS, str(self.resets))))
+            (OUTPUTS_MATCHED, str(self.outputs.matched())), (RESETS, str(self.run.resets))))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 
@@ -325,13 +326,12 @@ class EstimatorNode(Node):
     def _reset(self) -> str:
         """``~/reset``: forget what was learned, save the state file at once."""
         self._flush()
-        self.pipeline.reset()
+        self.run.reset()
         self._set_window_watch()
         self._due = None
-        self.resets += 1
         self.state.save()
         c = self.config
-        return (f'learning reset ({self.resets} since start): u back to the prior '
+        return (f'learning reset ({self.run.resets} since start): u back to the prior '
                 f'{c.initial_u:g} (sigma {c.initial_u_sigma:g})')
 
 

@@ -31,13 +31,13 @@ from rclpy.node import Node
 
 from gear_phm import interfaces
 from gear_phm.codec import decode_joint_state_pairs, packed
-from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, reset_service, RESETS, to_rclpy
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
                                       SampleLossPublisher, subscribe_joint_states_raw)
+from gear_phm.run import DriveEstimator, DriveNames
 from gear_phm.transmissions import Transmission
 
 #: A buffer this long is processed at once.
@@ -46,31 +46,25 @@ _STAMP = struct.Struct('<iI').unpack_from
 
 
 class _Drive:
-    """One drive's pipeline, publishers and silence watch."""
+    """One drive's run (:class:`~gear_phm.run.DriveEstimator`) and its publishers."""
 
     def __init__(self, node: Node, drive: Transmission, frame_id: str) -> None:
         self.drive = drive
         try:
-            self.pipeline = EstimatorPipeline(drive.estimator_config())
+            self.run = DriveEstimator(drive.estimator_config(), DriveNames.of(drive.name))
         except ValueError as exc:
             raise ConfigError(f'drive {drive.name}: {exc}') from None
-        self.outputs = EstimatePublisher(node, frame_id, drive.name,
+        self.pipeline = self.run.pipeline
+        topics = self.run.names.topic
+        self.outputs = EstimatePublisher(node, frame_id, topics,
                                          no_load=self.pipeline.config.no_load_model)
-        self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
-        self.status_name = f'gear_phm estimator: {drive.name}'
-        self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]
-        self.resets = 0                             # by ~/reset or ~/<drive>/reset
+        self.loss_outputs = SampleLossPublisher(node, frame_id, topics)
 
     @property
     def identity(self) -> dict[str, Any]:
         """Return what the state file must match for this drive."""
         drive = self.drive
         return estimator_identity(drive.ratio, drive.motor_joint, drive.load_joint)
-
-    def watch(self, now_ns: int) -> None:
-        """Flag a sensor timeout once this drive has had no sample for its sensor_timeout."""
-        if self.last_sample_ns is not None:
-            self.pipeline.on_silence((now_ns - self.last_sample_ns) * 1e-9)
 
 
 class DrivesEstimator:
@@ -114,8 +108,7 @@ class DrivesEstimator:
         """Forget what ``drives`` learned (a reset service); save the state file at once."""
         self.flush()
         for d in drives:
-            d.pipeline.reset()
-            d.resets += 1
+            d.run.reset()
         self._due = None
         self.state.save()
         names = ', '.join(d.drive.name for d in drives)
@@ -184,9 +177,9 @@ class DrivesEstimator:
             if batch.rejected_at and not pipeline.samples_seen:
                 self.joint_names.note(*buffer)
             if not len(batch):
-                d.watch(now)
+                d.run.watch(now)
                 continue
-            d.last_sample_ns = now
+            d.run.last_sample_ns = now
             try:
                 outputs = pipeline.on_batch(batch.stamp_ns, batch.motor_velocity,
                                             batch.motor_effort, batch.load_velocity,
@@ -205,14 +198,14 @@ class DrivesEstimator:
         self.flush()
         statuses = []
         for d in self.drives:
-            d.watch(now)
+            d.run.watch(now)
             status = self.joint_names.status(
-                d.pipeline.status(d.status_name, self.messages_received),
+                d.run.status(self.messages_received),
                 d.pipeline.samples_seen, d.drive.motor_joint, d.drive.load_joint)
             statuses.append(self.state.flagged(replace(
                 status, hardware_id=d.drive.name,
                 values=status.values + ((OUTPUTS_MATCHED, str(d.outputs.matched())),
-                                        (RESETS, str(d.resets))))))
+                                        (RESETS, str(d.run.resets))))))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, tuple(statuses))))
         for d in self.drives:
             d.loss_outputs.publish(d.pipeline)

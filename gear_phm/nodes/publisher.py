@@ -48,6 +48,7 @@ from gear_phm.nodes.common import (ConfigError, declare_parameters, declare_requ
 from gear_phm.nodes.drives import declare_drives, declare_string_array, declare_transmissions
 from gear_phm.nodes.transport import ExtendedTruthPublisher
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT, ParamSpec
+from gear_phm.run import DriveNames
 from gear_phm.simulation import config_from_parameters, PARAMETERS
 from gear_phm.sources import one_line, PassEnd, read_ahead, Recorded, Sample, Source, SourceError
 from gear_phm.sources.simulate import SimulateDrivesSource, SimulateSource
@@ -241,9 +242,10 @@ class PublisherNode(Node):
             [self.source.config] if isinstance(self.source, SimulateSource) else [])
         if not any(c.extended_truth or c.publish_temperature for c in configs):
             return []
-        drives: list[str | None] = [d.name for d in self.drives] if self.drives else [None]
-        return [ExtendedTruthPublisher(self, c.extended_truth, c.publish_temperature, drive)
-                for c, drive in zip(configs, drives)]
+        names = ([DriveNames.of(d.name) for d in self.drives] if self.drives
+                 else [DriveNames.single()])
+        return [ExtendedTruthPublisher(self, c.extended_truth, c.publish_temperature,
+                                       drive.topic) for c, drive in zip(configs, names)]
 
     def _publish_extended(self, sample: Sample, stamp_ns: int) -> None:
         """Publish each drive's extended truth of ``sample``."""

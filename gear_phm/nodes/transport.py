@@ -25,7 +25,11 @@ from gear_phm import codec, interfaces
 from gear_phm.estimation.records import FrictionEstimate
 from gear_phm.nodes.common import OUTPUT_QOS, SENSOR_QOS, stamp, to_rclpy
 from gear_phm.prognostics.assessor import HealthState
+from gear_phm.run.names import same_topic
 from gear_phm.status import StatusOut
+
+#: A drive's topic of each topic (:attr:`gear_phm.run.DriveNames.topic`).
+Topics = Callable[[str], str]
 
 #: Pending stamps kept while waiting for the rest of an update; older ones are processed.
 MAX_PENDING_STAMPS = 64
@@ -80,11 +84,6 @@ class JointNames:
         return replace(status, message=f'{status.message}; {hint}') if hint else status
 
 
-def topic_of(drive: str | None, topic: str) -> str:
-    """Return ``topic`` itself (one transmission) or ``drive``'s (``gear_phm/<drive>/...``)."""
-    return topic if drive is None else interfaces.drive_topic(drive, topic)
-
-
 #: The estimator status's key: the fewest subscriptions matched by its seven output topics'
 #: publishers (:meth:`EstimatePublisher.matched`); 0 while no diagnostics node listens.
 OUTPUTS_MATCHED = 'outputs_matched'
@@ -93,15 +92,16 @@ OUTPUTS_MATCHED = 'outputs_matched'
 class EstimatePublisher:
     """Publishes estimates on the seven estimator topics (reliable, depth 10).
 
-    ``drive``: a drive of many (``transmissions``): its topics ``gear_phm/<drive>/...``.
+    ``topics``: the drive's topic of each topic (:attr:`gear_phm.run.DriveNames.topic`; a
+    drive of ``transmissions`` publishes ``gear_phm/<drive>/...``).
     """
 
-    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None,
+    def __init__(self, node: Node, frame_id: str = '', topics: Topics = same_topic,
                  no_load: bool = False) -> None:
         self.frame_id = frame_id
         self.no_load = no_load          # also gear_phm/no_load (the no-load model's outputs)
         self._publishers = {topic: node.create_publisher(Vector3Stamped,
-                                                         topic_of(drive, topic), OUTPUT_QOS)
+                                                         topics(topic), OUTPUT_QOS)
                             for topic, _ in interfaces.estimate_layout(no_load)}
 
     def matched(self) -> int:
@@ -128,17 +128,18 @@ class ExtendedTruthPublisher:
 
     geometry_msgs/Vector3Stamped on ``gear_phm/truth/no_load`` and ``gear_phm/truth/oil``
     (``extended``; layouts :data:`gear_phm.interfaces.TRUTH_LAYOUT`), sensor_msgs/Temperature
-    on ``oil_temperature`` (``temperature``; variance 0). ``drive``: of many.
+    on ``oil_temperature`` (``temperature``; variance 0). ``topics``: as
+    :class:`EstimatePublisher`.
     """
 
     def __init__(self, node: Node, extended: bool, temperature: bool,
-                 drive: str | None = None) -> None:
-        self._vectors = [node.create_publisher(Vector3Stamped, topic_of(drive, topic),
+                 topics: Topics = same_topic) -> None:
+        self._vectors = [node.create_publisher(Vector3Stamped, topics(topic),
                                                OUTPUT_QOS)
                          for topic in (interfaces.TRUTH_NO_LOAD, interfaces.TRUTH_OIL)
                          ] if extended else []
         self._temperature = node.create_publisher(
-            Temperature, topic_of(drive, interfaces.OIL_TEMPERATURE), OUTPUT_QOS) \
+            Temperature, topics(interfaces.OIL_TEMPERATURE), OUTPUT_QOS) \
             if temperature else None
 
     @property
@@ -165,14 +166,14 @@ class ExtendedTruthPublisher:
 class SampleLossPublisher:
     """Publishes the estimator's loss count on ``gear_phm/sample_loss`` once per status period.
 
-    Stamped with the newest accepted sample (nothing when no new sample came). ``drive``: as
+    Stamped with the newest accepted sample (nothing when no new sample came). ``topics``: as
     :class:`EstimatePublisher`.
     """
 
-    def __init__(self, node: Node, frame_id: str = '', drive: str | None = None) -> None:
+    def __init__(self, node: Node, frame_id: str = '', topics: Topics = same_topic) -> None:
         self.frame_id = frame_id
         self._publisher = node.create_publisher(
-            Vector3Stamped, topic_of(drive, interfaces.SAMPLE_LOSS), OUTPUT_QOS)
+            Vector3Stamped, topics(interfaces.SAMPLE_LOSS), OUTPUT_QOS)
         self._last_stamp: int | None = None
 
     def publish(self, pipeline: Any) -> None:
@@ -192,16 +193,16 @@ class SampleLossPublisher:
 class HealthPublisher:
     """Publishes health states on ``gear_phm/health/rul`` and ``gear_phm/health/efficiency``.
 
-    ``record`` (optional) also gets each message with its topic; ``drive``: as
+    ``record`` (optional) also gets each message with its topic; ``topics``: as
     :class:`EstimatePublisher` (``record`` gets the drive's topic).
     """
 
     def __init__(self, node: Node, record: Callable[[str, Any], None] | None = None,
-                 drive: str | None = None) -> None:
-        self._publishers = {topic_of(drive, topic): node.create_publisher(
-            Vector3Stamped, topic_of(drive, topic), OUTPUT_QOS)
+                 topics: Topics = same_topic) -> None:
+        self._publishers = {topics(topic): node.create_publisher(
+            Vector3Stamped, topics(topic), OUTPUT_QOS)
             for topic in (interfaces.HEALTH_RUL, interfaces.HEALTH_EFFICIENCY)}
-        self._drive = drive
+        self._topics = topics
         self._record = record
 
     def topic_names(self) -> dict[str, str]:
@@ -212,7 +213,7 @@ class HealthPublisher:
         rul, efficiency = interfaces.health_outputs(state)
         for output in (efficiency,) if efficiency_only else (rul, efficiency):
             msg = to_rclpy(output)
-            topic = topic_of(self._drive, output.topic)
+            topic = self._topics(output.topic)
             self._publishers[topic].publish(msg)
             if self._record is not None:
                 self._record(topic, msg)
@@ -252,8 +253,8 @@ class EstimateAssembler:
     def subscribe(self, node: Node, qos: QoSProfile,
                   on_estimates: Callable[[list[FrictionEstimate]], None],
                   on_message: Callable[[str, Vector3Stamped], None] | None = None,
-                  drive: str | None = None) -> None:
-        """Subscribe the seven topics (``drive``'s: as :class:`EstimatePublisher`).
+                  topics: Topics = same_topic) -> None:
+        """Subscribe the seven topics (the drive's ``topics``: as :class:`EstimatePublisher`).
 
         ``on_estimates`` gets each completed update, ``on_message`` (optional) every raw message
         first with its topic (the drive's), e.g. to record it.
@@ -261,12 +262,12 @@ class EstimateAssembler:
         for topic in interfaces.ESTIMATOR_TOPICS:
             def callback(msg: Vector3Stamped, topic: str = topic) -> None:
                 if on_message is not None:
-                    on_message(topic_of(drive, topic), msg)
+                    on_message(topics(topic), msg)
                 estimates = self.add(topic, interfaces.stamp_to_ns(msg.header.stamp),
                                      msg.vector)
                 if estimates:
                     on_estimates(estimates)
-            node.create_subscription(Vector3Stamped, topic_of(drive, topic), callback, qos)
+            node.create_subscription(Vector3Stamped, topics(topic), callback, qos)
 
     def add(self, topic: str, stamp_ns: int, vector: Any) -> list[FrictionEstimate]:
         """One estimator message (``vector`` has .x .y .z); the updates it completes."""

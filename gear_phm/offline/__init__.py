@@ -14,12 +14,13 @@ In a notebook::
 
 ``gear-phm analyze`` is a thin command-line wrapper around :func:`analyze_bag`.
 """
-from gear_phm.offline.engine import AnalysisError, analyze_bag, split_options
+from gear_phm.offline.engine import analyze, analyze_bag
+from gear_phm.offline.options import AnalysisError, AnalyzeOptions, split_options
 from gear_phm.offline.parallel import ParallelError
 from gear_phm.offline.records import Analysis, EstimateHistory, HealthHistory
 from gear_phm.offline.summary import (DriveSummary, HealthSummary, read_summary, RunInfo,
                                       RunSummary, TrendSummary)
 
-__all__ = ['Analysis', 'AnalysisError', 'DriveSummary', 'EstimateHistory', 'HealthHistory',
-           'HealthSummary', 'ParallelError', 'RunInfo', 'RunSummary', 'TrendSummary',
-           'analyze_bag', 'read_summary', 'split_options']
+__all__ = ['Analysis', 'AnalysisError', 'AnalyzeOptions', 'DriveSummary', 'EstimateHistory',
+           'HealthHistory', 'HealthSummary', 'ParallelError', 'RunInfo', 'RunSummary',
+           'TrendSummary', 'analyze', 'analyze_bag', 'read_summary', 'split_options']

@@ -153,11 +153,11 @@ def check_options(options: Mapping[Any, Any]) -> dict[str, Any]:
 def check_configs(options: Mapping[str, Any]) -> None:
     """Check the estimator and health parameters of checked ``options`` together.
 
-    As ``gear-phm analyze`` does (:func:`gear_phm.offline.engine.split_options`); without a
+    As ``gear-phm analyze`` does (:func:`gear_phm.offline.options.split_options`); without a
     ratio, with the smallest one, so that only a rule that no ratio satisfies fails.
     AnalysisError (a ValueError) if they are inconsistent.
     """
-    from gear_phm.offline.engine import split_options
+    from gear_phm.offline.options import split_options
     unit_names = {spec.name for spec in UNIT_SPECS}
     split_options(options.get(RATIO.name, RATIO.low), {
         name: value for name, value in options.items()
@@ -228,7 +228,9 @@ def analyze_unit(unit: Path, fleet_options: dict[str, Any],
     ``<unit>/<drive>`` (the fleet-wide ratio and joints are then not used). ``prior``: the
     fleet's population prior on the wear law's shape, if any.
     """
-    from gear_phm.offline.engine import AnalysisError, analyze_bag, recordings_in
+    from gear_phm.bagio.discovery import recordings_in
+    from gear_phm.offline.engine import analyze_bag
+    from gear_phm.offline.options import AnalysisError
     recordings = recordings_in(unit)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     empty: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())

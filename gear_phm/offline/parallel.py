@@ -1,7 +1,7 @@
 """The drives of one stream over the machine's cores: each drive's work in a worker process.
 
 A bag's drives are independent once each message is decoded: each has its own estimator and
-assessor (:class:`gear_phm.offline.engine.DriveRun`). The stream reads and decodes each batch
+assessor (:class:`gear_phm.offline.drive.DriveRun`). The stream reads and decodes each batch
 once, in the calling process, and hands each drive its columns; it then writes what the
 drives made, in drive order, as :class:`Made` records. :class:`LocalDrives` runs the drives
 in the calling process; :class:`DrivePool` in worker processes, each owning a fixed share of
@@ -145,7 +145,7 @@ class Finished:
 
 
 class DriveRun(Protocol):
-    """One drive's estimator and assessor (:class:`gear_phm.offline.engine.DriveRun`)."""
+    """One drive's estimator and assessor (:class:`gear_phm.offline.drive.DriveRun`)."""
 
     def advance(self, decoded: JointBatch, messages: int, cuts: list[int], ticks: list[int],
                 write: bool) -> Made: ...

@@ -1,6 +1,6 @@
 """The records of an offline analysis: :class:`Analysis` and its column histories.
 
-Their own module so that :mod:`gear_phm.offline.engine`, which makes them, and
+Their own module so that :mod:`gear_phm.offline.histories`, which makes them, and
 :mod:`gear_phm.offline.plot`, which draws them, import them without importing each other.
 """
 from __future__ import annotations

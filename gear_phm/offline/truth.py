@@ -17,9 +17,10 @@ from pathlib import Path
 
 from gear_phm.bagio.series import read_vector_topic
 from gear_phm.errors import GearPhmError
-from gear_phm.interfaces import drive_topic, TRUTH_FRICTION
+from gear_phm.interfaces import TRUTH_FRICTION
 from gear_phm.jsonfields import flag, number, RecordError
 from gear_phm.prognostics.metrics import true_end_of_life_index
+from gear_phm.run import DriveNames
 from gear_phm.simulation.lives import LIFE_FILE
 
 #: life.json fields an evaluation reads.
@@ -56,7 +57,7 @@ class LifeRecord:
 
 def topic_of(topic: str, drive: str | None) -> str:
     """Return ``topic``, or one drive's own (``gear_phm/<drive>/...``)."""
-    return topic if drive is None else drive_topic(drive, topic)
+    return DriveNames.chosen(drive).topic(topic)
 
 
 def read_life(truth: Path) -> LifeRecord | None:

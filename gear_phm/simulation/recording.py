@@ -21,11 +21,12 @@ from gear_phm import stopping
 from gear_phm.bagio import Rosbag2McapWriter
 from gear_phm.bagio.batch_writer import stamped_float64_rows
 from gear_phm.codec import joint_state_rows
-from gear_phm.interfaces import (BASIC_TRUTH_TOPICS, drive_topic, JOINT_STATE_TYPE,
-                                 JOINT_STATES, OIL_TEMPERATURE, TEMPERATURE_FIELDS,
+from gear_phm.interfaces import (BASIC_TRUTH_TOPICS, JOINT_STATE_TYPE, JOINT_STATES,
+                                 OIL_TEMPERATURE, TEMPERATURE_FIELDS,
                                  TEMPERATURE_TYPE, TRUTH_LAYOUT, TRUTH_NO_LOAD, TRUTH_OIL,
                                  VECTOR3_STAMPED_TYPE)
 from gear_phm.parameters import LOAD_JOINT, MOTOR_JOINT
+from gear_phm.run import DriveNames
 from gear_phm.simulation.simulator import SimulationConfig, SimulationResult, Simulator
 
 #: The default (motor, load) joint names.
@@ -86,7 +87,7 @@ def truth_topics(config: SimulationConfig, drive: str | None = None) -> list[Tru
 
 
 def _topic(topic: str, drive: str | None) -> str:
-    return topic if drive is None else drive_topic(drive, topic)
+    return DriveNames.chosen(drive).topic(topic)
 
 
 def write_chunk(writer: Rosbag2McapWriter, results: Sequence[SimulationResult],
