@@ -1,4 +1,4 @@
-"""Estimator core: power flow, energy windows, Kalman filter, pipeline (pure, seeded)."""
+"""The estimator pipeline (gear_phm.estimation.pipeline): batches, plants, stamps (pure, seeded)."""
 from __future__ import annotations
 
 import math
@@ -11,14 +11,14 @@ import pytest
 from gear_phm import interfaces
 from gear_phm.bagio import TYPESTORE
 from gear_phm.codec import JointStateDecoder
-from gear_phm.estimation import (classify, EnergyIntegrator, EstimatorConfig, EstimatorPipeline,
-                                 FrictionFilter, to_measurement)
+from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear
 from gear_phm.status import WARN
 from helpers.plant import lever_plant
 
 NOISE = {'motor_torque_noise': 0.05, 'motor_speed_noise': 0.01, 'load_torque_noise': 0.05,
          'load_speed_noise': 0.01}
+
 CONFIG = EstimatorConfig(ratio=3.0, motor_inertia=0.01, **NOISE)
 
 
@@ -56,83 +56,6 @@ def _track(config: EstimatorConfig, run) -> tuple[np.ndarray, ...]:
     return t, x, p, nis
 
 
-# --- power flow --------------------------------------------------------------------------------
-
-def test_classify_codes_and_deadband() -> None:
-    p_m = np.array([10.0, -10.0, 10.0, -10.0, 0.05, 10.0, 10.0])
-    p_l = np.array([-9.0, 9.0, 1.0, -1.0, -0.05, -9.0, 0.0])
-    w_m = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0])
-    codes = classify(p_m, p_l, w_m, power_threshold=0.1, speed_threshold=0.01)
-    assert codes.tolist() == [1, 2, 3, -1, 0, 0, 0]
-
-
-@given(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3), st.floats(0.0, 10.0))
-def test_classify_is_symmetric_in_sign_of_both_powers_only(p_m: float, p_l: float,
-                                                           thr: float) -> None:
-    code = int(classify(p_m, p_l, 1.0, power_threshold=thr))
-    if abs(p_m) <= thr or abs(p_l) <= thr:
-        assert code == 0
-    else:
-        assert code == {(1, -1): 1, (-1, 1): 2, (1, 1): 3, (-1, -1): -1}[
-            (int(np.sign(p_m)), int(np.sign(p_l)))]
-
-
-# --- windows -------------------------------------------------------------------------------
-
-def test_energy_window_removes_rotor_inertia_bias() -> None:
-    run = lever_plant(3, 60.0, 0.1, noise=(0, 0, 0, 0), motor_inertia=0.05)
-    code = classify(run.motor_effort * run.motor_velocity,
-                    -run.load_effort * run.load_velocity, run.motor_velocity, 0.01, 0.01)
-    results = {}
-    for inertia in (0.0, 0.05):
-        integ = EnergyIntegrator(1.0, 0.5, motor_inertia=inertia)
-        windows = integ.process(run.t, run.motor_velocity, run.motor_effort, run.load_velocity,
-                                run.load_effort, code, code > 0)
-        meas = [to_measurement(w, 3.0, 0.2, 0.01, 1e-6) for w in windows]
-        results[inertia] = np.array([m.u for m in meas if not isinstance(m, str)])
-    assert np.max(np.abs(results[0.05] - 0.1)) < 2e-4
-    assert np.max(np.abs(results[0.0] - 0.1)) > 5e-3      # uncorrected: biased per window
-
-
-@settings(max_examples=150, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 400), min_size=1, max_size=6),
-       st.sampled_from([0.005, 0.02, 0.2]))
-def test_dropping_short_windows_early_equals_rejecting_them_later(
-        seed: int, cuts: list[int], min_duration: float) -> None:
-    """The integrator's shortcut (short one-segment windows are only counted) is exact.
-
-    It gives the same windows and counts as building every window and rejecting the short ones
-    afterwards, for any batch split. Phases flicker, with gaps, so most segments are short.
-    """
-    rng = np.random.default_rng(seed)
-    n = 1200
-    t = np.cumsum(rng.choice([0.001, 0.001, 0.001, 0.02], n))
-    code = rng.choice([-1, 0, 1, 1, 1, 2, 2, 3], n)
-    code = np.where(rng.random(n) < 0.9, np.repeat(code[::7], 7)[:n], code)
-    w_m, w_l = rng.normal(5.0, 1.0, n), rng.normal(-1.5, 0.5, n)
-    tau_m, tau_l = rng.normal(1.0, 0.2, n), rng.normal(2.5, 0.2, n)
-    bounds = sorted({0, n, *[int(c) % n for c in np.cumsum(cuts)]})
-
-    def windows(integrator: EnergyIntegrator) -> list:
-        out = []
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            out += [(w.code, w.t_start, w.t_end, w.samples, w.motor_energy, w.load_energy)
-                    for w in integrator.process(t[a:b], w_m[a:b], tau_m[a:b], w_l[a:b],
-                                                tau_l[a:b], code[a:b], code[a:b] > 0)]
-        return out + [(w.code, w.t_start, w.t_end, w.samples, w.motor_energy, w.load_energy)
-                      for w in integrator.flush()]
-
-    every = windows(EnergyIntegrator(0.1, 0.015))
-    fast = EnergyIntegrator(0.1, 0.015, min_duration=min_duration)
-    kept = windows(fast)
-
-    def short(w: tuple) -> bool:
-        return w[2] - w[1] < min_duration or w[3] < 2
-    assert fast.dropped_short > 0
-    assert [w for w in kept if not short(w)] == [w for w in every if not short(w)]
-    assert fast.dropped_short + sum(map(short, kept)) == sum(map(short, every))
-
-
 def test_window_variance_matches_monte_carlo_scatter() -> None:
     zs = []
     for seed in range(4):
@@ -162,56 +85,6 @@ def test_results_do_not_depend_on_batch_split(cuts: list[int]) -> None:
     assert np.allclose([o.x for o in got], [o.x for o in expected], rtol=1e-9, atol=1e-12,
                        equal_nan=True)
     assert split.counts == whole.counts
-
-
-# --- Kalman filter -------------------------------------------------------------------------
-
-def test_filter_gates_outlier_and_reinitialises_after_repeated_rejections() -> None:
-    kf = FrictionFilter(0.1, 0.01, 1e-4, 0.0, gate_threshold=10.83, max_consecutive_gated=3)
-    assert kf.update(0.1, 1e-6, 1.0).accepted
-    outlier = kf.update(0.2, 1e-6, 2.0)
-    assert not outlier.accepted and outlier.nis > 10.83
-    assert not kf.update(0.2, 1e-6, 3.0).accepted
-    third = kf.update(0.2, 1e-6, 4.0)
-    assert third.accepted and third.reinitialised and kf.x[0] == pytest.approx(0.2)
-
-
-def test_filter_predict_covariance_grows_with_process_noise() -> None:
-    kf = FrictionFilter(0.1, 0.01, 1e-3, 1e-6, 10.83, 3)
-    kf.predict(0.0)
-    x, p = kf.predicted(10.0)
-    assert p[0, 0] > kf.P[0, 0] and kf.t == 0.0          # predicted() does not mutate
-    kf.predict(10.0)
-    assert np.allclose(kf.P, p) and np.allclose(kf.x, x)
-
-
-def test_predicted_many_is_bit_identical_to_predicted_one_by_one() -> None:
-    rng = np.random.default_rng(7)
-    for q in (0.0, 1e-12, 3e-7):
-        kf = FrictionFilter(0.1, 0.01, 1e-3, q, 10.83, 3)
-        times = np.concatenate(([-3.0, 20.0], rng.uniform(-5.0, 500.0, size=38)))
-        x, p = kf.predicted_many(times)             # before any update: the prior
-        assert np.array_equal(x, np.tile(kf.x, (40, 1)))
-        kf.update(0.12, 1e-5, 20.0)
-        kf.kf.x[1, 0] = 1e-5                        # a rate, so that dt matters
-        x, p = kf.predicted_many(times)
-        assert x.shape == (40, 2) and p.shape == (40, 2, 2)
-        for k, t in enumerate(times):               # also at or before the filter's time
-            x_k, p_k = kf.predicted(float(t))
-            assert np.array_equal(x[k], x_k) and np.array_equal(p[k], p_k)
-        assert x[times > 20.0, 0].min() > kf.x[0] and np.array_equal(x[1], kf.x)
-
-
-@settings(max_examples=200, deadline=None)
-@given(st.floats(1e-6, 1e3), st.floats(1e-15, 1e2))
-def test_process_covariance_is_filterpys_continuous_white_noise(dt: float, q: float) -> None:
-    from filterpy.common import Q_continuous_white_noise
-
-    from gear_phm.estimation.kalman import process_covariance
-    np.testing.assert_allclose(process_covariance(dt, q),
-                               Q_continuous_white_noise(dim=2, dt=dt, spectral_density=q),
-                               rtol=1e-12, atol=0.0)
-    assert not process_covariance(0.0, q).any() and not process_covariance(dt, 0.0).any()
 
 
 # --- acceptance: simplified-model plant ----------------------------------------------------
@@ -423,18 +296,6 @@ def test_single_messages_count_bad_ones_and_match_batch_path() -> None:
     assert single.counts['missing_joint'] == 24 and single.counts['short_arrays'] == 12
     assert single.counts['truncated'] == 12 and single.counts['bad_encoding'] == 12
     assert single.samples_rejected == batch.samples_rejected + 60
-
-
-def test_config_validation_names_field_and_value() -> None:
-    with pytest.raises(ValueError, match=r'min_window must be < window .* got 2\.0'):
-        EstimatorConfig(window=1.0, min_window=2.0)
-    with pytest.raises(ValueError, match=r'ratio must be in .* got -1\.0'):
-        EstimatorConfig(ratio=-1.0)
-    with pytest.raises(ValueError, match='backwards_policy'):
-        EstimatorConfig(backwards_policy='loop')
-    with pytest.raises(ValueError, match='unknown'):
-        CONFIG.replace(windw=2.0)
-    assert eta_opposing(0.0, 3.0) == 1.0 and eta_aiding(0.0, 3.0) == 1.0
 
 
 def test_process_noise_adapts_to_a_wear_rate_jump_and_stays_small_on_slow_wear() -> None:

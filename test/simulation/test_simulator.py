@@ -1,17 +1,16 @@
 """Simulator: the measured power ratio in steady phases matches the models' efficiencies."""
 from __future__ import annotations
 
-from hypothesis import given, settings
-from hypothesis import strategies as st
 import numpy as np
 import pytest
 
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
-from gear_phm.simulation import (Channel, DutyCycle, Plant, sample_times, Sensors, simulate,
-                                 SimulationConfig, Simulator, Wear)
+from gear_phm.simulation import (Channel, Plant, sample_times, Sensors, simulate, SimulationConfig,
+                                 Simulator, Wear)
 
 RATE = 200.0
+
 #: Perfect sensors: no noise, no bias on any of the four channels.
 NOISELESS = Sensors(Channel(), Channel(), Channel(), Channel())
 
@@ -175,68 +174,6 @@ def test_seeded_and_chunk_invariant() -> None:
     for name in ('velocity_motor', 'velocity_load', 'effort_motor', 'effort_load'):
         joined = np.concatenate([getattr(p, name) for p in parts])
         np.testing.assert_array_equal(joined, getattr(first, name))
-
-
-@pytest.mark.parametrize('kind, expected', [
-    ('constant', [0.1, 0.1, 0.1]),
-    ('linear', [0.1, 0.1 + 0.02 * 5, 0.1 + 0.02 * 10]),
-    ('exponential', [0.1, 0.1 * np.exp(0.1), 0.1 * np.exp(0.2)]),
-    ('power', [0.1, 0.1 + 0.02 * 5 ** 3, 0.1 + 0.02 * 10 ** 3]),
-    ('step', [0.1, 0.1 + 0.3, 0.1 + 0.3]),
-])
-def test_wear_trajectories(kind: str, expected: list[float]) -> None:
-    wear = Wear(kind, 0.1, 0.02, t_fault=5.0, step=0.3, exponent=3.0)
-    np.testing.assert_allclose(wear.value([0.0, 5.0, 10.0]), expected)
-    if kind == 'step':
-        assert wear.value(4.999) == pytest.approx(0.1)
-
-
-def test_wear_reaching_and_when_each_law_passes_a_value() -> None:
-    for kind in ('linear', 'exponential', 'power'):
-        wear = Wear.reaching(kind, 0.05, 0.3, 200.0, exponent=3.0)
-        assert wear.value(200.0) == pytest.approx(0.3)
-        # the time each law reaches 0.1: 0.05 + 0.25 t/200, 0.05 6^(t/200), 0.05 + 0.25 (t/200)^3
-        t_01 = {'linear': 40.0, 'exponential': 200.0 * np.log(2.0) / np.log(6.0),
-                'power': 200.0 * 0.2 ** (1.0 / 3.0)}[kind]
-        assert wear.value(t_01) == pytest.approx(0.1)
-        assert np.all(np.diff(wear.value(np.linspace(0.0, 200.0, 401))) > 0.0)   # rising
-    assert Wear.reaching('power', 0.05, 0.3, 200.0, exponent=3.0).value(100.0) \
-        == pytest.approx(0.05 + 0.25 / 8.0)                   # slow at first, then faster
-    with pytest.raises(ValueError, match='exponent must be > 0'):
-        Wear('power', 0.1, 0.02, exponent=0.0)
-    assert np.all(Wear('constant', 0.1).value(np.linspace(0.0, 1e9, 11)) == 0.1)   # never 0.2
-    step = Wear('step', 0.1, t_fault=3.0, step=0.2)
-    assert step.value(np.nextafter(3.0, 0.0)) == 0.1 and step.value(3.0) == pytest.approx(0.3)
-
-
-@settings(max_examples=60, deadline=None)
-@given(field=st.sampled_from(['ratio', 'motor_inertia', 'load_inertia', 'air_load_preload']),
-       value=st.one_of(st.floats(max_value=-1e-9, allow_nan=False),
-                       st.just(float('nan')), st.just(float('inf'))))
-def test_invalid_plant_field_raises_naming_it(field: str, value: float) -> None:
-    with pytest.raises(ValueError, match=field):
-        Plant(**{field: value})
-
-
-@settings(max_examples=60, deadline=None)
-@given(field=st.sampled_from(['initial', 'rate', 't_fault', 'step']),
-       value=st.floats(max_value=-1e-9, allow_nan=False, allow_infinity=False))
-def test_negative_wear_field_raises_naming_it(field: str, value: float) -> None:
-    with pytest.raises(ValueError, match=f'{field} must be >= 0'):
-        Wear('linear', **{field: value})
-
-
-@settings(max_examples=40, deadline=None)
-@given(accel=st.floats(0.01, 2.0), stroke=st.floats(0.01, 5.0))
-def test_duty_cycle_requires_room_for_both_ramps(accel: float, stroke: float) -> None:
-    if stroke >= 2 * accel:
-        cycle = DutyCycle(extend_time=stroke, retract_time=stroke, accel_time=accel)
-        x, v, _ = cycle.load_motion(np.linspace(0.0, cycle.period, 2001))
-        assert x.max() == pytest.approx(cycle.travel, rel=1e-6)
-        assert np.all(x >= -1e-12) and np.all(x <= cycle.travel + 1e-12)
-    else:
-        with pytest.raises(ValueError, match='extend_time must be >= 2 accel_time'):
-            DutyCycle(extend_time=stroke, retract_time=stroke, accel_time=accel)
 
 
 def test_other_invalid_inputs() -> None:
