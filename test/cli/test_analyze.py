@@ -15,9 +15,9 @@ import pytest
 from gear_phm import interfaces
 from gear_phm.bagio import BagReader
 from gear_phm.cli.main import main
-from gear_phm.offline.plot import level_spans, true_end_of_life
 
 REPO = Path(__file__).resolve().parents[2]
+
 HEALTHY = REPO / 'bags' / 'healthy'
 
 
@@ -100,16 +100,6 @@ def test_analyze_fits_the_wear_law_the_trend_option_names(tmp_path: Path, trend:
         utilisation = float(health['values']['utilisation'])
         assert 0.5 < utilisation < 1.0
         assert fitted['shape'] == pytest.approx(math.log(6.0) / 300.0 / utilisation, rel=0.05)
-
-
-def test_plot_helpers_true_end_of_life_and_level_runs() -> None:
-    truth = np.array([[0.0, 0.1], [1e9, 0.2], [2e9, 0.25], [3e9, 0.3]])    # stamp ns, u
-    assert true_end_of_life(truth, 0.25) == 2_000_000_000       # first u >= u_eol, as evaluate
-    assert true_end_of_life(truth, 0.5) is None and true_end_of_life(None, 0.25) is None
-    t = np.arange(6.0)
-    assert level_spans(t, np.array([0, 0, 1, 1, 1, 2])) == [(0.0, 2.0, 0), (2.0, 5.0, 1),
-                                                            (5.0, 5.0, 2)]
-    assert level_spans(t[:0], np.array([], dtype=int)) == []
 
 
 def test_overwrite_replaces_only_a_previous_analysis(tmp_path: Path) -> None:
@@ -391,69 +381,3 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
     result = json.loads(scored.read_text())
     assert result['band_coverage']['predictions'] > 500
     assert result['band_coverage']['share'] >= 0.75, result['band_coverage']
-
-
-PLOTTER = """
-import sys
-from pathlib import Path
-from gear_phm.offline import analyze_bag
-from gear_phm.offline.parallel import start_plotter
-from gear_phm.offline.plot import plot_analysis
-bag, out = Path(sys.argv[1]), Path(sys.argv[2])
-plotter = start_plotter()                       # forked first: it imports matplotlib meanwhile
-assert plotter is not None and 'matplotlib' not in sys.modules
-analysis = analyze_bag(bag, ratio=3.0, plot=False)
-plotter.plot([(out / 'plotter.png', analysis, 3.0, [bag], '')])
-try:
-    plotter.plot([(out / 'missing' / 'x.png', analysis, 3.0, [bag], '')])
-except FileNotFoundError as exc:
-    print('error came back:', type(exc).__name__)
-plotter.close()
-assert not plotter.process.is_alive() and 'matplotlib' not in sys.modules
-plot_analysis(out / 'here.png', analysis, 3.0, [bag])
-"""
-
-
-def test_the_plot_process_draws_what_this_process_would(tmp_path: Path) -> None:
-    """``gear-phm analyze`` forks a process that imports matplotlib while it analyses.
-
-    Its plot's pixels equal the plot drawn in the analysing process; its error comes back to
-    the caller; it ends on close; the caller never imports matplotlib for it.
-    """
-    from matplotlib.image import imread
-    result = subprocess.run([sys.executable, '-c', PLOTTER, str(REPO / 'bags' / 'wearing'),
-                             str(tmp_path)], capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.splitlines() == ['error came back: FileNotFoundError']
-    ours, theirs = imread(str(tmp_path / 'plotter.png')), imread(str(tmp_path / 'here.png'))
-    assert ours.shape == theirs.shape and ours.shape[0] > 400
-    np.testing.assert_allclose(ours, theirs, atol=1e-6)
-
-
-NO_FORK = """
-import threading
-import rclpy
-from gear_phm.offline.parallel import can_fork, drives_for, start_plotter
-assert can_fork()
-rclpy.init()                        # a DDS participant's native threads: no fork
-assert not can_fork() and start_plotter() is None
-assert drives_for([object(), object()], 2).workers == 0
-assert drives_for([object()], 2).workers == 0    # one drive: its assessor stays here too
-rclpy.shutdown()
-stop = threading.Event()
-thread = threading.Thread(target=stop.wait)
-thread.start()                      # another Python thread: no fork
-assert not can_fork()
-stop.set()
-thread.join()
-assert can_fork()
-print('ok')
-"""
-
-
-def test_no_fork_beside_other_threads_or_a_ros_context() -> None:
-    """The plot process and drive workers are forked only from a process alone in it."""
-    pytest.importorskip('rclpy')
-    result = subprocess.run([sys.executable, '-c', NO_FORK], capture_output=True, text=True,
-                            timeout=120)
-    assert result.returncode == 0 and result.stdout == 'ok\n', result.stderr

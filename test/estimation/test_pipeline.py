@@ -1,4 +1,4 @@
-"""The estimator pipeline (gear_phm.estimation.pipeline): batches, plants, stamps (pure, seeded)."""
+"""The estimator pipeline (gear_phm.estimation.pipeline): batches, plants, stamps (seeded)."""
 from __future__ import annotations
 
 import math
@@ -12,7 +12,7 @@ from gear_phm import interfaces
 from gear_phm.bagio import TYPESTORE
 from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
-from gear_phm.models import eta_aiding, eta_opposing, SpurGear
+from gear_phm.models import SpurGear
 from gear_phm.status import WARN
 from helpers.plant import lever_plant
 

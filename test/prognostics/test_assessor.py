@@ -1,96 +1,22 @@
-"""Prognostics: end of life, RUL, trend choice, health levels, divergence, Saxena metrics.
+"""The health assessor (gear_phm.prognostics.assessor): levels, status keys, operating time.
 
-Also wear-state persistence, and alpha-lambda on simulated wear through the real Kalman filter.
+Also alpha-lambda on simulated wear through the real Kalman filter.
 """
 from __future__ import annotations
 
-import json
 import math
 
-from hypothesis import given, settings
-from hypothesis import strategies as st
 import numpy as np
 import pytest
 
 from gear_phm import interfaces
 from gear_phm.estimation import FrictionEstimate
 from gear_phm.estimation.kalman import FrictionFilter
-from gear_phm.prognostics import (end_of_life_u, HealthAssessor, HealthConfig, HealthState,
-                                  RulPredictor)
-from gear_phm.prognostics.health import chi_square_mean_bound
-from gear_phm.prognostics.metrics import (alpha_lambda, cumulative_relative_accuracy,
-                                          evaluate, prognostic_horizon,
-                                          true_end_of_life_index)
+from gear_phm.prognostics import HealthConfig, HealthState
+from gear_phm.prognostics.assessor import HealthAssessor
+from gear_phm.prognostics.metrics import evaluate
 from gear_phm.simulation.wear import Wear
 from gear_phm.status import ERROR, OK, WARN
-
-
-# --- end of life ---------------------------------------------------------------------------
-def test_end_of_life_threshold_is_min_of_enabled_criteria() -> None:
-    assert end_of_life_u(3.0, 0.5) == pytest.approx((0.6, 'eta_opposing_min'))
-    # eta_D = 0.2 needs u = 3 * 0.8 / 1.6 = 1.5 > 1: self-locking (u = 1) binds first
-    assert end_of_life_u(3.0, 0.2) == (1.0, 'self_locking')
-    assert end_of_life_u(3.0, 0.2, self_locking_eol=False) == pytest.approx((1.5,
-                                                                             'eta_opposing_min'))
-    assert end_of_life_u(3.0, 0.5, u_max=0.3) == (0.3, 'u_max')
-    with pytest.raises(ValueError, match='eta_opposing_min'):
-        end_of_life_u(3.0, -0.5)
-
-
-def test_config_cross_field_rules_name_the_parameter() -> None:
-    with pytest.raises(ValueError, match='eta_warn must be > eta_opposing_min'):
-        HealthConfig(eta_warn=0.5, eta_opposing_min=0.5)
-    with pytest.raises(ValueError, match='mc_samples'):
-        HealthConfig(mc_samples=10)
-    with pytest.raises(ValueError, match='trend'):
-        HealthConfig(trend='quadratic')
-    assert HealthConfig().replace(eta_warn=0.9).eta_warn == 0.9
-
-
-# --- RUL (the fit itself: prognostics/test_predictor.py) ------------------------------------
-def _line(predictor: RulPredictor, rate: float, until: float, sigma: float = 1e-3) -> None:
-    rng = np.random.default_rng(0)
-    for t in np.arange(0.0, until, 2.0):
-        predictor.add(float(t), 0.1 + rate * t + sigma * rng.standard_normal(), sigma ** 2)
-
-
-def test_linear_rul_from_the_history() -> None:
-    predictor = RulPredictor(0.6, trend='linear')
-    _line(predictor, 1e-4, 2000.0)
-    rul = predictor.predict(1998.0, 0.2998)
-    assert rul.model == 'linear'
-    assert rul.median == pytest.approx(3002.0, rel=0.01)
-    assert rul.p5 < 3002.0 < rul.p95
-    assert rul.p95 / rul.p5 < 1.1
-
-
-def test_rul_inf_without_significant_degradation_and_zero_at_end_of_life() -> None:
-    predictor = RulPredictor(0.6, detect_z=2.0)
-    _line(predictor, 0.0, 600.0)
-    no_wear = predictor.predict(598.0, 0.1)
-    assert (no_wear.median, no_wear.p5, no_wear.p95, no_wear.model) == (math.inf, math.inf,
-                                                                        math.inf, 'none')
-    worn = predictor.predict(598.0, 0.61)
-    assert (worn.median, worn.p5, worn.p95) == (0.0, 0.0, 0.0)
-    assert RulPredictor(0.6).predict(0.0, 0.1).median == math.inf     # no history yet
-
-
-@settings(max_examples=25, deadline=None, derandomize=True)
-@given(rate=st.floats(1e-5, 1e-3), sigma=st.floats(1e-4, 1e-2))
-def test_rul_quantiles_ordered_and_deterministic(rate: float, sigma: float) -> None:
-    predictor = RulPredictor(0.6, mc_samples=500, seed=3)
-    _line(predictor, rate, 400.0, sigma)
-    first = predictor.predict(398.0, 0.1 + rate * 398.0)
-    assert first.p5 <= first.median <= first.p95
-    assert first == predictor.predict(398.0, 0.1 + rate * 398.0)
-
-
-# --- health levels (hysteresis, dwell, filter checks: prognostics/test_health.py) -----------
-@pytest.mark.parametrize('window', [3, 20, 100])
-def test_chi_square_bound_close_to_exact(window: int) -> None:
-    from scipy.stats import chi2         # here, not at collection: 0.7 s of CPU per worker
-    exact = chi2.ppf(0.999, window) / window
-    assert chi_square_mean_bound(window, 0.999) == pytest.approx(exact, rel=0.02)
 
 
 def test_monitor_reports_levels_along_linear_wear() -> None:
@@ -218,43 +144,6 @@ def test_updates_without_operating_time_at_the_start_join_the_operating_history(
     assert late.utilisation == pytest.approx(1.0, rel=1e-9)
 
 
-# --- Saxena metrics ------------------------------------------------------------------------
-def test_metrics_on_perfect_and_biased_predictions() -> None:
-    t = np.arange(0.0, 100.0, 1.0)
-    perfect = 100.0 - t
-    result = evaluate(t, perfect, 100.0)
-    assert all(check['passed'] for check in result['alpha_lambda'])
-    assert result['prognostic_horizon_s'] == 100.0
-    assert result['cumulative_relative_accuracy'] == pytest.approx(1.0)
-    biased = 1.3 * perfect                                 # 30 % too long everywhere
-    check = alpha_lambda(t, biased, 100.0, 0.5)
-    assert not check.passed and check.relative_accuracy == pytest.approx(0.7)
-    assert check.t_lambda == 50.0 and check.true_rul == 50.0 and check.predicted_rul == 65.0
-    # PH bound +/- 0.2 * 100 = 20 s: 0.3 (100 - t) <= 20 from t >= 33.33 -> t_i = 34
-    assert prognostic_horizon(t, biased, 100.0) == 66.0
-    assert cumulative_relative_accuracy(t, biased, 100.0) == pytest.approx(0.7)
-
-
-def test_true_end_of_life_is_the_first_sample_at_or_above_u_eol() -> None:
-    true_u = np.array([0.1, 0.2, 0.25, 0.3, 0.2])
-    assert true_end_of_life_index(true_u, 0.25) == 2             # >=: reaching it counts
-    assert true_end_of_life_index(true_u, 0.21) == 2
-    assert true_end_of_life_index(true_u, 0.31) is None          # never reached
-    assert true_end_of_life_index(true_u, math.inf) is None
-    assert true_end_of_life_index(np.array([]), 0.25) is None
-
-
-def test_metrics_inputs_validated_and_infinite_predictions() -> None:
-    t = np.array([0.0, 10.0, 20.0])
-    assert not alpha_lambda(t, [np.inf] * 3, 40.0, 0.5).passed
-    assert evaluate(t, [np.inf] * 3, 40.0)['prognostic_horizon_s'] == 0.0
-    with pytest.raises(ValueError, match='same length'):
-        evaluate(t, [1.0], 40.0)
-    with pytest.raises(ValueError, match='t_start'):
-        evaluate(t, [1.0, 1.0, 1.0], 40.0, t_start=50.0)
-    assert json.dumps(evaluate(t, [np.inf] * 3, 40.0))         # JSON-ready
-
-
 # --- acceptance: alpha-lambda on simulated wear through the real filter ----------------------
 def _run(kind: str, seed: int) -> dict:
     """Noisy 1-s pseudo-measurements of u (sigma 0.01) of wear reaching u_eol at 3600 s.
@@ -303,18 +192,6 @@ def test_alpha_lambda_passes_at_three_quarter_life_and_the_band_holds(kind: str,
     if kind == 'linear':
         assert checks[0.5]['passed'], checks[0.5]
     assert result['prognostic_horizon_s'] > 1000.0
-
-
-@settings(max_examples=300, deadline=None)
-@given(st.lists(st.one_of(st.floats(-1e9, 1e9), st.just(math.inf), st.just(0.0)), min_size=1,
-                max_size=300),
-       st.lists(st.floats(0.0, 1.0), min_size=1, max_size=4))
-def test_rul_quantiles_equal_numpys_inverted_cdf(values: list[float],
-                                                 probabilities: list[float]) -> None:
-    from gear_phm.prognostics.calibration import inverted_cdf_quantiles
-    array = np.array(values)
-    assert inverted_cdf_quantiles(array, tuple(probabilities)) == \
-        np.quantile(array, probabilities, method='inverted_cdf').tolist()
 
 
 def test_end_of_life_on_the_opposing_reading_when_the_directions_disagree() -> None:
