@@ -10,7 +10,8 @@ from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 from rosbags.typesys import get_typestore, Stores
 
-from gear_phm.bagio import BagError, BagReader, Rosbag2McapWriter, TYPESTORE
+from gear_phm.bagio import Rosbag2McapWriter, TYPESTORE
+from gear_phm.bagio.reader import BagError, BagReader
 from gear_phm.codec import decode_joint_states
 from gear_phm.interfaces import DiagnosticsOut, stamp_to_ns, StatusOut, Vector3Out
 

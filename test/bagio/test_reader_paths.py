@@ -15,7 +15,8 @@ from mcap.writer import Writer
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 
-from gear_phm.bagio import BagError, BagReader, TYPESTORE
+from gear_phm.bagio import TYPESTORE
+from gear_phm.bagio.reader import BagError, BagReader
 
 REPO = Path(__file__).resolve().parents[2]
 HEALTHY = REPO / 'bags' / 'healthy'

@@ -381,3 +381,18 @@ def test_rul_band_holds_curved_wear_the_median_cannot_yet_see(tmp_path: Path) ->
     result = json.loads(scored.read_text())
     assert result['band_coverage']['predictions'] > 500
     assert result['band_coverage']['share'] >= 0.75, result['band_coverage']
+
+
+def test_the_options_default_to_the_nodes_and_out_is_required() -> None:
+    import argparse
+
+    from gear_phm.cli.analyze import add_arguments
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(['a', 'b', '--out', 'o', '--param', 'window=2', '--param', 'x=1'])
+    assert (args.bag, args.out, args.param) == (['a', 'b'], 'o', ['window=2', 'x=1'])
+    assert (args.ratio, args.transmissions, args.jobs, args.overwrite, args.no_plot) == (
+        None, None, 0, False, False)
+    assert (args.motor_joint, args.load_joint, args.topic) == ('motor', 'load', 'joint_states')
+    with pytest.raises(SystemExit):
+        parser.parse_args(['a'])                        # no --out

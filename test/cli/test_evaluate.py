@@ -417,3 +417,20 @@ def test_vector_topics_decode_in_batches_as_rosbags_does(tmp_path: Path) -> None
         times, vectors = read_vector_topic(tmp_path / name, HEALTH_RUL)
         assert len(times) == len(payloads)
         assert np.column_stack([times, vectors]).tolist() == [list(r) for r in expected]
+
+
+@pytest.mark.parametrize('changes, message', [
+    ({'alpha': 1.0}, r'^--alpha must be a fraction of the true RUL in \(0, 1\), got 1\.0$'),
+    ({'lambdas': [0.5, 1.0]}, r'^--lambdas must be in \[0, 1\) .* got 1\.0$'),
+    ({'band_from': -0.1}, r'^--band-from must be in \[0, 1\) .* got -0\.1$'),
+    ({'t_start': math.inf}, r'^--t-start must be finite, got inf$'),
+])
+def test_option_ranges_are_checked_with_one_line(changes: dict, message: str) -> None:
+    import argparse
+
+    from gear_phm.cli.evaluate import _check_options
+    from gear_phm.cli.main import CliError
+    good = {'alpha': 0.2, 'lambdas': [0.0, 0.5, 0.75], 'band_from': 0.5, 't_start': None}
+    _check_options(argparse.Namespace(**good))
+    with pytest.raises(CliError, match=message):
+        _check_options(argparse.Namespace(**{**good, **changes}))

@@ -310,3 +310,17 @@ def test_fleet_terminated_leaves_no_out(tmp_path: Path) -> None:
     assert done.returncode == 143, done.stderr
     assert done.stderr.strip().splitlines() == ['gear-phm fleet: terminated']
     assert list(folder.iterdir()) == []
+
+
+def test_the_options_default_to_a_local_cluster() -> None:
+    import argparse
+
+    from gear_phm.cli.fleet import add_arguments
+    from gear_phm.offline.fleet import CONNECT_TIMEOUT
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(['units', '--out', 'o', '--scheduler-timeout', '2.5'])
+    assert (args.root, args.out) == (Path('units'), Path('o'))
+    assert (args.scheduler, args.workers, args.scheduler_timeout) == (None, None, 2.5)
+    assert parser.parse_args(['u', '--out', 'o']).scheduler_timeout == CONNECT_TIMEOUT
+    assert not (args.population_prior or args.no_unit_outputs or args.no_plot)

@@ -135,3 +135,18 @@ def test_bad_numbers_exit_2(tmp_path, capsys, arguments) -> None:
         main(['paper', '--out', str(tmp_path), *arguments])
     assert info.value.code == 2
     assert arguments[0] in capsys.readouterr().err
+
+
+def test_bounded_numbers_refuse_with_the_range() -> None:
+    import argparse
+
+    from gear_phm.cli.paper import _bounded
+    count, share = _bounded(int, 1), _bounded(float, 0.0, 2.0)
+    assert count('3') == 3 and share('2') == 2.0 and share('0') == 0.0
+    for parse, text, message in ((count, '0', 'must be >= 1, got 0'),
+                                 (count, '1.5', "expected a whole number, got '1.5'"),
+                                 (share, '2.5', 'must be in [0, 2], got 2.5'),
+                                 (share, 'x', "expected a number, got 'x'")):
+        with pytest.raises(argparse.ArgumentTypeError) as caught:
+            parse(text)
+        assert str(caught.value) == message

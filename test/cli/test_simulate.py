@@ -436,3 +436,12 @@ def test_block_writes_equal_the_message_by_message_writer(
     meta = blocks[0]['metadata']['rosbag2_bagfile_information']
     meta['files'][0]['path'] = meta['relative_file_paths'][0] = 'reference_0.mcap'
     assert blocks == reference
+
+
+def test_a_run_needs_one_sample_at_least() -> None:
+    from gear_phm.cli.main import CliError
+    from gear_phm.cli.simulate import _check_count
+    _check_count(1.0, 1.0, '--duration 1 s')                # exactly one sample
+    _check_count(0.1, 10.0, '--duration 0.1 s')             # 1 up to rounding
+    with pytest.raises(CliError, match=r'^--duration 0\.5 s at --rate 1 Hz gives no sample'):
+        _check_count(0.5, 1.0, '--duration 0.5 s')

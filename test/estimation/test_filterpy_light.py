@@ -23,6 +23,8 @@ _STEPS = """
 import numpy as np
 from gear_phm.estimation.kalman import KalmanFilter as Light   # loaded light: filterpy not yet
 from filterpy.kalman import KalmanFilter as Full
+from gear_phm.estimation import filterpy_light
+assert Light is filterpy_light.KalmanFilter       # the class the light load made
 assert Light is not Full and Light.__name__ == 'KalmanFilter'
 rng = np.random.default_rng(7)
 filters = [cls(dim_x=2, dim_z=1) for cls in (Light, Full)]

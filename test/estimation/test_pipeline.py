@@ -11,7 +11,8 @@ import pytest
 from gear_phm import interfaces
 from gear_phm.bagio import TYPESTORE
 from gear_phm.codec import JointStateDecoder
-from gear_phm.estimation import EstimatorConfig, EstimatorPipeline
+from gear_phm.estimation import EstimatorConfig
+from gear_phm.estimation.pipeline import EstimatorPipeline
 from gear_phm.models import SpurGear
 from gear_phm.status import WARN
 from helpers.plant import lever_plant

@@ -8,13 +8,9 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from gear_phm.models import (
-    eta_aiding,
-    eta_aiding_from_opposing,
-    eta_opposing,
-    eta_opposing_from_aiding,
-    total_squared_error,
-)
+from gear_phm.models import (eta_aiding, eta_aiding_from_opposing, eta_opposing,
+                             eta_opposing_from_aiding)
+from gear_phm.models.comparison import total_squared_error
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)
 

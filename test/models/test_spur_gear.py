@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from gear_phm.models import min_teeth, SpurGear
+from gear_phm.models.spur_gear import min_teeth, SpurGear
 from helpers.spur_gear import geometries, mesh_work_efficiencies
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True)

@@ -6,8 +6,8 @@ import pytest
 
 from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
-from gear_phm.simulation import (Channel, Plant, sample_times, Sensors, simulate, SimulationConfig,
-                                 Simulator, Wear)
+from gear_phm.simulation import Channel, Plant, Sensors, Wear
+from gear_phm.simulation.simulator import sample_times, simulate, SimulationConfig, Simulator
 
 RATE = 200.0
 
