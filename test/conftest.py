@@ -77,10 +77,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
     The shares are those of ``--dist worksteal`` (setup.cfg; a worker cannot see the mode,
     its own is ``no``). A share is run from its head; idle workers take the second half of
-    the longest queue. A long test at the end of the collection (test_state_file.py,
-    test_transmissions_live.py) would start late and finish the run alone on one core. The
-    long tests are dealt out longest first (their marker's seconds), each to the share with
-    the fewest long seconds so far, and start at once; the other tests keep their order.
+    the longest queue. A long test at the end of the collection
+    (integration/test_state_file.py, integration/test_transmissions_live.py) would start late
+    and finish the run alone on one core. The long tests are dealt out longest first (their
+    marker's seconds), each to the share with the fewest long seconds so far, and start at
+    once; the other tests keep their order.
     Each worker computes the same order, as pytest-xdist requires.
     """
     workers = int(getattr(config, 'workerinput', {}).get('workercount', 0))
@@ -104,8 +105,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 #: Where each pytest-xdist worker of a run writes faulthandler's report of a fatal error (a
-#: worker crashed twice in test_diagnostics_node.py with only "node down: Not properly
-#: terminated"); the controller prints any at the end of the run.
+#: worker crashed twice in integration/test_diagnostics_node.py with only "node down: Not
+#: properly terminated"); the controller prints any at the end of the run.
 CRASH_LOG = 'GEAR_PHM_TEST_CRASH_LOG'
 
 

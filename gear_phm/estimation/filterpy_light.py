@@ -12,7 +12,7 @@ helpers it needs at import time: ``pretty_str`` and ``reshape_z`` from
 likelihood properties, imports ``filterpy.stats`` on its first call. The temporary module
 entries are removed again, so a later ``import filterpy`` by anyone else is the full, normal
 import. If filterpy's layout ever differs, the normal import is used instead (slower, never
-wrong); test/test_filterpy_light.py holds the result to filterpy's own class.
+wrong); test/estimation/test_filterpy_light.py holds the result to filterpy's own class.
 """
 from __future__ import annotations
 

@@ -10,21 +10,28 @@ decodes the next batch and writes the last one. Each drive's arithmetic is the s
 way, and the stream writes the same records in the same order: the output bag, the summaries
 and the plots do not depend on ``jobs``.
 
-The workers are forked (POSIX ``fork``) from a process that runs no other thread; where that
-is not so, the drives stay in the calling process. A worker ignores SIGINT (the caller stops
-it) and ends when its pipe closes, so it does not outlive a caller that was killed.
+Each worker is a one-process :class:`concurrent.futures.ProcessPoolExecutor` on the ``fork``
+start method (:class:`_Worker`): forked with its share of the drives as they are, it runs
+their requests in the order they are sent, so their state in it follows the batches. Workers
+are forked only from a process that runs no thread but the pools' own; where that is not so,
+the drives stay in the calling process. A worker ignores SIGINT (the caller stops it), and on
+Linux it is killed with its caller (``PR_SET_PDEATHSIG``), so it does not outlive a caller
+that was killed.
 """
 from __future__ import annotations
 
+import collections
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 import multiprocessing
+import multiprocessing.process
 import os
-import pickle
 import signal
 import sys
 import threading
-import traceback
 from typing import Any, Protocol, Sequence, TYPE_CHECKING
+import warnings
 
 import numpy as np
 
@@ -32,8 +39,6 @@ from gear_phm.errors import GearPhmError
 from gear_phm.status import StatusOut
 
 if TYPE_CHECKING:
-    from multiprocessing.connection import Connection
-
     from gear_phm.codec import JointBatch
     from gear_phm.offline.decimate import Binned
     from gear_phm.offline.records import Analysis
@@ -262,12 +267,21 @@ def can_fork() -> bool:
 
     A thread holding a lock (of a stream, of logging) at the fork would leave it locked in
     the child for good; Python 3.12 warns of the same. In a process with threads (a notebook's
-    kernel, a Dask worker) the drives stay in the calling process. A process with an rclpy
-    context up (a DDS participant: native threads and shared memory that ``threading`` does
-    not see) does not fork either.
+    kernel, a Dask worker) the drives stay in the calling process. The threads of this
+    module's own pools (:func:`_pool_thread`) do not count: they wait on their queues, and the
+    child never uses them. A process with an rclpy context up (a DDS participant: native
+    threads and shared memory that ``threading`` does not see) does not fork either.
     """
-    return ('fork' in multiprocessing.get_all_start_methods()
-            and threading.active_count() == 1 and not _ros_running())
+    others = [thread for thread in threading.enumerate()
+              if thread is not threading.current_thread() and not _pool_thread(thread)]
+    return ('fork' in multiprocessing.get_all_start_methods() and not others
+            and not _ros_running())
+
+
+def _pool_thread(thread: threading.Thread) -> bool:
+    """Whether ``thread`` is a concurrent.futures pool's manager or its queue's feeder."""
+    return (type(thread).__name__ == '_ExecutorManagerThread'
+            or thread.name == 'QueueFeederThread')
 
 
 def _ros_running() -> bool:
@@ -286,17 +300,17 @@ class DrivePool(LocalDrives):
         super().__init__(runs)
         self.workers = workers
         self.groups = [list(range(w, len(self.runs), workers)) for w in range(workers)]
-        self.pipes: list[Connection] = []
-        #: requests without an answer (ground truth), sent with the next that has one: a
-        #: worker busy with a batch does not read, and a large request would block the caller
+        self.pools: list[_Worker] = []
+        #: requests without an answer (ground truth), sent with the next that has one, so a
+        #: worker's requests keep the order of the batches they belong to
         self.queued: list[list[tuple[Any, ...]]] = [[] for _ in self.groups]
+        #: the workers' processes
         self.processes: list[multiprocessing.process.BaseProcess] = []
         try:
-            for w, group in enumerate(self.groups):
-                pipe, process = _fork(LocalDrives([self.runs[i] for i in group]),
-                                      f'gear-phm drives {w}', self.pipes)
-                self.pipes.append(pipe)
-                self.processes.append(process)
+            for group in self.groups:
+                worker = _Worker(LocalDrives([self.runs[i] for i in group]))
+                self.pools.append(worker)
+                self.processes.append(worker.process)
         except BaseException:
             self.close()
             raise
@@ -304,18 +318,18 @@ class DrivePool(LocalDrives):
     def _send(self, requests: Sequence[tuple[Any, ...]]) -> None:
         """Send each worker its queued requests, then ``requests[w]``.
 
-        ParallelError if a worker is gone (its pipe closed: killed between two batches).
+        ParallelError if a worker is gone (killed between two batches).
         """
-        for pipe, queued, request in zip(self.pipes, self.queued, requests):
+        for worker, queued, request in zip(self.pools, self.queued, requests):
             for earlier in queued:
-                _request(pipe, earlier)
-            _request(pipe, request)
+                _request(worker, earlier)
+            _request(worker, request)
             queued.clear()
 
     def _ask(self, requests: Sequence[tuple[Any, ...]]) -> list[Any]:
         """Send each worker its request; return their answers, in worker order."""
         self._send(requests)
-        return [_answer(pipe) for pipe in self.pipes]
+        return [_answer(worker) for worker in self.pools]
 
     def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
                ticks: list[int], write: bool) -> None:
@@ -325,7 +339,7 @@ class DrivePool(LocalDrives):
 
     def collect(self) -> list[Made]:
         """Return what the drives made of the batch submitted last, in drive order."""
-        return self._ordered([_answer(pipe) for pipe in self.pipes])
+        return self._ordered([_answer(worker) for worker in self.pools])
 
     def _ordered(self, answers: list[list[Any]]) -> list[Any]:
         """Return the workers' answers (a list per worker) in drive order."""
@@ -361,13 +375,13 @@ class DrivePool(LocalDrives):
         self._ask([('plot', [paths[i] for i in group], bags) for group in self.groups])
 
     def close(self) -> None:
-        """End the workers: their pipes closed (an idle worker returns), then joined.
+        """End the workers: their pools shut down (an idle worker returns), then joined.
 
         A worker still busy with a batch (the caller stopped on an error or a signal) is
         terminated after a second.
         """
-        _end(self.pipes, self.processes)
-        self.pipes, self.processes = [], []
+        _end(self.pools)
+        self.pools, self.processes = [], []
 
 
 class SplitDrive(LocalDrives):
@@ -390,7 +404,8 @@ class SplitDrive(LocalDrives):
         #: estimated batches not yet collected, the oldest first; the oldest is the worker's
         self.waiting: list[tuple[Estimated, list[int], bool]] = []
         # the worker serves its copy of the run: assess, final_health, health_half
-        self.pipe, self.process = _fork(run, 'gear-phm assessor', [])
+        self.worker = _Worker(run)
+        self.process = self.worker.process
 
     def submit(self, decoded: Sequence[JointBatch], messages: int, cuts: list[int],
                ticks: list[int], write: bool) -> None:
@@ -403,11 +418,11 @@ class SplitDrive(LocalDrives):
     def _hand(self) -> None:
         """Send the worker the estimates of the oldest waiting batch."""
         estimated, ticks, write = self.waiting[0]
-        _request(self.pipe, ('assess', estimated.estimates, estimated.ends, ticks, write))
+        _request(self.worker, ('assess', estimated.estimates, estimated.ends, ticks, write))
 
     def collect(self) -> list[Made]:
         """Return what the drive made of the oldest batch submitted; start the next one's."""
-        assessed = _answer(self.pipe)
+        assessed = _answer(self.worker)
         estimated, _, _ = self.waiting.pop(0)
         if self.waiting:
             self._hand()
@@ -422,108 +437,123 @@ class SplitDrive(LocalDrives):
     def final(self, stamp_ns: int) -> list[tuple[StatusOut, ...]]:
         """Return the drive's statuses of the final /diagnostics array at ``stamp_ns``."""
         run = self.runs[0]
-        _request(self.pipe, ('final_health', stamp_ns))
-        return [(run.final_estimator(), *_answer(self.pipe))]
+        _request(self.worker, ('final_health', stamp_ns))
+        return [(run.final_estimator(), *_answer(self.worker))]
 
     def finish(self, bags: list[Any], readers: list[str], elapsed: float,
                names: Sequence[tuple[str, ...]] = ()) -> list[Finished]:
         """Take the worker's assessor back; return the drive's end of run."""
-        _request(self.pipe, ('health_half',))
-        self.runs[0].take_health(_answer(self.pipe))
+        _request(self.worker, ('health_half',))
+        self.runs[0].take_health(_answer(self.worker))
         return super().finish(bags, readers, elapsed, names)
 
     def close(self) -> None:
         """End the worker (terminated after a second if it is still assessing)."""
-        _end([self.pipe], [self.process])
+        _end([self.worker])
 
 
-def _fork(target: Any, name: str, callers: list[Connection]
-          ) -> tuple[Connection, multiprocessing.process.BaseProcess]:
-    """Fork a worker serving ``target`` (:func:`_serve`); return the caller's pipe end, it.
+class _Worker:
+    """One worker process serving ``target``: a one-process ProcessPoolExecutor (fork).
 
-    ``callers``: the caller's ends of the workers forked before, which the new one closes
-    with its own copy of this one's (an end left open in a worker would hide its EOF).
+    The process is forked at once, with ``target`` as it is (not pickled); the pool's one
+    process runs the requests in the order they are sent, so ``target``'s state in it
+    follows them. Each request (``(method name, *args)``) gets a future; :meth:`answer`
+    returns the oldest request's answer, those of ``keep_truth`` (no answer) only checked for
+    an error on the way.
     """
-    context = multiprocessing.get_context('fork')
-    mine, theirs = context.Pipe()
-    process = context.Process(target=_serve, args=(theirs, target, [*callers, mine]),
-                              name=name, daemon=True)
-    process.start()
-    theirs.close()
-    return mine, process
+
+    def __init__(self, target: Any) -> None:
+        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context('fork'),
+                                        initializer=_adopt, initargs=(target, os.getpid()))
+        self.pending: collections.deque[tuple[Future[Any], bool]] = collections.deque()
+        with warnings.catch_warnings():
+            # Python >= 3.12 warns of any fork beside another thread; those here are the
+            # other workers' pools' (can_fork), which the child never uses
+            warnings.filterwarnings('ignore', 'This process .* is multi-threaded',
+                                    DeprecationWarning)
+            self.request(('start',))    # forks now; the target's start runs meanwhile
+        processes = list(self.pool._processes.values())     # its one process, to join
+        self.process: multiprocessing.process.BaseProcess = processes[0]
+
+    def request(self, request: tuple[Any, ...]) -> None:
+        """Send a request; ParallelError if the worker is gone."""
+        kind, *args = request
+        try:
+            future = self.pool.submit(_call, kind, *args)
+        except (BrokenProcessPool, RuntimeError):   # broken, or shut down
+            raise ParallelError(_GONE) from None
+        self.pending.append((future, kind not in ('start', 'keep_truth')))
+
+    def answer(self) -> Any:
+        """Return the oldest request's answer; raise its error, or ParallelError if gone."""
+        while self.pending:
+            future, answered = self.pending.popleft()
+            try:
+                value = future.result()
+            except BrokenProcessPool:
+                raise ParallelError(_GONE) from None
+            if answered:
+                return value
+        raise ParallelError(_GONE)
+
+    def close(self) -> None:
+        """Shut the pool down: an idle worker returns, a busy one finishes its request."""
+        self.pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _end(pipes: Sequence[Connection], processes: Sequence[multiprocessing.process.BaseProcess]
-         ) -> None:
-    """Close the pipes (an idle worker returns), then join the workers.
+#: The worker process's target (:func:`_adopt`).
+_target: Any = None
+
+
+def _adopt(target: Any, caller: int) -> None:
+    """Start a worker: keep ``target``; the caller stops the analysis, not SIGINT.
+
+    On Linux the worker is killed when its caller ends (``PR_SET_PDEATHSIG``); if the caller
+    has already ended, the worker does not start.
+    """
+    global _target
+    try:
+        import ctypes
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)     # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):   # not Linux: the worker ends with its pool's queue
+        pass
+    if os.getppid() != caller:
+        os._exit(1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _target = target
+
+
+def _call(kind: str, *args: Any) -> Any:
+    """Run the worker's target's method ``kind`` (``start``: its start, if it has one)."""
+    if kind == 'start':
+        return getattr(_target, 'start', lambda: None)()
+    return getattr(_target, kind)(*args)
+
+
+def _end(workers: Sequence[_Worker]) -> None:
+    """Shut the workers' pools down (an idle worker returns), then join the workers.
 
     A worker still busy (the caller stopped on an error or a signal) is terminated after a
     second.
     """
-    for pipe in pipes:
-        pipe.close()
-    for process in processes:
-        process.join(timeout=1.0)
-        if process.is_alive():
-            process.terminate()
-            process.join()
+    for worker in workers:
+        worker.close()
+    for worker in workers:
+        worker.process.join(timeout=1.0)
+        if worker.process.is_alive():
+            worker.process.terminate()
+            worker.process.join()
 
 
-def _request(pipe: Connection, request: tuple[Any, ...]) -> None:
-    """Send a worker a request; ParallelError if it is gone (its pipe closed)."""
-    try:
-        pipe.send(request)
-    except OSError:
-        raise ParallelError(_GONE) from None
+def _request(worker: _Worker, request: tuple[Any, ...]) -> None:
+    """Send a worker a request; ParallelError if it is gone."""
+    worker.request(request)
 
 
-def _answer(pipe: Connection) -> Any:
-    """Return a worker's answer; raise the error it sent, or ParallelError if it is gone."""
-    try:
-        kind, value = pipe.recv()
-    except (EOFError, OSError):
-        raise ParallelError(_GONE) from None
-    if kind == 'error':
-        raise value
-    return value
-
-
-def _serve(pipe: Connection, target: Any, others: list[Connection]) -> None:
-    """Answer the caller's requests, ``target``'s methods by name, until the pipe closes.
-
-    A worker's loop (``target``: its :class:`LocalDrives`, its copy of a drive's run
-    (:class:`SplitDrive`), or :class:`_Drawing`).
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)        # the caller stops the analysis
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    for other in others:        # the caller's ends (of every worker's pipe, this one's too):
-        other.close()           # its closing them must be the EOF that ends this loop
-    getattr(target, 'start', lambda: None)()
-    while True:
-        try:
-            request = pipe.recv()
-        except (EOFError, OSError):
-            return
-        kind, *args = request
-        try:
-            value = getattr(target, kind)(*args)
-        except BaseException as exc:    # noqa: B036 - any failure goes back to the caller
-            text = ''.join(traceback.format_exception(exc)).strip()
-            if not _sent(pipe, ('error', exc)):     # one that does not pickle: its text
-                _sent(pipe, ('error', ParallelError(f'drive worker: {text}')))
-            return
-        if kind != 'keep_truth' and not _sent(pipe, ('ok', value)):
-            return
-
-
-def _sent(pipe: Connection, answer: tuple[str, Any]) -> bool:
-    """Send an answer; False if it cannot be (the caller closed its end: it stopped)."""
-    try:
-        pipe.send(answer)
-    except (OSError, ValueError, TypeError, AttributeError, RuntimeError,
-            pickle.PicklingError):
-        return False
-    return True
+def _answer(worker: _Worker) -> Any:
+    """Return a worker's answer; raise the error it raised, or ParallelError if it is gone."""
+    return worker.answer()
 
 
 #: A plot to draw: (path, Analysis, ratio R [-], bags, drive name or '').
@@ -555,16 +585,17 @@ class Plotter:
     """
 
     def __init__(self) -> None:
-        self.pipe, self.process = _fork(_Drawing(), 'gear-phm plotter', [])
+        self.worker = _Worker(_Drawing())
+        self.process = self.worker.process
 
     def plot(self, jobs: Sequence[PlotJob]) -> None:
         """Draw the plots and return once they are written (the plotter's error if any)."""
-        _request(self.pipe, ('plot', list(jobs)))
-        _answer(self.pipe)
+        _request(self.worker, ('plot', list(jobs)))
+        _answer(self.worker)
 
     def close(self) -> None:
         """End the plotter (terminated after a second if it is still drawing)."""
-        _end([self.pipe], [self.process])
+        _end([self.worker])
 
 
 def start_plotter() -> Plotter | None:

@@ -11,7 +11,7 @@ import pytest
 from gear_phm.bagio import BagReader
 from gear_phm.cli.main import main as gear_phm
 from gear_phm.simulation.parameters import EFFECT_PARAMETERS
-from test_publisher import ros, run_with_listeners  # noqa: F401, I100, I201 (the fixture)
+from integration.test_publisher import ros, run_with_listeners  # noqa: F401, I100, I201
 
 FLAGS = ['--no-load-coulomb', '0.05', '--no-load-viscous', '0.004', '--no-load-cold-factor',
          '3', '--oil-warm-time-constant', '40', '--oil-cool-time-constant', '100',

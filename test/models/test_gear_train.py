@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from gear_phm.models import (GearTrain, HelicalGear, ModelError, series_efficiencies,
-                             SpurGear, WormGear)
+from gear_phm.models import HelicalGear, ModelError, SpurGear, WormGear
+from gear_phm.models.gear_train import GearTrain, series_efficiencies
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)
 

@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 import pytest
 
-from gear_phm.models import HelicalGear, ModelError, SpurGear
+from gear_phm.models import ModelError, SpurGear
+from gear_phm.models.helical_gear import HelicalGear
 from helpers.spur_gear import geometries, mesh_work_efficiencies
 
 SETTINGS = settings(max_examples=100, deadline=None, derandomize=True)

@@ -8,8 +8,9 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from gear_phm.models import GearTrain, InternalGear, ModelError, PlanetaryGearSet, SpurGear
+from gear_phm.models import GearTrain, InternalGear, ModelError, SpurGear
 from gear_phm.models.internal_gear import interference_free
+from gear_phm.models.planetary import PlanetaryGearSet
 
 SETTINGS = settings(max_examples=100, deadline=None, derandomize=True)
 

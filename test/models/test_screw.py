@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 import pytest
 
-from gear_phm.models import BallScrew, LeadScrew, ModelError, RollerScrew
+from gear_phm.models import ModelError
+from gear_phm.models.screw import BallScrew, LeadScrew, RollerScrew
 from helpers.thread import flank_efficiencies, normal_from_axial_angle
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)

@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from gear_phm.models import ModelError, WormGear
+from gear_phm.models import ModelError
+from gear_phm.models.worm import WormGear
 from helpers.thread import flank_efficiencies, normal_from_normal_angle
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)

@@ -1,0 +1,1 @@
+"""Unit tests of gear_phm.sources, one module per source module."""
