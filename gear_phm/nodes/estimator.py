@@ -38,7 +38,6 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
 
 from gear_phm import interfaces
 from gear_phm.codec import JointStateDecoder
@@ -49,6 +48,7 @@ from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, 
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.executors import executor_parameter, spin_executor
+from gear_phm.nodes.lifecycle import AUTOSTART, ManagedNode
 from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
                                       SampleLossPublisher, subscribe_joint_states_raw)
@@ -66,6 +66,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'samples); outputs are stamped with sample time', 's', 0.0001, 10.0,
               read_only=True),
     executor_parameter(),
+    AUTOSTART,
     *state_parameters('the filter state, its adaptation, counters, operating time and '
                       'open energy window'),
 )
@@ -92,20 +93,33 @@ def joint_names_problem(values: dict[str, Any]) -> str:
     return ''
 
 
-class EstimatorNode(Node):
-    """Friction estimator; a parameter set at run time keeps what was learned (module doc)."""
+class EstimatorNode(ManagedNode):
+    """Friction estimator; a parameter set at run time keeps what was learned (module doc).
+
+    A managed node (:mod:`gear_phm.nodes.lifecycle`): the parameters are declared here,
+    :meth:`configure` validates them and builds the pipeline; ``autostart`` does both now.
+    """
 
     def __init__(self) -> None:
         super().__init__('estimator')
-        names = declare_transmissions(self)
-        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
-        self.values = values
+        self.names = declare_transmissions(self)
+        self.values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.drive_specs = declare_drives(self, self.names, PARAMETERS, self.values) \
+            if self.names else ()
         self.drives: DrivesEstimator | None = None
-        if names:                   # many drives: gear_phm.nodes.estimator_drives
-            drives = declare_drives(self, names, PARAMETERS, values)
-            first = drives[0]
+        if self.values['autostart']:
+            self.autostart()
+
+    def configure(self) -> None:
+        """Validate the parameters, load the state file, make outputs, timers and services.
+
+        Raises ConfigError naming the problem. The subscription is made at activate.
+        """
+        values = self.values = {name: self.get_parameter(name).value for name in self.values}
+        if self.drive_specs:        # many drives: gear_phm.nodes.estimator_drives
+            first = self.drive_specs[0]
             _warm_up(first.estimator_config(), first.motor_joint, first.load_joint)
-            self.drives = DrivesEstimator(self, drives, values)
+            self.drives = DrivesEstimator(self, self.drive_specs, values)
             self.add_on_set_parameters_callback(refuse_changes)
             return
         problem = joint_names_problem(values)
@@ -140,12 +154,38 @@ class EstimatorNode(Node):
         self.batch_timer.cancel()
         self.watchdog = self._make_watchdog()
         self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
-        self.subscription = subscribe_joint_states_raw(self, self._on_message)
+        subscribe_joint_states_raw(self, self._on_message)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.resets = 0
         reset_service(self, '~/reset', self._reset)
         self.state.start_timer(self._save_state)
+
+    def activating(self) -> None:
+        """Log the one line that says the node is ready."""
+        joints = ', '.join(f'{d.name}: {d.motor_joint}/{d.load_joint}'
+                           for d in self.drive_specs) or \
+            f'{self.values["motor_joint"]}/{self.values["load_joint"]}'
+        where = f'state file {self.values["state_file"]}' if self.values['state_file'] \
+            else 'no state file'
+        self.get_logger().info(f'ready: estimating from {self.resolve_topic_name("joint_states")}'
+                               f' (motor/load joints {joints}), {where}')
+
+    def deactivating(self) -> None:
+        """Publish what the buffer gives, save the state file."""
+        if self.drives is not None:
+            self.drives.flush()
+            self.drives.state.save()
+            return
+        self._save_state()
+
+    def cleaning_up(self) -> None:
+        """Save the state once more and forget the pipeline (back to unconfigured)."""
+        if self.drives is not None:
+            self.drives.close()
+            self.drives = None
+        else:
+            self.state.save()
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
         """Return the pipeline's state and its newest stamp (for a save)."""
@@ -163,6 +203,9 @@ class EstimatorNode(Node):
         Nothing is published because the context may be shut down. SIGINT/SIGTERM and normal exits
         pass here.
         """
+        if not self.configured:
+            super().destroy_node()
+            return
         if self.drives is not None:
             self.drives.close()
             super().destroy_node()
