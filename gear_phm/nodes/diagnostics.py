@@ -47,8 +47,8 @@ from rclpy.serialization import serialize_message
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
                                  ESTIMATOR_TOPICS, health_status, SAMPLE_LOSS,
                                  VECTOR3_STAMPED_TYPE)
-from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
-                                   RESETS, run_node, to_rclpy)
+from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, qualified,
+                                   reset_service, RESETS, run_node, to_rclpy)
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.executors import executor_parameter, spin_executor
 from gear_phm.nodes.lifecycle import AUTOSTART, ManagedNode
@@ -59,7 +59,7 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
                                  TRANSMISSION_NAME)
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
-from gear_phm.status import OK, STALE, StatusOut, WARN
+from gear_phm.status import ERROR, STALE, StatusOut, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -316,7 +316,8 @@ class Channel:
         for level, problem in problems:
             state = replace(state, level=max(state.level, level),
                             message=f'{state.message}; {problem}')
-        status = health_status(state, self.transmission_name, self.hardware_id)
+        status = health_status(state, qualified(self.node, self.transmission_name),
+                               self.hardware_id or self.transmission_name)
         return replace(status, values=status.values + ((RESETS, str(self.resets)),)), state
 
     def mark_stale(self, state: HealthState) -> None:
@@ -504,12 +505,11 @@ class DiagnosticsNode(ManagedNode):
         now_ns = self.get_clock().now().nanoseconds
         problems = []
         if self.recorder is not None and self.recorder.error is not None:
-            problems.append((OK, f'recording failed: {self.recorder.error}'))
+            problems.append((ERROR, f'recording failed: {self.recorder.error}'))
         if self.state.problem:
             problems.append((WARN, self.state.problem))
         statuses = [channel.status(now_ns, problems) for channel in self.channels]
-        stamp_ns = statuses[0][1].stamp_ns if len(statuses) == 1 else now_ns
-        msg = to_rclpy(DiagnosticsOut(stamp_ns, tuple(status for status, _ in statuses)))
+        msg = to_rclpy(DiagnosticsOut(now_ns, tuple(status for status, _ in statuses)))
         self.diag_pub.publish(msg)
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1

@@ -33,7 +33,8 @@ from gear_phm import interfaces
 from gear_phm.codec import decode_joint_state_pairs, packed
 from gear_phm.estimation import EstimatorPipeline
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, reset_service, RESETS, to_rclpy
+from gear_phm.nodes.common import (ConfigError, OUTPUT_QOS, qualified, reset_service, RESETS,
+                                   to_rclpy)
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
@@ -57,7 +58,7 @@ class _Drive:
         self.outputs = EstimatePublisher(node, frame_id, drive.name,
                                          no_load=self.pipeline.config.no_load_model)
         self.loss_outputs = SampleLossPublisher(node, frame_id, drive.name)
-        self.status_name = f'gear_phm estimator: {drive.name}'
+        self.status_name = f'gear_phm estimator: {qualified(node, drive.name)}'
         self.last_sample_ns: int | None = None      # node clock at its newest sample [ns]
         self.resets = 0                             # by ~/reset or ~/<drive>/reset
 

@@ -460,7 +460,8 @@ class DriveRun:
         self.assessor = HealthAssessor(health_config, prior)
         self.estimator_config = estimator_config
         self.motor_joint, self.load_joint, self.topic = motor_joint, load_joint, topic
-        self.transmission_name, self.hardware_id = transmission_name, hardware_id
+        self.transmission_name = transmission_name
+        self.hardware_id = hardware_id or transmission_name     # '': the drive's name
         self.history = history
         self.estimates = Binned(history, [f.name for f in fields(EstimateHistory)])
         self.states = Binned(history, _HEALTH_COLUMNS, objects=True)

@@ -6,7 +6,9 @@ of ``~/change_state`` and ``~/get_state`` in the test process, as a lifecycle ma
 states: unconfigured -> configure -> inactive (no subscription, nothing published) ->
 activate (estimates, statuses) -> deactivate (state files saved with the last sample, the
 recording a complete bag that rosbags and mcap's reader read; nothing published) ->
-activate again (the recording's next file) -> SIGINT (both files in the bag).
+activate again (the recording's next file), deactivate (both files in the bag) -> activate
+with the next file impossible (ERROR on /diagnostics) -> SIGINT. On the way: the header stamp
+is the node's clock, hardware_id the drive's name.
 """
 from __future__ import annotations
 
@@ -49,13 +51,16 @@ class Manager:
                                  f'state_file:={self.state["diagnostics"]}',
                                  f'record_path:={self.bag}')}
         self.driver = Driver('lifecycle_manager', outputs=(FRICTION, HEALTH_EFFICIENCY))
+        self.driver.hardware_ids = {}
+        self.driver.on_diagnostics.append(lambda msg: self.driver.hardware_ids.update(
+            (status.name, status.hardware_id) for status in msg.status))
         node = self.driver.node
         self.change = {n: node.create_client(ChangeState, f'/{n}/change_state') for n in NODES}
         self.get = {n: node.create_client(GetState, f'/{n}/get_state') for n in NODES}
         self.driver.wait(lambda: all(c.service_is_ready() for c in (*self.change.values(),
                                                                     *self.get.values())),
                          60.0, 'the lifecycle services')
-        self.next_ns = time.time_ns()
+        self.next_ns = time.time_ns() + 3600 * 10**9     # samples an hour ahead of the clock
         self.codes: dict[str, int] = {}
 
     def call(self, client: Any, request: Any) -> Any:
@@ -123,12 +128,13 @@ def manager(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Manager]:
 
 
 def _messages(bag: Path) -> dict[str, int]:
-    """Messages per topic as rosbags reads the bag (every file metadata.yaml lists)."""
+    """Messages per topic (no leading '/') as rosbags reads the bag (the files listed)."""
     from rosbags.highlevel import AnyReader
     counts: dict[str, int] = {}
     with AnyReader([bag]) as reader:
         for connection, _, _ in reader.messages():
-            counts[connection.topic] = counts.get(connection.topic, 0) + 1
+            topic = connection.topic.lstrip('/')
+            counts[topic] = counts.get(topic, 0) + 1
     return counts
 
 
@@ -171,20 +177,37 @@ def test_managed_through_the_lifecycle_services(manager: Manager) -> None:
     assert manager.saved('diagnostics')['saved_stamp_ns'] is not None
     # ... and finished the recording's file: a complete bag
     counts = _messages(manager.bag)
-    assert counts.get(DIAGNOSTICS, 0) >= 1 and counts.get(f'/{HEALTH_EFFICIENCY}', 0) >= 1
+    assert counts.get(DIAGNOSTICS.lstrip('/'), 0) >= 1 and counts.get(HEALTH_EFFICIENCY, 0) >= 1
     assert _mcap_count(manager.bag / 'rec_0.mcap') == sum(counts.values())
     manager.feed(1.0, acked=False)
     manager.quiet()
     assert driver.pub.get_subscription_count() == 0
 
-    # active again: the recording goes on in the bag's next file; SIGINT closes it
+    # active again: the recording goes on in the bag's next file, finished at deactivate
     assert all(manager.transition(n, Transition.TRANSITION_ACTIVATE) for n in NODES)
     driver.wait(lambda: driver.pub.get_subscription_count() > 0, 30.0, 'the subscription')
     seen = len(driver.messages[HEALTH_EFFICIENCY])
     manager.feed(3.0)
     driver.wait(lambda: len(driver.messages[HEALTH_EFFICIENCY]) > seen, 60.0, 'new estimates')
-    codes = manager.close()
-    assert codes == {'estimator': 0, 'diagnostics': 0}
+    assert manager.transition('diagnostics', Transition.TRANSITION_DEACTIVATE)
     later = _messages(manager.bag)
-    assert later[f'/{HEALTH_EFFICIENCY}'] > counts[f'/{HEALTH_EFFICIENCY}']
+    assert later[HEALTH_EFFICIENCY] > counts[HEALTH_EFFICIENCY]
     assert _mcap_count(manager.bag / 'rec_1.mcap') == sum(later.values()) - sum(counts.values())
+
+    # the conventions of /diagnostics (diagnostic_updater's): the header stamp is the node's
+    # clock, not the samples' (which run ahead of it here); hardware_id the drive's name
+    health, estimator = driver.latest('gear_phm'), driver.latest('gear_phm estimator')
+    assert int(health['_stamp_ns']) <= time.time_ns() < driver.stamps[HEALTH_EFFICIENCY][-1]
+    assert int(estimator['_stamp_ns']) <= time.time_ns()
+    assert driver.hardware_ids == {'gear_phm: gearbox': 'gearbox',
+                                   'gear_phm estimator: estimator': 'gearbox'}
+
+    # a recording that fails is an ERROR: the next file cannot be made (a folder is there)
+    (manager.bag / 'rec_2.mcap').mkdir()
+    assert manager.transition('diagnostics', Transition.TRANSITION_ACTIVATE)
+    manager.feed(1.0)
+    driver.wait(lambda: 'recording failed' in driver.latest('gear_phm').get('_message', ''),
+                30.0, 'the recording error on /diagnostics')
+    assert driver.latest('gear_phm')['_level'] == b'\x02'
+    assert manager.close() == {'estimator': 0, 'diagnostics': 0}
+    assert _messages(manager.bag) == later        # the bag as the last deactivate left it
