@@ -187,7 +187,7 @@ def check_bench_analyze(cwd: Path, done: subprocess.CompletedProcess) -> None:
         assert abs(summary['transmissions'][drive]['u'] - truth[drive]) < 0.01, drive
         assert f'/gear_phm/{drive}/friction' in topics
         assert (out / f'analysis_{drive}.png').stat().st_size > 20000
-        assert f'{drive}: u = ' in done.stderr
+        assert f'{drive}: u = ' in done.stdout
 
 
 CHECKS: tuple[tuple[str, Callable[[Path, subprocess.CompletedProcess], None]], ...] = (

@@ -210,4 +210,11 @@ def test_managed_through_the_lifecycle_services(manager: Manager) -> None:
                 30.0, 'the recording error on /diagnostics')
     assert driver.latest('gear_phm')['_level'] == b'\x02'
     assert manager.close() == {'estimator': 0, 'diagnostics': 0}
+    # each node logs one line when it is ready: at each activation
+    ready = {name: [line for line in proc.stderr.read().splitlines() if ']: ready: ' in line]
+             for name, proc in manager.procs.items()}
+    assert [len(ready['estimator']), len(ready['diagnostics'])] == [2, 3], ready
+    assert ready['estimator'][0].endswith(
+        'ready: estimating from /joint_states (motor/load joints motor/load), state file '
+        f'{manager.state["estimator"]}')
     assert _messages(manager.bag) == later        # the bag as the last deactivate left it
