@@ -19,6 +19,11 @@ only on purpose: ``~/reset`` (``std_srvs/srv/Trigger``; with many drives also
 ``~/<drive>/reset``) logs a line, counts in the status key ``resets`` (after the health keys)
 and writes the state file at once.
 
+A managed node (:mod:`gear_phm.nodes.lifecycle`; ``autostart`` true by default): inactive it
+publishes nothing, /diagnostics included (as nav2); deactivate saves the state file and
+finishes the recording's file (a complete bag), a later activate records into the next file.
+The /diagnostics header stamp is this node's clock; a failed recording is ERROR.
+
 Recording (``record_path`` non-empty): a rosbag2 MCAP directory with every topic this node
 publishes (and its inputs with ``record_inputs``). Messages are serialized in the callbacks
 (``rclpy.serialization.serialize_message``) and handed to a writer thread through a queue;

@@ -25,6 +25,11 @@ periods) are read-only and refused with rclpy's reason. Learning is reset only o
 ``~/reset`` service (``std_srvs/srv/Trigger``; per drive ``~/<drive>/reset`` with many) logs
 a line and counts in the status key ``resets``; the state file is written at once.
 
+A managed node (:mod:`gear_phm.nodes.lifecycle`; ``autostart`` true by default): configure
+validates the parameters and loads the state file, activate subscribes, deactivate publishes
+what the buffer gives and saves. ``load_torque_topic`` takes the load torque from a
+``geometry_msgs/WrenchStamped`` matched by stamp (:mod:`gear_phm.estimation.load_torque`).
+
 With the ``transmissions`` parameter non-empty the node serves many drives in one stream
 (:mod:`gear_phm.nodes.estimator_drives`; parameters :mod:`gear_phm.nodes.drives`); empty (the
 default), it is the single transmission above, unchanged.

@@ -61,6 +61,7 @@ class ManagedNode(LifecycleNode):
     def __init__(self, name: str) -> None:
         super().__init__(name)
         self._configuring = False
+        self._autostarting = False
         self.configured = False
         self.active = False
         self.config_error = ''
@@ -70,8 +71,15 @@ class ManagedNode(LifecycleNode):
         self._made: list[tuple[Callable[[Any], Any], Any]] = []    # (destroy, entity)
 
     def autostart(self) -> None:
-        """Configure and activate now; raises ConfigError if configure fails."""
-        if self.trigger_configure() != SUCCESS:
+        """Configure and activate now; raises ConfigError if configure fails.
+
+        The reason is then not logged: :func:`~gear_phm.nodes.common.run_node` prints it as the
+        one line on stderr.
+        """
+        self._autostarting = True
+        configured = self.trigger_configure()
+        self._autostarting = False
+        if configured != SUCCESS:
             raise ConfigError(self.config_error or f'{self.get_name()}: configure failed')
         if self.trigger_activate() != SUCCESS:
             raise ConfigError(f'{self.get_name()}: activate failed')
@@ -135,7 +143,8 @@ class ManagedNode(LifecycleNode):
             self.configure()
         except ConfigError as exc:
             self.config_error = str(exc)
-            self.get_logger().error(f'configure failed: {exc}')
+            if not self._autostarting:
+                self.get_logger().error(f'configure failed: {exc}')
             self._configuring = False
             self._destroy_made()
             return FAILURE

@@ -3,7 +3,8 @@
 Both node executables as real processes with ``autostart:=false``, and a real rclpy client
 of ``~/change_state`` and ``~/get_state`` in the test process, as a lifecycle manager (nav2's,
 ``ros2 lifecycle set``) does. One process pair for the module and one scenario through the
-states: unconfigured -> configure -> inactive (no subscription, nothing published) ->
+states: unconfigured -> configure refused (a parameter set that breaks a cross-field rule) ->
+configure -> inactive (no subscription, nothing published) ->
 activate (estimates, statuses) -> deactivate (state files saved with the last sample, the
 recording a complete bag that rosbags and mcap's reader read; nothing published) ->
 activate again (the recording's next file), deactivate (both files in the bag) -> activate
@@ -24,6 +25,8 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 from lifecycle_msgs.msg import Transition  # noqa: E402, I100
 from lifecycle_msgs.srv import ChangeState, GetState  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 
 from gear_phm.interfaces import DIAGNOSTICS, FRICTION, HEALTH_EFFICIENCY, stamp_to_ns  # noqa: E402
 from helpers.live import Driver, joint_state, publish_acked, publish_paced  # noqa: E402
@@ -75,6 +78,14 @@ class Manager:
         request = ChangeState.Request()
         request.transition.id = transition
         return bool(self.call(self.change[name], request).success)
+
+    def set_parameter(self, name: str, parameter: str, value: float) -> bool:
+        """Set a parameter through the node's own service; whether it was taken."""
+        client = AsyncParameterClient(self.driver.node, name)
+        self.driver.wait(client.services_are_ready, 30.0, f'{name} parameter services')
+        future = client.set_parameters([Parameter(parameter, value=value)])
+        self.driver.wait(future.done, 30.0, f'{name} set_parameters')
+        return bool(future.result().results[0].successful)
 
     def feed(self, seconds: float, acked: bool = True) -> int:
         """Publish ``seconds`` of the plant (stamps go on) at up to 2000 messages a second.
@@ -151,6 +162,11 @@ def _mcap_count(path: Path) -> int:
 def test_managed_through_the_lifecycle_services(manager: Manager) -> None:
     driver = manager.driver
     assert [manager.state_of(n) for n in NODES] == ['unconfigured'] * 2
+    # configure validates the parameters as a whole: min_window >= window fails it
+    assert manager.set_parameter('estimator', 'min_window', 2.0)
+    assert not manager.transition('estimator', Transition.TRANSITION_CONFIGURE)
+    assert manager.state_of('estimator') == 'unconfigured'
+    assert manager.set_parameter('estimator', 'min_window', 0.2)
     assert all(manager.transition(n, Transition.TRANSITION_CONFIGURE) for n in NODES)
     assert [manager.state_of(n) for n in NODES] == ['inactive'] * 2
     # inactive: no subscription exists, nothing is published, not even /diagnostics
