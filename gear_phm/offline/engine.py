@@ -607,8 +607,9 @@ class DriveRun:
             decoded.load_velocity, decoded.load_effort, marks, rejected_at)
         history = EstimateHistory.of(estimates)     # the columns kept and written
         self._keep_estimates(history, estimates)
-        statuses = tuple(self.pipeline.status(self.estimator_status_name, self.samples + cut,
-                                              snapshot)
+        statuses = tuple(replace(self.pipeline.status(self.estimator_status_name,
+                                                      self.samples + cut, snapshot),
+                                 hardware_id=self.hardware_id)     # as the node's
                          for cut, snapshot in zip(cuts, snapshots))
         self.samples += messages
         ends = tuple(snapshot.estimates for snapshot in snapshots)
@@ -661,7 +662,8 @@ class DriveRun:
 
     def final_estimator(self) -> StatusOut:
         """Return the estimator's status of the final /diagnostics array."""
-        return self.pipeline.status(self.estimator_status_name, self.samples, None)
+        return replace(self.pipeline.status(self.estimator_status_name, self.samples, None),
+                       hardware_id=self.hardware_id)
 
     def final_health(self, stamp_ns: int) -> tuple[StatusOut, ...]:
         """Return the health status of the final /diagnostics array (none before a state)."""
