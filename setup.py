@@ -12,7 +12,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
-        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml') + glob('config/*.json')),
         ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
     ],
     python_requires='>=3.11',

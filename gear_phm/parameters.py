@@ -244,7 +244,8 @@ LOAD_JOINT = ParamSpec('load_joint', 'load', 'name of the load joint in the Join
 #: (whose option for ``rate`` is ``--diagnostics-rate``).
 TRANSMISSION_NAME = ParamSpec('transmission_name', 'gearbox',
                               'status name is "gear_phm: <transmission_name>"')
-HARDWARE_ID = ParamSpec('hardware_id', 'gearbox', 'hardware_id of the /diagnostics status')
+HARDWARE_ID = ParamSpec('hardware_id', '', 'hardware_id of the /diagnostics status (empty: '
+                        "the transmission_name, the drive's name)")
 DIAGNOSTICS_RATE = ParamSpec('rate', 1.0, '/diagnostics publishing rate', 'Hz', 0.01, 1000.0,
                              read_only=True)
 #: ``gear-phm analyze``'s time of a sample (the nodes always take header.stamp).

@@ -35,6 +35,8 @@ class TopicInfo:
     count: int = 0
     #: offered QoS profiles as rosbag2 version 9 lists them (list of dicts).
     qos: list[Any] = field(default_factory=list)
+    #: the same as rosbag2's YAML text, for the MCAP channel metadata
+    offered: str = ''
 
 
 def qos_list(offered_qos_profiles: str) -> list[Any]:

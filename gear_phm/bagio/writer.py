@@ -17,7 +17,7 @@ from pathlib import Path
 import struct
 import time
 from types import TracebackType
-from typing import Any
+from typing import Any, BinaryIO
 
 from mcap.writer import LIBRARY_IDENTIFIER, Writer
 import numpy as np
@@ -66,16 +66,15 @@ class Rosbag2McapWriter:
         if self.directory.exists() and any(self.directory.iterdir()):
             raise FileExistsError(f'{self.directory} exists and is not empty')
         self.directory.mkdir(parents=True, exist_ok=True)
-        self.mcap_path = self.directory / f'{self.directory.name}_0.mcap'
-        self._file = open(self.mcap_path, 'wb')  # noqa: SIM115 (closed in close())
-        self._writer: Any = (BatchWriter if batch else Writer)(
-            self._file, chunk_size=chunk_size, compression=COMPRESSIONS[compression or ''])
         self._batch = batch
-        self._writer.start(profile='ros2', library=LIBRARY)
+        self._chunk_size = chunk_size
+        self._compression = COMPRESSIONS[compression or '']
         self._topics: dict[str, TopicInfo] = {}
         self._schemas: dict[str, int] = {}
-        self._start_ns: int | None = None
-        self._end_ns = 0
+        self._msgdefs: dict[str, str] = {}
+        #: (name, first log time, last log time, message count) of each finished file
+        self._files: list[tuple[str, int, int, int]] = []
+        self._open_file()
         self._flush_period_s = flush_period_s
         self._fsync = fsync
         self._last_flush = time.monotonic()
@@ -94,17 +93,38 @@ class Rosbag2McapWriter:
                 raise ValueError(f'topic {topic!r} already added with type '
                                  f'{self._topics[topic].msgtype}, not {msgtype}')
             return
-        if msgtype not in self._schemas:
-            msgdef, _ = TYPESTORE.generate_msgdef(msgtype, ros_version=2)
-            self._schemas[msgtype] = self._writer.register_schema(
-                name=msgtype, encoding='ros2msg', data=msgdef.encode())
-        type_hash = TYPESTORE.hash_rihs01(msgtype)
-        channel_id = self._writer.register_channel(
-            topic=topic, message_encoding='cdr', schema_id=self._schemas[msgtype],
-            metadata={'offered_qos_profiles': offered_qos_profiles,
-                      'topic_type_hash': type_hash})
-        self._topics[topic] = TopicInfo(topic, msgtype, channel_id, type_hash,
-                                        qos=qos_list(offered_qos_profiles))
+        if msgtype not in self._msgdefs:
+            self._msgdefs[msgtype] = TYPESTORE.generate_msgdef(msgtype, ros_version=2)[0]
+        info = TopicInfo(topic, msgtype, 0, TYPESTORE.hash_rihs01(msgtype),
+                         qos=qos_list(offered_qos_profiles), offered=offered_qos_profiles)
+        self._register(info)
+        self._topics[topic] = info
+
+    def _register(self, info: TopicInfo) -> None:
+        """Register ``info``'s schema (once per file) and channel in the open file."""
+        if info.msgtype not in self._schemas:
+            self._schemas[info.msgtype] = self._writer.register_schema(
+                name=info.msgtype, encoding='ros2msg',
+                data=self._msgdefs[info.msgtype].encode())
+        info.channel_id = self._writer.register_channel(
+            topic=info.name, message_encoding='cdr', schema_id=self._schemas[info.msgtype],
+            metadata={'offered_qos_profiles': info.offered,
+                      'topic_type_hash': info.type_hash})
+
+    def _open_file(self) -> None:
+        """Start the bag's next file ``<dir name>_<k>.mcap`` with every topic declared."""
+        self.mcap_path = self.directory / f'{self.directory.name}_{len(self._files)}.mcap'
+        self._file: BinaryIO | None = open(  # noqa: SIM115 (closed in finish_file())
+            self.mcap_path, 'wb')
+        self._writer: Any = (BatchWriter if self._batch else Writer)(
+            self._file, chunk_size=self._chunk_size, compression=self._compression)
+        self._writer.start(profile='ros2', library=LIBRARY)
+        self._schemas = {}
+        for info in self._topics.values():
+            self._register(info)
+        self._file_count = self.message_count       # messages before this file
+        self._start_ns: int | None = None
+        self._end_ns = 0
 
     def write_raw(self, topic: str, t_ns: int, data: bytes | memoryview) -> None:
         """Append one CDR payload at log time ``t_ns`` [ns] to a declared topic."""
@@ -113,6 +133,8 @@ class Rosbag2McapWriter:
         if entry is None:
             raise KeyError(f'topic {topic!r} was not added')
         t_ns = int(t_ns)
+        if self._file is None:
+            self._open_file()
         self._writer.add_message(entry.channel_id, t_ns, bytes(data), t_ns, entry.count)
         entry.count += 1
         self._note_times(t_ns, t_ns)
@@ -290,7 +312,7 @@ class Rosbag2McapWriter:
 
         Then push the file to the OS (and to disk, with ``fsync``).
         """
-        if self._closed:
+        if self._closed or self._file is None:
             return
         self._writer.flush()
         if self._fsync:
@@ -302,21 +324,33 @@ class Rosbag2McapWriter:
         return sum(t.count for t in self._topics.values())
 
     # -- closing --------------------------------------------------------------------------
+    def finish_file(self) -> None:
+        """Finish the open file (MCAP summary and footer) and write metadata.yaml listing it.
+
+        The bag on disk is then complete. A later :meth:`write_raw` starts the next file
+        ``<dir name>_<k>.mcap`` (rosbag2's split layout); nothing to finish: nothing done.
+        """
+        file = self._file
+        if file is None:
+            return
+        self._file = None
+        try:
+            self._writer.finish()
+            file.flush()
+            os.fsync(file.fileno())
+        finally:
+            file.close()
+        start_ns = self._start_ns or 0
+        self._files.append((self.mcap_path.name, start_ns, max(start_ns, self._end_ns),
+                            self.message_count - self._file_count))
+        write_metadata(self.directory, self._files, list(self._topics.values()))
+
     def close(self) -> None:
         """Write the MCAP summary and footer, then metadata.yaml (atomically)."""
         if self._closed:
             return
         self._closed = True
-        try:
-            self._writer.finish()
-            self._file.flush()
-            os.fsync(self._file.fileno())
-        finally:
-            self._file.close()
-        start_ns = self._start_ns or 0
-        end_ns = max(start_ns, self._end_ns)
-        write_metadata(self.directory, [(self.mcap_path.name, start_ns, end_ns,
-                                         self.message_count)], list(self._topics.values()))
+        self.finish_file()
 
     def __enter__(self) -> Rosbag2McapWriter:
         return self

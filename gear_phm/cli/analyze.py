@@ -5,18 +5,29 @@ recorded bag.
 
 Writes DIR as a rosbag2 MCAP directory with the nodes' topics (and their /diagnostics status
 every second of bag time), stamped in bag time, plus DIR/summary.json and DIR/analysis.png.
+
+The result goes to stdout, one line per drive: the final estimate and the health level with
+its cause and, for WARN and ERROR, when it was first reported (bag time since the first bag's
+start), e.g. ``u = 0.30050 +/- 0.00151, eta_D = 0.6918, eta_I = 0.6359; level ERROR (end of
+life, at 276 s)``. How long it took goes to stderr.
 """
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
+from pathlib import Path
+import re
 import sys
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 from gear_phm import interfaces
 from gear_phm.cli.main import CliError
 from gear_phm.cli.options import add_health_arguments, estimator_params, health_values
 from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, LOAD_JOINT, MOTOR_JOINT,
                                  STAMP_SOURCE, TRANSMISSION_NAME)
+
+if TYPE_CHECKING:
+    from gear_phm.offline.summary import HealthSummary
 
 HELP = 'estimate friction offline from a recorded bag (same code as the estimator node)'
 
@@ -102,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
     except (AnalysisError, ParallelError) as exc:
         raise CliError(str(exc)) from None
     summary = analysis.summary
+    start_ns = bags_start_ns(args.bag)
     run = summary.run
     rate = (f'{run.messages} messages in {run.seconds:.2f} s '
             f'({run.samples_per_second:.0f}/s) -> {analysis.out}')
@@ -113,14 +125,41 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             continue
         e = drive.estimator
+        level = health_line(drive.health, start_ns)
         if e.held:                                  # the no-load model held every window
             print(f'{name + ": " if name else ""}{NOT_IDENTIFIABLE} at its prior '
-                  f"({e.counts['not_identifiable']} windows held)"
-                  + ('' if name else f'; {rate}'), file=sys.stderr)
+                  f"({e.counts['not_identifiable']} windows held); {level}")
             continue
         print(f'{name + ": " if name else ""}u = {e.u:.5f} +/- {e.sigma_u:.5f}, '
-              f'eta_D = {e.eta_opposing:.4f}, eta_I = {e.eta_aiding:.4f}'
-              + ('' if name else f'; {rate}'), file=sys.stderr)
-    if '' not in drives:
-        print(rate, file=sys.stderr)
+              f'eta_D = {e.eta_opposing:.4f}, eta_I = {e.eta_aiding:.4f}; {level}')
+    print(rate, file=sys.stderr)
     return 0
+
+
+def health_line(health: HealthSummary, start_ns: int | None) -> str:
+    """Return ``level ERROR (end of life, at 276 s)``: the level, its cause, when first seen.
+
+    The cause is the status message up to its details (the first ``' ('``, ``': '`` or
+    ``'; '``); the time, for WARN and ERROR, is since ``start_ns`` (omitted when None).
+    """
+    cause = re.split(r' \(|: |; ', health.message or '', maxsplit=1)[0] or 'no health state'
+    first = health.first_seen_ns.get(health.level)
+    if health.level in ('WARN', 'ERROR') and first is not None and start_ns is not None:
+        cause += f', at {(first - start_ns) * 1e-9:.0f} s'
+    if cause.lower() == health.level.lower():         # 'ok'
+        return f'level {health.level}'
+    return f'level {health.level} ({cause})'
+
+
+def bags_start_ns(paths: Sequence[str]) -> int | None:
+    """Return the earliest start [ns] the bags' metadata.yaml give (None: none readable)."""
+    import yaml
+    starts = []
+    for path in paths:
+        try:
+            text = (Path(path) / 'metadata.yaml').read_text(encoding='utf-8')
+            info = yaml.safe_load(text)['rosbag2_bagfile_information']
+            starts.append(int(info['starting_time']['nanoseconds_since_epoch']))
+        except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError, ValueError):
+            continue
+    return min(starts, default=None)

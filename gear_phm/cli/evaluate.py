@@ -159,22 +159,49 @@ def _run_one(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Why a printed metric is not finite (the JSON keeps 'inf', '-inf' or 'nan').
+_WHY_NOT_FINITE = {
+    'rul': {'inf': 'no end of life in sight then'},
+    'ra': {'-inf': 'the predicted RUL was infinite', 'nan': 'no prediction'},
+    'cra': {'-inf': 'a prediction of infinite RUL scores RA -inf',
+            'nan': 'no prediction before the end of life'},
+    'finite': {'inf': 'the last prediction before the end of life is infinite',
+               'nan': 'no prediction before the end of life'},
+    'share': {'nan': 'no prediction in the band window'},
+}
+
+
+def _number(value: Any, kind: str, digits: int = 4) -> str:
+    """Return ``value`` to ``digits`` significant digits, or why it is not finite."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value):
+        return f'{value:.{digits}g}'
+    text = str(value)
+    why = _WHY_NOT_FINITE.get(kind, {}).get(text)
+    return f'{text} ({why})' if why else text
+
+
 def _print_metrics(args: argparse.Namespace, metrics: dict[str, Any], t_eol: float,
                    u_eol: float) -> None:
-    """Print the scores of a life with an end of life."""
+    """Print the scores of a life with an end of life, rounded; say why one is infinite."""
     print(f'true end of life {t_eol:.6g} s (u_eol {u_eol:.4g}), {metrics["predictions"]} '
           f'predictions from {metrics["t_start_s"]:.6g} s')
     for check in metrics['alpha_lambda']:
         verdict = 'PASS' if check['passed'] else 'FAIL'
         print(f'  alpha-lambda alpha={args.alpha:g} lambda={check["lam"]:g}: {verdict} '
-              f'(t={check["t_lambda"]:.6g} s, RUL {check["predicted_rul"]} vs true '
-              f'{check["true_rul"]:.6g} s, RA {check["relative_accuracy"]})')
-    print(f'  prognostic horizon: {metrics["prognostic_horizon_s"]} s')
-    print(f'  cumulative relative accuracy: {metrics["cumulative_relative_accuracy"]}')
-    print(f'  RUL finite from lambda {metrics["rul_finite_from"]}')
+              f'(t={check["t_lambda"]:.6g} s, RUL {_number(check["predicted_rul"], "rul")} s '
+              f'vs true {check["true_rul"]:.6g} s, RA '
+              f'{_number(check["relative_accuracy"], "ra", 3)})')
+    print(f'  prognostic horizon: {_number(metrics["prognostic_horizon_s"], "ph")} s')
+    print(f'  cumulative relative accuracy: '
+          f'{_number(metrics["cumulative_relative_accuracy"], "cra", 3)}')
+    print(f'  RUL finite from lambda {_number(metrics["rul_finite_from"], "finite", 3)}')
     band = metrics['band_coverage']
-    print(f'  p5-p95 band holds the true RUL at {band["share"]} of '
-          f'{band["predictions"]} predictions from lambda {args.band_from:g}')
+    share = band['share']
+    share = _number(share * 100.0, 'share', 3) + ' %' if isinstance(share, float) \
+        and math.isfinite(share) else _number(share, 'share')
+    print(f'  p5-p95 band holds the true RUL at {share} of {band["predictions"]} predictions '
+          f'from lambda {args.band_from:g}')
     if 'level_transitions' in metrics:
         steps = ', '.join(f'{c["from"]}>{c["to"]} at {c["t"]:.6g} s (lambda {c["lam"]:.3f})'
                           for c in metrics['level_transitions'])

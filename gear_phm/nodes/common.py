@@ -154,6 +154,15 @@ def status_msg(status: StatusOut) -> DiagnosticStatus:
                             values=[KeyValue(key=k, value=v) for k, v in status.values])
 
 
+def qualified(node: Node, name: str) -> str:
+    """Return ``name`` under ``node``'s namespace (``r1/gearbox``; the root's: ``name`` itself).
+
+    The default status names are thus unique among nodes of one name in other namespaces.
+    """
+    namespace = node.get_namespace().strip('/')
+    return f'{namespace}/{name}' if namespace else name
+
+
 #: The /diagnostics key that counts the resets by ``~/reset`` since the node started.
 RESETS = 'resets'
 

@@ -19,6 +19,11 @@ only on purpose: ``~/reset`` (``std_srvs/srv/Trigger``; with many drives also
 ``~/<drive>/reset``) logs a line, counts in the status key ``resets`` (after the health keys)
 and writes the state file at once.
 
+A managed node (:mod:`gear_phm.nodes.lifecycle`; ``autostart`` true by default): inactive it
+publishes nothing, /diagnostics included (as nav2); deactivate saves the state file and
+finishes the recording's file (a complete bag), a later activate records into the next file.
+The /diagnostics header stamp is this node's clock; a failed recording is ERROR.
+
 Recording (``record_path`` non-empty): a rosbag2 MCAP directory with every topic this node
 publishes (and its inputs with ``record_inputs``). Messages are serialized in the callbacks
 (``rclpy.serialization.serialize_message``) and handed to a writer thread through a queue;
@@ -41,17 +46,17 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from gear_phm.interfaces import (DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS, DiagnosticsOut,
                                  ESTIMATOR_TOPICS, SAMPLE_LOSS,
                                  VECTOR3_STAMPED_TYPE)
-from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
-                                   RESETS, run_node, to_rclpy)
+from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, qualified,
+                                   reset_service, RESETS, run_node, to_rclpy)
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.executors import executor_parameter, spin_executor
+from gear_phm.nodes.lifecycle import AUTOSTART, ManagedNode
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   state_parameters, StateKeeper)
 from gear_phm.nodes.transport import EstimateAssembler, HealthPublisher
@@ -60,7 +65,7 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
 from gear_phm.run import DriveHealth, DriveNames
-from gear_phm.status import OK, STALE, StatusOut, WARN
+from gear_phm.status import ERROR, OK, STALE, StatusOut, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -80,6 +85,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'data older than this survives kill -9', 's', 0.01, 60.0, read_only=True),
     *state_parameters('the RUL history and fit, the level latches and the NIS window'),
     executor_parameter('single'),
+    AUTOSTART,
 )
 
 
@@ -117,7 +123,8 @@ class Recorder:
         for topic, msgtype in topics:
             self.writer.add_topic(topic, msgtype)
         self.flush_period = flush_period
-        self.queue: queue.SimpleQueue[tuple[str, int, bytes] | None] = queue.SimpleQueue()
+        self.queue: queue.SimpleQueue[tuple[str, int, bytes] | threading.Event | None] = \
+            queue.SimpleQueue()
         self.error: str | None = None
         self.written = 0
         self._closed = False
@@ -141,6 +148,12 @@ class Recorder:
                 continue
             if item is None:
                 return
+            if isinstance(item, threading.Event):     # finish_file()
+                if self.error is None:
+                    self._guard(self.writer.finish_file)
+                dirty = False
+                item.set()
+                continue
             if self.error is None:
                 self._guard(lambda: self.writer.write_raw(*item))
                 self.written += 1
@@ -151,6 +164,17 @@ class Recorder:
             action()
         except (OSError, ValueError, KeyError) as exc:
             self.error = _flat(exc)
+
+    def finish_file(self, timeout: float = 30.0) -> bool:
+        """Write what is queued, then finish the file (the bag is complete); wait for it.
+
+        The next message starts the bag's next file. Returns whether it was done in time.
+        """
+        if self._closed:
+            return True
+        done = threading.Event()
+        self.queue.put(done)
+        return done.wait(timeout)
 
     def close(self) -> None:
         """Drain the queue, then write the summary, footer and metadata.yaml."""
@@ -301,29 +325,43 @@ class Channel:
                                     efficiency_only=True)
 
 
-class DiagnosticsNode(Node):
-    """The diagnostics node; configuration errors at start raise ConfigError (one line).
+class DiagnosticsNode(ManagedNode):
+    """The diagnostics node; configuration errors at configure raise ConfigError (one line).
 
     ``transmissions`` non-empty: one :class:`Channel` per drive (parameters
     ``<drive>.<health parameter>``, default the global one; read-only), one status per drive
-    in each /diagnostics array; else one channel of the global parameters.
+    in each /diagnostics array; else one channel of the global parameters. A managed node
+    (:mod:`gear_phm.nodes.lifecycle`): the parameters are declared here, :meth:`configure`
+    builds the rest; ``autostart`` does it now.
     """
 
     def __init__(self) -> None:
         super().__init__('diagnostics')
-        names = declare_transmissions(self)
-        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
-        self.executor_kind = str(values['executor'])
+        self.names = declare_transmissions(self)
+        self.values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.drive_specs = declare_drives(self, self.names, PARAMETERS, self.values) \
+            if self.names else ()
+        self.executor_kind = str(self.values['executor'])
+        self.recorder: Recorder | None = None
+        if self.values['autostart']:
+            self.autostart()
+
+    def configure(self) -> None:
+        """Validate the parameters, load the state file, open the recording, make outputs.
+
+        Raises ConfigError naming the problem. The subscriptions are made at activate.
+        """
+        values = self.values = {name: self.get_parameter(name).value for name in self.values}
+        names = self.names
         self.received = 0
         self.status_count = 0
         self.last_arrival_ns: int | None = None   # of any channel's input
-        self.recorder: Recorder | None = None
         self._record_names: dict[str, str] = {}
         self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, OUTPUT_QOS)
         if names:
-            drives = declare_drives(self, names, PARAMETERS, values)
-            self.channels = [Channel(self, DriveHealth(drive.health_config(),
-                                                       DriveNames.of(drive.name)))
+            drives = self.drive_specs
+            self.channels = [Channel(self, DriveHealth(drive.health_config(), replace(
+                DriveNames.of(drive.name), transmission_name=qualified(self, drive.name))))
                              for drive in drives]
             identities = {d.name: {'ratio': d.ratio, 'motor_joint': d.motor_joint,
                                    'load_joint': d.load_joint} for d in drives}
@@ -339,7 +377,8 @@ class DiagnosticsNode(Node):
                 config = HealthConfig(**{k: values[k] for k in HEALTH_FIELDS})
             except ValueError as exc:
                 raise ConfigError(f'invalid health parameters: {exc}') from None
-            single = DriveNames.single(values['transmission_name'], values['hardware_id'])
+            single = DriveNames.single(qualified(self, values['transmission_name']),
+                                       values['hardware_id'] or values['transmission_name'])
             self.channels = [Channel(self, DriveHealth(config, single))]
             run = self.channels[0].run
             self.state = StateKeeper(self, values, 'diagnostics', run.identity(),
@@ -347,7 +386,7 @@ class DiagnosticsNode(Node):
             self.state.load(self.channels[0].assessor.from_state)
             self.add_on_set_parameters_callback(self._check_parameters)
             self.add_post_set_parameters_callback(self._apply_parameters)
-        if values['record_path']:
+        if values['record_path'] and self.recorder is None:
             self._start_recorder(values)
         for channel in self.channels:        # a drive of transmissions: a reset of its own
             if channel.run.names.listed:
@@ -356,6 +395,24 @@ class DiagnosticsNode(Node):
         reset_service(self, '~/reset', partial(self._reset, self.channels))
         self.create_timer(1.0 / values['rate'], self._publish_diagnostics)
         self.state.start_timer()
+
+    def activating(self) -> None:
+        """Log the one line that says the node is ready."""
+        names = ', '.join(c.run.names.transmission_name for c in self.channels)
+        recording = f'recording to {self.values["record_path"]}' if self.recorder is not None \
+            else 'not recording'
+        self.get_logger().info(f'ready: assessing {names} from the estimator topics, '
+                               f'/diagnostics at {self.values["rate"]:g} Hz, {recording}')
+
+    def deactivating(self) -> None:
+        """Save the state file, finish the recording's file (a complete bag)."""
+        self.state.save()
+        if self.recorder is not None and not self.recorder.finish_file():
+            self.get_logger().error('the recording did not finish its file within 30 s')
+
+    def cleaning_up(self) -> None:
+        """Save the state once more (back to unconfigured; the recording stays open)."""
+        self.state.save()
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
         parts = {}
@@ -430,7 +487,8 @@ class DiagnosticsNode(Node):
 
     def destroy_node(self) -> None:
         """Save the state (SIGINT/SIGTERM pass here), close the recording, destroy."""
-        self.state.save()
+        if self.configured:
+            self.state.save()
         if self.recorder is not None:
             self.recorder.close()
             self.recorder = None
@@ -441,12 +499,11 @@ class DiagnosticsNode(Node):
         now_ns = self.get_clock().now().nanoseconds
         problems = []
         if self.recorder is not None and self.recorder.error is not None:
-            problems.append((OK, f'recording failed: {self.recorder.error}'))
+            problems.append((ERROR, f'recording failed: {self.recorder.error}'))
         if self.state.problem:
             problems.append((WARN, self.state.problem))
         statuses = [channel.status(now_ns, problems) for channel in self.channels]
-        stamp_ns = statuses[0][1].stamp_ns if len(statuses) == 1 else now_ns
-        msg = to_rclpy(DiagnosticsOut(stamp_ns, tuple(status for status, _ in statuses)))
+        msg = to_rclpy(DiagnosticsOut(now_ns, tuple(status for status, _ in statuses)))
         self.diag_pub.publish(msg)
         self._record(DIAGNOSTICS, msg)
         self.status_count += 1

@@ -25,6 +25,11 @@ periods) are read-only and refused with rclpy's reason. Learning is reset only o
 ``~/reset`` service (``std_srvs/srv/Trigger``; per drive ``~/<drive>/reset`` with many) logs
 a line and counts in the status key ``resets``; the state file is written at once.
 
+A managed node (:mod:`gear_phm.nodes.lifecycle`; ``autostart`` true by default): configure
+validates the parameters and loads the state file, activate subscribes, deactivate publishes
+what the buffer gives and saves. ``load_torque_topic`` takes the load torque from a
+``geometry_msgs/WrenchStamped`` matched by stamp (:mod:`gear_phm.estimation.load_torque`).
+
 With the ``transmissions`` parameter non-empty the node serves many drives in one stream
 (:mod:`gear_phm.nodes.estimator_drives`; parameters :mod:`gear_phm.nodes.drives`); empty (the
 default), it is the single transmission above, unchanged.
@@ -36,19 +41,22 @@ from dataclasses import fields, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
+from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from gear_phm import interfaces
 from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
+from gear_phm.estimation.load_torque import LoadTorqueMatcher
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, reset_service,
-                                   RESETS, run_node, to_rclpy)
+from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, qualified,
+                                   reset_service, RESETS, run_node, SENSOR_QOS, to_rclpy)
 from gear_phm.nodes.drives import declare_drives, declare_transmissions, refuse_changes
 from gear_phm.nodes.estimator_drives import DrivesEstimator
 from gear_phm.nodes.executors import executor_parameter, spin_executor
+from gear_phm.nodes.lifecycle import AUTOSTART, ManagedNode
 from gear_phm.nodes.state import estimator_identity, state_parameters, StateKeeper
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
                                       SampleLossPublisher, subscribe_joint_states_raw)
@@ -60,13 +68,29 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     MOTOR_JOINT,
     LOAD_JOINT,
     ParamSpec('frame_id', '', 'frame_id written in the output headers'),
+    ParamSpec('hardware_id', 'gearbox', "hardware_id of the estimator's /diagnostics status: "
+              "the drive's name (the diagnostics node's default transmission_name is the same "
+              "'gearbox'); with transmissions each drive's name"),
     ParamSpec('diagnostics_period', 1.0, '/diagnostics status period', 's', 0.01, 3600.0,
               read_only=True),
     ParamSpec('batch_period', 0.1, 'buffered samples are processed at the latest this long '
               'after the first of them arrived (at once when an output is due, or at 200 '
               'samples); outputs are stamped with sample time', 's', 0.0001, 10.0,
               read_only=True),
+    ParamSpec('load_torque_topic', '', 'geometry_msgs/WrenchStamped topic of a force/torque '
+              'sensor on the output whose torque is the load torque, matched to each JointState '
+              "by stamp (the load joint's effort is then ignored); empty: the JointState "
+              'effort. One transmission only', read_only=True),
+    ParamSpec('load_torque_axis', 'z', 'axis of the wrench torque that is the load torque',
+              choices=('x', 'y', 'z'), read_only=True),
+    ParamSpec('load_torque_sign', 1, '+1: the wrench torque along the axis is the load '
+              'effort (load_effort_sign then applies as to an effort); -1: its opposite', '-',
+              -1, 1, read_only=True),
+    ParamSpec('load_torque_tolerance', 0.001, 'a sample takes the wrench of the nearest stamp '
+              'within this (0: the same stamp only); a sample without one is dropped '
+              '(dropped_no_load_torque)', 's', 0.0, 1.0, read_only=True),
     executor_parameter(),
+    AUTOSTART,
     *state_parameters('the filter state, its adaptation, counters, operating time and '
                       'open energy window'),
 )
@@ -93,20 +117,36 @@ def joint_names_problem(values: dict[str, Any]) -> str:
     return ''
 
 
-class EstimatorNode(Node):
-    """Friction estimator; a parameter set at run time keeps what was learned (module doc)."""
+class EstimatorNode(ManagedNode):
+    """Friction estimator; a parameter set at run time keeps what was learned (module doc).
+
+    A managed node (:mod:`gear_phm.nodes.lifecycle`): the parameters are declared here,
+    :meth:`configure` validates them and builds the pipeline; ``autostart`` does both now.
+    """
 
     def __init__(self) -> None:
         super().__init__('estimator')
-        names = declare_transmissions(self)
-        values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
-        self.values = values
+        self.names = declare_transmissions(self)
+        self.values = declare_parameters(self, PARAMETERS + NODE_PARAMETERS)
+        self.drive_specs = declare_drives(self, self.names, PARAMETERS, self.values) \
+            if self.names else ()
         self.drives: DrivesEstimator | None = None
-        if names:                   # many drives: gear_phm.nodes.estimator_drives
-            drives = declare_drives(self, names, PARAMETERS, values)
-            first = drives[0]
+        if self.values['autostart']:
+            self.autostart()
+
+    def configure(self) -> None:
+        """Validate the parameters, load the state file, make outputs, timers and services.
+
+        Raises ConfigError naming the problem. The subscription is made at activate.
+        """
+        values = self.values = {name: self.get_parameter(name).value for name in self.values}
+        if self.drive_specs:        # many drives: gear_phm.nodes.estimator_drives
+            if values['load_torque_topic']:
+                msg = 'parameter load_torque_topic: one transmission only (transmissions is set)'
+                raise ConfigError(msg)
+            first = self.drive_specs[0]
             _warm_up(first.estimator_config(), first.motor_joint, first.load_joint)
-            self.drives = DrivesEstimator(self, drives, values)
+            self.drives = DrivesEstimator(self, self.drive_specs, values)
             self.add_on_set_parameters_callback(refuse_changes)
             return
         problem = joint_names_problem(values)
@@ -116,8 +156,9 @@ class EstimatorNode(Node):
             self.config = config_from_values(values)
         except ValueError as exc:
             raise ConfigError(f'estimator parameters: {exc}') from None
+        self.load_torque = self._load_torque_matcher(values)
         self.run = DriveEstimator(self.config, DriveNames.single(
-            estimator_status=f'gear_phm estimator: {self.get_name()}'))
+            estimator_status=f'gear_phm estimator: {qualified(self, self.get_name())}'))
         self.pipeline = self.run.pipeline
         self.state = StateKeeper(self, values, 'estimator', state_identity(values),
                                  self._current_state)
@@ -138,15 +179,71 @@ class EstimatorNode(Node):
         self._set_window_watch()
         self.last_batch_ns: int | None = None     # node clock at the newest batch [ns]
         # one-shot timers, restarted by samples: the buffer's tail, the sensor timeout
-        self.batch_timer = self.create_timer(self.batch_period, self._flush)
+        self.batch_timer = self.create_timer(self.batch_period, self._on_batch_timer)
         self.batch_timer.cancel()
         self.watchdog = self._make_watchdog()
         self.create_timer(values['diagnostics_period'], self._on_diagnostics_timer)
-        self.subscription = subscribe_joint_states_raw(self, self._on_message)
+        subscribe_joint_states_raw(self, self._on_message)
+        if self.load_torque is not None:
+            self.create_subscription(WrenchStamped, values['load_torque_topic'], self._on_wrench,
+                                     SENSOR_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         reset_service(self, '~/reset', self._reset)
         self.state.start_timer(self._save_state)
+
+    def _load_torque_matcher(self, values: dict[str, Any]) -> LoadTorqueMatcher | None:
+        """Return the wrench matcher of ``load_torque_topic`` (None: none); raises ConfigError."""
+        topic = values['load_torque_topic']
+        self.unmatched = 0              # samples without a wrench within the tolerance
+        self._wrenches_seen = 0         # wrenches received at the last flush
+        if not topic:
+            return None
+        if values['load_torque_sign'] not in (-1, 1):
+            msg = f'load_torque_sign must be 1 or -1, got {values["load_torque_sign"]!r}'
+            raise ConfigError(msg)
+        try:
+            validate_full_topic_name(self.resolve_topic_name(topic))
+        except Exception as exc:  # rclpy's InvalidTopicNameException and others
+            msg = f'parameter load_torque_topic: {" ".join(str(exc).split())}'
+            raise ConfigError(msg) from None
+        self._axis = values['load_torque_axis']
+        self._torque_sign = float(values['load_torque_sign'])
+        return LoadTorqueMatcher(int(round(values['load_torque_tolerance'] * 1e9)),
+                                 int(self.config.sensor_timeout * 1e9))
+
+    def _on_wrench(self, msg: WrenchStamped) -> None:
+        """Keep one load torque for the samples of its stamp (gear_phm.estimation.load_torque)."""
+        if self.load_torque is not None:
+            stamp = msg.header.stamp
+            self.load_torque.add(stamp.sec * 10**9 + stamp.nanosec,
+                                 self._torque_sign * getattr(msg.wrench.torque, self._axis))
+
+    def activating(self) -> None:
+        """Log the one line that says the node is ready."""
+        joints = ', '.join(f'{d.name}: {d.motor_joint}/{d.load_joint}'
+                           for d in self.drive_specs) or \
+            f'{self.values["motor_joint"]}/{self.values["load_joint"]}'
+        where = f'state file {self.values["state_file"]}' if self.values['state_file'] \
+            else 'no state file'
+        self.get_logger().info(f'ready: estimating from {self.resolve_topic_name("joint_states")}'
+                               f' (motor/load joints {joints}), {where}')
+
+    def deactivating(self) -> None:
+        """Publish what the buffer gives, save the state file."""
+        if self.drives is not None:
+            self.drives.flush()
+            self.drives.state.save()
+            return
+        self._save_state()
+
+    def cleaning_up(self) -> None:
+        """Save the state once more and forget the pipeline (back to unconfigured)."""
+        if self.drives is not None:
+            self.drives.close()
+            self.drives = None
+        else:
+            self.state.save()
 
     def _current_state(self) -> tuple[dict[str, Any], int | None]:
         """Return the pipeline's state and its newest stamp (for a save)."""
@@ -164,6 +261,9 @@ class EstimatorNode(Node):
         Nothing is published because the context may be shut down. SIGINT/SIGTERM and normal exits
         pass here.
         """
+        if not self.configured:
+            super().destroy_node()
+            return
         if self.drives is not None:
             self.drives.close()
             super().destroy_node()
@@ -171,6 +271,9 @@ class EstimatorNode(Node):
         if self.state.enabled and self.stamps:
             stamps, rows = self.stamps, self.rows
             self.stamps, self.rows = [], []
+            if self.load_torque is not None:
+                matched = self.load_torque.match(stamps, rows, final=True)
+                stamps, rows = matched.stamps, matched.rows
             try:
                 columns = np.array(rows, dtype=float).reshape(-1, 4).T
                 self.pipeline.on_batch(np.array(stamps, dtype=np.int64), *columns)
@@ -245,10 +348,18 @@ class EstimatorNode(Node):
         elif len(self.stamps) == 1:
             self.batch_timer.reset()
 
-    def _flush(self) -> None:
+    def _on_batch_timer(self) -> None:
+        """Process the buffer's tail; with a wrench topic, decide what no new wrench can."""
+        matcher = self.load_torque
+        final = matcher is not None and matcher.received == self._wrenches_seen
+        self._flush(final)
+
+    def _flush(self, final: bool = False) -> None:
         """Process the buffered samples as one batch and publish what is due.
 
-        Same results as one by one.
+        Same results as one by one. With ``load_torque_topic`` the samples whose wrench may
+        still come stay buffered; ``final`` (no wrench came for a batch_period): they are
+        decided with the wrenches at hand.
         """
         self.batch_timer.cancel()
         stamps = self.stamps
@@ -256,6 +367,17 @@ class EstimatorNode(Node):
             return
         rows = self.rows
         self.stamps, self.rows = [], []
+        if self.load_torque is not None:
+            matched = self.load_torque.match(stamps, rows, final)
+            self._wrenches_seen = self.load_torque.received
+            self.stamps, self.rows = matched.pending_stamps, matched.pending_rows
+            self.messages_received += matched.dropped
+            self.unmatched += matched.dropped
+            if self.stamps:
+                self.batch_timer.reset()        # again once their wrenches may have come
+            stamps, rows = matched.stamps, matched.rows
+            if not stamps:
+                return
         self.messages_received += len(stamps)
         self.last_batch_ns = self.get_clock().now().nanoseconds
         self.watchdog.reset()           # one-shot: fires after sensor_timeout without a batch
@@ -289,8 +411,9 @@ class EstimatorNode(Node):
         status = self.state.flagged(self.joint_names.status(
             self.run.status(self.messages_received),
             self.pipeline.samples_seen, self.values['motor_joint'], self.values['load_joint']))
-        status = replace(status, values=status.values + (
-            (OUTPUTS_MATCHED, str(self.outputs.matched())), (RESETS, str(self.run.resets))))
+        status = replace(status, hardware_id=self.values['hardware_id'], values=status.values + (
+            (OUTPUTS_MATCHED, str(self.outputs.matched())), (RESETS, str(self.run.resets))) + (
+            (('dropped_no_load_torque', str(self.unmatched)),) if self.load_torque else ()))
         self.diag_pub.publish(to_rclpy(DiagnosticsOut(now, (status,))))
         self.loss_outputs.publish(self.pipeline)
 

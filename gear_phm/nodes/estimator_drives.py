@@ -32,7 +32,8 @@ from rclpy.node import Node
 from gear_phm import interfaces
 from gear_phm.codec import decode_joint_state_pairs, packed
 from gear_phm.interfaces import DiagnosticsOut
-from gear_phm.nodes.common import ConfigError, OUTPUT_QOS, reset_service, RESETS, to_rclpy
+from gear_phm.nodes.common import (ConfigError, OUTPUT_QOS, qualified, reset_service, RESETS,
+                                   to_rclpy)
 from gear_phm.nodes.state import (DRIVES_IDENTITY, drives_restorer, drives_state,
                                   estimator_identity, StateKeeper)
 from gear_phm.nodes.transport import (EstimatePublisher, JointNames, OUTPUTS_MATCHED,
@@ -51,7 +52,9 @@ class _Drive:
     def __init__(self, node: Node, drive: Transmission, frame_id: str) -> None:
         self.drive = drive
         try:
-            self.run = DriveEstimator(drive.estimator_config(), DriveNames.of(drive.name))
+            names = DriveNames.of(drive.name)
+            self.run = DriveEstimator(drive.estimator_config(), replace(
+                names, estimator_status=f'gear_phm estimator: {qualified(node, drive.name)}'))
         except ValueError as exc:
             raise ConfigError(f'drive {drive.name}: {exc}') from None
         self.pipeline = self.run.pipeline

@@ -256,9 +256,13 @@ class PublisherNode(Node):
 
     # -- running ----------------------------------------------------------------------------
     def start(self) -> None:
+        """Start publishing (its thread); log the one line that says the node is ready."""
         for reason, count in self.source.dropped.items():
             self.counter.dropped[reason] += count
         self._thread.start()
+        waits = f', after {self.wait_for_subscribers} subscriber(s)' \
+            if self.wait_for_subscribers > 0 else ''
+        self.get_logger().info(f'ready: {self.mode} to {self.joint_pub.topic_name}{waits}')
 
     def stop(self) -> None:
         self._stop.set()

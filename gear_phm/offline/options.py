@@ -158,7 +158,8 @@ def _single(options: AnalyzeOptions) -> DriveSetup:
             or not motor_joint or not load_joint or motor_joint == load_joint:
         raise AnalysisError(f'motor_joint and load_joint must be distinct non-empty '
                             f'names, got {motor_joint!r} and {load_joint!r}')
-    names = DriveNames.single(options.transmission_name, options.hardware_id)
+    names = DriveNames.single(options.transmission_name,
+                              options.hardware_id or options.transmission_name)
     return DriveSetup(names, estimator_config, health_config, motor_joint, load_joint)
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 from gear_phm.estimation import (EstimatorConfig, EstimatorPipeline, Measurement,
                                  StatusSnapshot)
@@ -27,8 +28,9 @@ class DriveEstimator:
 
     def status(self, messages_received: int | None = None,
                snapshot: StatusSnapshot | None = None) -> StatusOut:
-        """Return the estimator status under the drive's name (the pipeline's ``status``)."""
-        return self.pipeline.status(self.names.estimator_status, messages_received, snapshot)
+        """Return the estimator status under the drive's name and hardware_id (the pipeline's)."""
+        return replace(self.pipeline.status(self.names.estimator_status, messages_received,
+                                            snapshot), hardware_id=self.names.hardware_id)
 
     def reset(self) -> None:
         """Forget what the pipeline learned, on purpose; counted in :attr:`resets`."""

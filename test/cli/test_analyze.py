@@ -41,7 +41,8 @@ def test_analyze_healthy_bag_writes_topics_summary_and_plot(tmp_path: Path) -> N
     assert stamps == sorted(stamps) and start <= stamps[0] and stamps[-1] <= end
 
 
-def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path) -> None:
+def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path,
+                                                                  capsys) -> None:
     """bags/wearing: eta_D falls below 0.784 then below 0.7333 (EOL): OK -> WARN -> ERROR.
 
     Only --eta-opposing-min is given: eta_warn derives from it and the healthy eta_D learned
@@ -58,6 +59,13 @@ def test_analyze_runs_the_diagnostics_code_levels_follow_the_wear(tmp_path: Path
     first = health['first_seen_ns']
     assert first['OK'] < first['WARN'] < first['ERROR'], first
     assert health['level'] == 'ERROR'
+    # the result on stdout: the estimate, the level, its cause and when (bag time)
+    with BagReader(REPO / 'bags' / 'wearing') as bag:
+        at = (first['ERROR'] - bag.start_ns) * 1e-9
+    printed = capsys.readouterr()
+    assert re.fullmatch(r'u = 0\.\d{5} \+/- 0\.\d{5}, eta_D = 0\.\d{4}, eta_I = 0\.\d{4}; '
+                        rf'level ERROR \(end of life, at {at:.0f} s\)\n', printed.out), printed
+    assert 'messages in' in printed.err and 'u = ' not in printed.err
     with BagReader(out) as bag:
         assert bag.topics['/gear_phm/health/rul'] == interfaces.VECTOR3_STAMPED_TYPE
         assert bag.message_count('/gear_phm/health/efficiency') > 1000

@@ -115,7 +115,8 @@ def test_evaluate_scores_finiteness_band_and_level_transitions(bags, tmp_path: P
     assert result['level_transitions'][1]['lam'] == pytest.approx(error_at / 600.0)
     assert result['error_before_eol'] is (error_at < 600.0)
     text = capsys.readouterr().out
-    assert 'RUL finite from lambda 0.1666' in text
+    assert 'RUL finite from lambda 0.167\n' in text             # rounded to 3 digits
+    assert 'band holds the true RUL at 66.7 % of 45 predictions' in text
     assert f'ERROR before the true end of life: {"YES" if error_at < 600.0 else "no"}' in text
     # --band-from moves the counted span: from 0.5 (300 s) every band holds
     assert main(['evaluate', str(run), '--truth', str(truth), '--output', str(out),
@@ -434,3 +435,21 @@ def test_option_ranges_are_checked_with_one_line(changes: dict, message: str) ->
     _check_options(argparse.Namespace(**good))
     with pytest.raises(CliError, match=message):
         _check_options(argparse.Namespace(**{**good, **changes}))
+
+
+def test_printed_metrics_are_rounded_and_an_infinite_one_explained(tmp_path: Path,
+                                                                   capsys) -> None:
+    """Infinite RUL predictions early in the life: CRA is -inf, and the line says why."""
+    t = np.arange(0.0, 1000.0, 10.0)
+    true_u = 0.05 + 0.55 * t / 600.0
+    _write(tmp_path / 'truth', TRUTH_FRICTION, [(ti, ui, ui, 0.0) for ti, ui in zip(t, true_u)])
+    ruls = 1.1 * (600.0 - t[t < 600.0])
+    ruls[:5] = np.inf
+    _write(tmp_path / 'run' / 'bag', HEALTH_RUL,
+           [(ti, r, 0.8 * r, 1.2 * r) for ti, r in zip(t, ruls)])
+    assert main(['evaluate', str(tmp_path / 'run'), '--truth', str(tmp_path / 'truth')]) == 0
+    text = capsys.readouterr().out
+    assert 'cumulative relative accuracy: -inf (a prediction of infinite RUL scores RA -inf)' \
+        in text
+    assert 'RUL 495 s vs true 450 s, RA 0.9)' in text           # 495.00000000000006, 0.89999..
+    assert 'RUL finite from lambda 0.0833\n' in text

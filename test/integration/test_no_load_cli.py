@@ -77,7 +77,7 @@ def test_drag_under_a_constant_load_is_not_identifiable_and_no_alarm(
     bag = _simulate(tmp_path / 'bag', '--air-load-stiffness', '0')
     assert gear_phm(['analyze', str(bag), *ANALYZE, '--param', 'no_load_model=true',
                      '--out', str(tmp_path / 'on')]) == 0
-    assert 'not identifiable' in capsys.readouterr().err
+    assert 'not identifiable' in capsys.readouterr().out        # the result: stdout
     summary = json.loads((tmp_path / 'on' / 'summary.json').read_text())
     assert summary['filter_updates'] == 0
     assert summary['counts']['not_identifiable'] > 100

@@ -300,6 +300,8 @@ def test_simulate_mode_publishes_consistent_measurements_and_truth(ros) -> None:
     p_load = -effort[steady, 1] * velocity[steady, 1]
     assert -p_load.sum() / p_motor.sum() == pytest.approx(eta_d, abs=0.01)
     assert 'published 600 messages' in done.stderr
+    assert [line.split(': ', 1)[1] for line in done.stderr.splitlines() if 'ready:' in line] \
+        == ['ready: simulate to /joint_states, after 1 subscriber(s)']   # one line, at start
 
 
 @pytest.mark.integration
