@@ -65,7 +65,7 @@ from gear_phm.parameters import (DIAGNOSTICS_RATE, HARDWARE_ID, ParamSpec,
 from gear_phm.prognostics import (HealthAssessor, HealthConfig, HealthState, PARAMETERS,
                                   waiting_state)
 from gear_phm.run import DriveHealth, DriveNames
-from gear_phm.status import ERROR, OK, STALE, StatusOut, WARN
+from gear_phm.status import ERROR, STALE, StatusOut, WARN
 
 #: Estimator outputs are reliable; a deeper queue absorbs bursts of a fast replay.
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)

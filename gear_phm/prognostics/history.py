@@ -101,11 +101,9 @@ class Utilisation:
             return self.fraction
         i = bisect.bisect_right(ops, start)
         (s0, e0), (s1, e1) = self._points[i - 1], self._points[i]
-        # the elapsed time at operating position ``start``: an idle stretch sits at the end of
-        # its checkpoint interval (the operation came first, then the wait before the next
-        # update), so that an idle gap older than ``span`` is left out whole
-        e_start = e0 + (start - s0) if s1 > s0 else e1
-        e_start = min(e_start, e1)
+        # the elapsed time at operating position ``start``, interpolated between the two
+        # checkpoints around it: an idle gap between updates older than ``span`` is out whole
+        e_start = e0 + (e1 - e0) * (start - s0) / (s1 - s0) if s1 > s0 else e1
         elapsed = self.elapsed - e_start
         return min(span / elapsed, 1.0) if elapsed > 0.0 else 1.0
 

@@ -103,11 +103,12 @@ def test_levels_keys_stale_parameters_and_clean_close(ros: Node, tmp_path: Path)
         assert values['rul_s'] == '0.0' and values['samples_used'] == '400'
         assert float(values['operating_time_s']) == 0.5 * 3990.0
         assert float(values['utilisation']) == pytest.approx(0.5)
-        # the RUL in elapsed time is twice that in operating time (utilisation 0.5)
+        # the RUL in elapsed time is twice that in operating time (utilisation 0.5; the recent
+        # duty's, to where its look-back starts between two updates)
         parsed = [{kv.key: float(kv.value) for kv in a.status[0].values} for a in arrays]
         finite = [v for v in parsed if 0.0 < v.get('rul_operating_s', 0.0) < math.inf]
         assert len(finite) >= 10
-        assert all(v['rul_s'] == pytest.approx(2.0 * v['rul_operating_s'], rel=1e-9)
+        assert all(v['rul_s'] == pytest.approx(2.0 * v['rul_operating_s'], rel=1e-2)
                    for v in finite)
         # every array received up to the last estimate's, not only those sampled while the
         # loop above published (under load, ERROR arrived after it)

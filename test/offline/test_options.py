@@ -20,7 +20,8 @@ def test_keywords_sort_into_fields_and_parameters() -> None:
     with pytest.raises(dataclasses.FrozenInstanceError):
         options.ratio = 4.0  # type: ignore[misc]
     (setup,) = drive_setups(options)
-    assert setup.names == DriveNames.single()
+    # hardware_id: the transmission's name, as the live diagnostics node's default
+    assert setup.names == DriveNames.single(hardware_id=DriveNames.single().transmission_name)
     assert setup.estimator_config.ratio == 3.0 and setup.health_config.eta_opposing_min == 0.7333
 
 
