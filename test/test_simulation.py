@@ -241,7 +241,7 @@ def test_duty_cycle_requires_room_for_both_ramps(accel: float, stroke: float) ->
 
 def test_other_invalid_inputs() -> None:
     with pytest.raises(ValueError, match='efficiency_model'):
-        Plant(efficiency_model='worm')
+        Plant(efficiency_model='hypoid')
     with pytest.raises(ValueError, match='kind'):
         Wear('quadratic')
     with pytest.raises(ValueError, match='seed'):
