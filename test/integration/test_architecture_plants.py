@@ -12,8 +12,11 @@ import json
 from pathlib import Path
 
 import pytest
+import yaml
 
 from gear_phm.cli.main import main
+from gear_phm.offline import analyze_bag
+from gear_phm.offline.summary import DriveSummary
 from gear_phm.simulation.plant import Plant
 from gear_phm.status import ERROR
 
@@ -54,3 +57,26 @@ def test_a_self_locking_worm_reads_eta_d_and_is_no_end_of_life(tmp_path: Path) -
     health = summary['health']
     assert isinstance(health, dict) and health['level'] != ERROR, health
     assert 'self-locking' not in health['message'] or 'by design' in health['message']
+
+
+def test_a_transmissions_file_simulates_architecture_drives(tmp_path: Path) -> None:
+    drives = {
+        'hatch': {'motor_joint': 'hatch_motor', 'load_joint': 'hatch_out', 'ratio': 30.0,
+                  'eta_opposing_min': 0.5,
+                  'simulation': {'plant': 'worm', 'lead_angle': 0.2, 'friction_initial': 0.05}},
+        'flap': {'motor_joint': 'flap_motor', 'load_joint': 'flap_out', 'ratio': 8.0,
+                 'simulation': {'plant': 'planetary', 'friction_initial': 0.08}},
+    }
+    bench = tmp_path / 'bench.yaml'
+    bench.write_text(yaml.safe_dump({'transmissions': drives}, sort_keys=False))
+    assert main(['simulate', '--transmissions', str(bench), '--duration', '120',
+                 '--out', str(tmp_path / 'bag')]) == 0
+    analysis = analyze_bag(tmp_path / 'bag', transmissions=bench, plot=False, history=None)
+    for name, ratio, model, lead, friction in (('hatch', 30.0, 'worm', 0.2, 0.05),
+                                               ('flap', 8.0, 'planetary', 0.1745, 0.08)):
+        plant = Plant(ratio=ratio, efficiency_model=model, lead_angle=lead)
+        _, eta_d, eta_i = plant.efficiencies(friction)
+        summary = analysis.transmissions[name].summary
+        assert isinstance(summary, DriveSummary)
+        assert summary.estimator.eta_opposing == pytest.approx(float(eta_d), abs=0.01), name
+        assert summary.estimator.eta_aiding == pytest.approx(float(eta_i), abs=0.01), name
