@@ -10,7 +10,7 @@ from gear_phm.prognostics.history import CHECKPOINTS, Utilisation
 
 def _run(utilisation: Utilisation, t0: float, s0: float, seconds: int, duty: float,
          step: float = 1.0) -> tuple[float, float]:
-    """Updates every ``step`` s of stamp time at ``duty`` operation; the last (t, s)."""
+    """Update every ``step`` s of stamp time at ``duty`` operation; return the last (t, s)."""
     t, s = t0, s0
     for _ in range(int(seconds / step)):
         t += step
