@@ -284,9 +284,11 @@ def main() -> int:
                         help='sample rates [Hz]; rates above 100 Hz only for lives up to '
                              f'{FAST_RATE_MAX_DURATION:.0f} s (default 100)')
     parser.add_argument('--workers', type=int, default=1, help='parallel lives (default 1)')
-    parser.add_argument('--prior', choices=('paper', 'bench'), default='paper',
+    parser.add_argument('--prior', choices=('paper', 'bench', 'architectures'),
+                        default='paper',
                         help='prior of the random lives (gear-phm simulate --prior; bench: '
-                             'every real-gearbox effect on, docs/lives.md) (default paper)')
+                             'every real-gearbox effect on; architectures: the gear train, '
+                             'planetary, worm and screw plants; docs/lives.md) (default paper)')
     parser.add_argument('--nice', type=int, default=19,
                         help='niceness of simulate/analyze/evaluate (default 19)')
     parser.add_argument('--reuse', action='store_true',

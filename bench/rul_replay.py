@@ -119,7 +119,7 @@ def replay_life(task: tuple[Path, Path, dict[str, Any]]) -> dict[str, Any]:
     if life['healthy']:
         score: dict[str, Any] = {'healthy': healthy_acceptance(median, level)}
     else:
-        u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
+        u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.must_back_drive,
                                  config.u_max)
         t_eol = life['end_of_life_s']
         if t_eol is None or not math.isclose(u_eol, float(life['u_eol']), rel_tol=1e-9):

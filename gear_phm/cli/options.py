@@ -51,7 +51,8 @@ def _help(spec: ParamSpec) -> str:
 def add_health_arguments(parser: argparse.ArgumentParser) -> None:
     """Add one option per health parameter but :data:`NOT_OFFLINE_OPTIONS`: ``--u-max``, ...
 
-    ``--no-self-locking-eol`` for the flag; read them back with :func:`health_values`.
+    ``--must-back-drive``/``--no-must-back-drive`` for the flag; read them back with
+    :func:`health_values`.
     """
     group = parser.add_argument_group('health and end of life (diagnostics)')
     for spec in HEALTH_PARAMETERS:
@@ -59,9 +60,9 @@ def add_health_arguments(parser: argparse.ArgumentParser) -> None:
             continue
         option = '--' + spec.name.replace('_', '-')
         if spec.kind is bool:
-            group.add_argument('--no-' + spec.name.replace('_', '-'), dest=_PREFIX + spec.name,
-                               action='store_false', default=spec.default,
-                               help=f'do not {spec.description}')
+            group.add_argument(option, dest=_PREFIX + spec.name,
+                               action=argparse.BooleanOptionalAction, default=spec.default,
+                               help=f'{_help(spec)} (default {spec.default})')
         elif spec.choices:
             group.add_argument(option, dest=_PREFIX + spec.name, choices=spec.choices,
                                default=spec.default, help=_help(spec))

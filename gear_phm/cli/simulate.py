@@ -72,10 +72,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "set its own (seed: --seed + the drive's index). Truth on "
                              'gear_phm/<drive>/truth/...')
     parser.add_argument('--prior', choices=PRIORS, default=PRIORS[0],
-                        help="the prior of --random-life: paper (the paper's physics) or "
+                        help="the prior of --random-life: paper (the paper's physics), "
                              'bench (every real-gearbox effect on: no-load drag and oil '
-                             'warming, varying loads, sensor errors, encoders, cold restarts; '
-                             'docs/lives.md) (paper)')
+                             'warming, varying loads, sensor errors, encoders, cold restarts) '
+                             "or architectures (the paper's physics on a gear train, "
+                             'planetary, worm or screw plant); docs/lives.md (paper)')
     parser.add_argument('--random-life', type=int, default=None, metavar='SEED',
                         help='draw a whole life from the documented prior (docs/lives.md): '
                              'plant, ratio, duty cycle, noise, wear law, onset, running-in, '

@@ -33,3 +33,24 @@ def classify(p_motor: ArrayLike, p_load: ArrayLike, motor_velocity: ArrayLike,
     code[m_out & l_out] = IMPOSSIBLE
     code[~moving] = IDLE
     return code
+
+
+def classify_sample(p_motor: float, p_load: float, motor_velocity: float,
+                    power_threshold: float = 0.0, speed_threshold: float = 0.0) -> int:
+    """Power-flow code of one sample, as :func:`classify`.
+
+    The estimator node's per-sample guess of when a window closes; the thresholds are not
+    checked here.
+
+    Both powers in (P_m > 0 and P_l > 0: a self-locking drive, eta_I < 0, that the motor
+    pushes through an aiding load) is SELF_LOCKING, not aiding: the motor feeds power too.
+    """
+    if not abs(motor_velocity) > speed_threshold:
+        return IDLE
+    if p_motor > power_threshold:
+        return OPPOSING if p_load < -power_threshold else \
+            SELF_LOCKING if p_load > power_threshold else IDLE
+    if p_motor < -power_threshold:
+        return AIDING if p_load > power_threshold else \
+            IMPOSSIBLE if p_load < -power_threshold else IDLE
+    return IDLE

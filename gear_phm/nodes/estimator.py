@@ -50,6 +50,7 @@ from gear_phm import interfaces
 from gear_phm.codec import JointStateDecoder
 from gear_phm.estimation import EstimatorConfig, EstimatorPipeline, PARAMETERS
 from gear_phm.estimation.load_torque import LoadTorqueMatcher
+from gear_phm.estimation.powerflow import classify_sample
 from gear_phm.interfaces import DiagnosticsOut
 from gear_phm.nodes.common import (ConfigError, declare_parameters, OUTPUT_QOS, qualified,
                                    reset_service, RESETS, run_node, SENSOR_QOS, to_rclpy)
@@ -321,14 +322,8 @@ class EstimatorNode(ManagedNode):
         self.stamps.append(stamp)
         self.rows.append((w_m, tau_m, w_l, tau_l))
         # the power-flow code, as estimation.powerflow.classify (NaN gives idle)
-        code = 0
-        if abs(w_m) > self._speed_threshold:
-            p_m, p_l = self._motor_sign * tau_m * w_m, self._load_sign * tau_l * w_l
-            threshold = self._power_threshold
-            if p_m > threshold:
-                code = 1 if p_l < -threshold else 3 if p_l > threshold else 0
-            elif p_m < -threshold:
-                code = 2 if p_l > threshold else -1 if p_l < -threshold else 0
+        code = classify_sample(self._motor_sign * tau_m * w_m, self._load_sign * tau_l * w_l,
+                               w_m, self._power_threshold, self._speed_threshold)
         due = False
         previous = self._prev_stamp
         if code != self._code or not 0 < stamp - previous <= self._gap_ns:

@@ -158,7 +158,7 @@ def evaluate_run(bag: Path, truth: Path, config: HealthConfig, *,
     the config's. Raises EvaluationError, :class:`~gear_phm.offline.truth.TruthError` or
     :class:`~gear_phm.bagio.BagError` when the run cannot be scored.
     """
-    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
+    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.must_back_drive,
                              config.u_max)
     predictions = read_predictions(bag, drive)
     same_eol = life is not None and math.isclose(u_eol, life.u_eol, rel_tol=1e-9)

@@ -29,7 +29,8 @@ from gear_phm.models.lever import efficiencies, efficiencies_array, readings, re
 from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.persistence import decode_float, encode_float
 from gear_phm.prognostics.config import HealthConfig, PARAMETERS
-from gear_phm.prognostics.end_of_life import end_of_life_u, u_accuracy
+from gear_phm.prognostics.end_of_life import (end_of_life_thresholds, healthy_self_locking,
+                                              u_accuracy)
 from gear_phm.prognostics.fits import (frozen_instance, ShapePrior, Trend, trend_from_state,
                                        trend_to_state)
 from gear_phm.prognostics.health import DivergenceDetector, EOL_Z, LevelTracker
@@ -56,7 +57,9 @@ class HealthState:
     time, ``rul_operating`` / ``utilisation`` [-]; ``operating_time`` [s] is the estimate's
     (NaN if it had none); see the module docstring. ``eta_healthy`` [-] is the healthy eta_D
     learned at the start and ``eta_warn`` [-] the WARN efficiency in force (NaN: not learned
-    yet; :class:`~gear_phm.prognostics.health.LevelTracker`).
+    yet; :class:`~gear_phm.prognostics.health.LevelTracker`). ``eol_rule`` names the
+    end-of-life rule that sets ``u_eol`` (``eta_opposing_min``, ``self_locking`` or
+    ``u_max``; '' in a state from before it was kept).
     """
 
     stamp_ns: int
@@ -78,6 +81,7 @@ class HealthState:
     utilisation: float = math.nan
     eta_healthy: float = math.nan
     eta_warn: float = math.nan
+    eol_rule: str = ''
 
     def as_stale(self, silence: float) -> HealthState:
         """Return this status turned STALE after ``silence`` [s] without input."""
@@ -85,11 +89,12 @@ class HealthState:
                        message=f'no estimator input for {silence:.3g} s (last: {self.message})')
 
 
-def waiting_state(stamp_ns: int, u_eol: float) -> HealthState:
+def waiting_state(stamp_ns: int, u_eol: float, eol_rule: str = '') -> HealthState:
     """OK state before any estimate arrived: nothing is known to be wrong yet."""
     nan = math.nan
     return HealthState(stamp_ns, OK, 'waiting for data', nan, nan, nan, nan,
-                       RulEstimate(nan, nan, nan, 'none'), 0, 0, 0, u_eol, Trend())
+                       RulEstimate(nan, nan, nan, 'none'), 0, 0, 0, u_eol, Trend(),
+                       eol_rule=eol_rule)
 
 
 _RUL_FIELDS = ('median', 'p5', 'p95')
@@ -107,6 +112,7 @@ def health_state_to_state(state: HealthState) -> dict[str, Any]:
     out.update({key: encode_float(getattr(state, key))
                 for key in _STATE_FLOATS + _STATE_FLOATS_LATER})
     out['message'] = state.message
+    out['eol_rule'] = state.eol_rule
     for name in ('rul', 'rul_operating'):
         rul = getattr(state, name)
         out[name] = {key: encode_float(getattr(rul, key)) for key in _RUL_FIELDS}
@@ -125,7 +131,7 @@ def health_state_from_state(state: dict[str, Any]) -> HealthState:
         median, p5, p95 = (decode_float(rul[k]) for k in _RUL_FIELDS)
         values[name] = RulEstimate(median, p5, p95, str(rul['model']))
     return HealthState(message=str(state['message']), trend=trend_from_state(state['trend']),
-                       **values)
+                       eol_rule=str(state.get('eol_rule', '')), **values)
 
 
 class HealthAssessor:
@@ -134,8 +140,10 @@ class HealthAssessor:
     def __init__(self, config: HealthConfig, prior: ShapePrior | None = None) -> None:
         """``prior``: a population prior on the wear law's shape (:class:`ShapePrior`)."""
         self.config = config
-        self.u_eol, self.eol_reason = end_of_life_u(
-            config.ratio, config.eta_opposing_min, config.self_locking_eol, config.u_max)
+        #: Whether the gearbox is self-locking when healthy (None: not known yet,
+        #: :func:`~gear_phm.prognostics.end_of_life.healthy_self_locking`).
+        self.self_locking_when_healthy: bool | None = None
+        self.u_eol, self.eol_reason = self._end_of_life()
         self.predictor = RulPredictor(
             self.u_eol, detect_z=config.detect_z, mc_samples=int(config.mc_samples),
             seed=int(config.seed), trend=config.trend, prior=prior,
@@ -151,6 +159,32 @@ class HealthAssessor:
         self.utilisation = Utilisation(config.utilisation_window)
         self.latest: HealthState | None = None
         self.rejected: dict[str, int] = {}
+
+    def _end_of_life(self) -> tuple[float, str]:
+        """Return the end-of-life u [-] and its rule's name in force.
+
+        The configured criteria; self-locking (u = 1) only with ``must_back_drive`` and once
+        the gearbox is known to back-drive when healthy: a gearbox self-locking by design has
+        no end of life by it, and one not judged yet none either.
+        """
+        config = self.config
+        thresholds = end_of_life_thresholds(
+            config.ratio, config.eta_opposing_min,
+            config.must_back_drive and self.self_locking_when_healthy is False, config.u_max)
+        name = min(thresholds, key=thresholds.__getitem__)
+        return thresholds[name], name
+
+    def _learn_self_locking(self, locking: bool | None) -> None:
+        """Record whether the healthy gearbox self-locks and apply the end of life it gives."""
+        self.self_locking_when_healthy = locking
+        self.levels.watch_self_locking = locking is False
+        u_eol, reason = self._end_of_life()
+        if (u_eol, reason) != (self.u_eol, self.eol_reason):
+            self.u_eol, self.eol_reason = u_eol, reason
+            self.levels.set_end_of_life(u_eol, reason)
+            self.predictor.u_systematic = u_accuracy(u_eol, self.config.ratio,
+                                                     self.config.eta_accuracy)
+            self.predictor.refit_soon()
 
     def on_estimate(self, estimate: FrictionEstimate) -> HealthState | None:
         """Process one update; None (counted in ``rejected``) if it is unusable."""
@@ -207,6 +241,7 @@ class HealthAssessor:
             self.divergence.reset()
             self.levels.reset()
             self.utilisation.reset()
+            self._learn_self_locking(None)
         if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
             # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
             eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
@@ -229,6 +264,8 @@ class HealthAssessor:
         u = estimate.u
         t = estimate.stamp_ns * 1e-9                # estimate.t
         u_d, u_i = read
+        if self.self_locking_when_healthy is None and u_sigma <= self.config.max_u_sigma:
+            self._learn_self_locking(healthy_self_locking(u_i, u_sigma))
         reading = self._reading_offset(u, u_d, u_i)
         predictor.u_eol = self.u_eol - reading
         measurement = estimate.measurement
@@ -257,12 +294,15 @@ class HealthAssessor:
         levels = self.levels
         level, message = levels.update(t, u + reading, estimate.eta_opposing,
                                        rul_operating.p5, filter_check, u_sigma,
-                                       rul_operating.median, predictor.law_past_eol(operating))
+                                       rul_operating.median, predictor.law_past_eol(operating),
+                                       u_i)
         if level == 0 and rul.model != 'none':
             recent = (rul_operating.median / rul.median
                       if 0.0 < rul.median < math.inf else utilisation)
             message = (f'ok; {rul.model} trend, RUL {rul_operating.median:.4g} s of operation '
                        f'({rul.median:.4g} s at utilisation {recent:.3g})')
+        if level == 0 and self.self_locking_when_healthy:
+            message += '; self-locking when healthy (by design): no end of life by it'
         mismatch = self._ratio_mismatch(estimate, 0.5 * (u_d + u_i)) if suspect else ''
         if mismatch:
             level, message = ERROR, mismatch
@@ -276,7 +316,7 @@ class HealthAssessor:
             'rul_operating': rul_operating,
             'operating_time': operating if self._on_operating_time(estimate) else math.nan,
             'utilisation': utilisation, 'eta_healthy': levels.eta_healthy,
-            'eta_warn': levels.eta_warn})
+            'eta_warn': levels.eta_warn, 'eol_rule': self.eol_reason})
         return self.latest
 
     def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:
@@ -344,6 +384,7 @@ class HealthAssessor:
                                                         fresh.levels)
         self.utilisation, self.latest, self.rejected = (fresh.utilisation, fresh.latest,
                                                         fresh.rejected)
+        self.self_locking_when_healthy = fresh.self_locking_when_healthy
 
     def reset(self) -> None:
         """Forget what was learned, on purpose (a new gearbox on the rig).
@@ -367,6 +408,7 @@ class HealthAssessor:
         return {'predictor': self.predictor.to_state(), 'divergence': self.divergence.to_state(),
                 'levels': self.levels.to_state(), 'utilisation': self.utilisation.to_state(),
                 'rejected': dict(self.rejected),
+                'self_locking_when_healthy': self.self_locking_when_healthy,
                 'latest': None if latest is None else health_state_to_state(latest)}
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -380,12 +422,18 @@ class HealthAssessor:
         fresh.levels.from_state(state['levels'])
         fresh.utilisation.from_state(state['utilisation'])
         rejected = {str(k): int(v) for k, v in dict(state['rejected']).items()}
+        locking = state.get('self_locking_when_healthy')    # absent in an older file
+        if locking is not None and not isinstance(locking, bool):
+            raise TypeError(f'self_locking_when_healthy must be a bool or null, got {locking!r}')
+        fresh._learn_self_locking(locking)
         latest = state['latest']
         self.latest = None if latest is None else health_state_from_state(latest)
         self.predictor, self.divergence, self.levels = (fresh.predictor, fresh.divergence,
                                                         fresh.levels)
         self.utilisation = fresh.utilisation
         self.rejected = rejected
+        self.self_locking_when_healthy = fresh.self_locking_when_healthy
+        self.u_eol, self.eol_reason = fresh.u_eol, fresh.eol_reason
 
     def _ratio_mismatch(self, estimate: FrictionEstimate, centre: float) -> str:
         """'' or why the estimator's ratio differs from this assessor's.

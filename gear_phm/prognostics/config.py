@@ -58,8 +58,10 @@ class HealthConfig:
     ratio: float = param_from(RATIO, float)
     eta_opposing_min: float = param(
         0.5, 'end of life when the opposing-load efficiency eta_D falls to this', '-', -1.0, 1.0)
-    self_locking_eol: bool = param(
-        True, 'count the self-locking onset (eta_I <= 0, u >= 1) as end of life (ERROR)')
+    must_back_drive: bool = param(
+        False, 'the drive must stay reversible: a gearbox that back-drives when healthy and '
+        'becomes self-locking through wear (eta_I <= 0, u >= 1) is at end of life (ERROR); off, '
+        'that is a WARN. A gearbox self-locking when healthy is never an end of life by it')
     u_max: float = param(
         0.0, 'end of life when u reaches this (0: criterion disabled)', '-', 0.0, 1e6)
     eta_warn: float = param(

@@ -6,13 +6,18 @@ Levels (diagnostic_msgs/DiagnosticStatus): OK 0, WARN 1, ERROR 2, STALE 3.
   in 95 % of its draws and the newest measurements are past it too
   (:meth:`~gear_phm.prognostics.predictor.RulPredictor.law_past_eol`; end of life past
   reasonable doubt; includes
-  self-locking u >= 1 when enabled; it clears below u_eol (1 - hysteresis)), or the filter
+  self-locking u >= 1 when ``must_back_drive`` enables it; the message names the rule; it
+  clears below u_eol (1 - hysteresis)), or the filter
   has lost the signal (:class:`DivergenceDetector`: sigma_u above ``max_u_sigma`` or not
   finite, or a median NIS above ``nis_lost``).
-- WARN: RUL median (operating time) < ``warn_horizon`` [s], cleared only once the RUL's 5 %
-  bound is above :data:`~gear_phm.prognostics.config.RUL_CLEAR_FACTOR` times it; eta_D <
-  ``eta_warn`` (by default derived from the healthy eta_D learned once the filter has
-  settled, :class:`LevelTracker`); or a model mismatch (mean NIS above its chi-square bound
+- WARN: "now self-locking: cannot be back-driven", a gearbox that back-drove when healthy
+  whose aiding reading of u is past 1 (eta_I <= 0) by EOL_Z sigma_u (it clears below
+  1 - hysteresis; ERROR "end of life (self_locking)" instead where ``must_back_drive`` says
+  the drive must stay reversible); RUL median (operating time) < ``warn_horizon`` [s],
+  cleared only once the RUL's 5 % bound is above
+  :data:`~gear_phm.prognostics.config.RUL_CLEAR_FACTOR` times it; eta_D < ``eta_warn`` (by
+  default derived from the healthy eta_D learned once the filter has settled,
+  :class:`LevelTracker`); or a model mismatch (mean NIS above its chi-square bound
   while the estimate still tracks).
 - STALE: no estimator input for ``stale_timeout`` [s], judged on the caller's clock (the
   diagnostics node's); it overrides the other levels because the estimate is no longer
@@ -34,6 +39,7 @@ from gear_phm.persistence import decode_float, decode_floats, encode_float, enco
 from gear_phm.prognostics.calibration import BAND_Z
 from gear_phm.prognostics.config import (DEFAULTS, derived_eta_warn, HEALTHY_SETTLED_SHARE,
                                          RUL_CLEAR_FACTOR)
+from gear_phm.prognostics.end_of_life import U_SELF_LOCKING
 from gear_phm.status import ERROR, OK, WARN
 
 
@@ -215,6 +221,9 @@ class LevelTracker:
     (WARN once 75 % of the budget between them is used), and the new gearbox of the
     hysteresis is eta_healthy. Until then there is no efficiency WARN. An explicit eta_warn is
     kept; eta_healthy is learned and reported all the same.
+
+    ``watch_self_locking`` (set by the assessor for a gearbox that back-drove when healthy):
+    the aiding reading of u past U_SELF_LOCKING by EOL_Z sigma_u WARNs "now self-locking".
     """
 
     def __init__(self, u_eol: float, eol_reason: str, eta_warn: float, warn_horizon: float,
@@ -234,7 +243,13 @@ class LevelTracker:
         self.rul_clear = self.warn_horizon * RUL_CLEAR_FACTOR
         self.level_clear_dwell = float(level_clear_dwell)
         self.latches = {name: Latch(self.level_dwell, self.level_clear_dwell)
-                        for name in ('eol', 'lost', 'eta', 'rul', 'mismatch')}
+                        for name in ('eol', 'lost', 'eta', 'rul', 'mismatch', 'locked')}
+        self.watch_self_locking = False
+
+    def set_end_of_life(self, u_eol: float, eol_reason: str) -> None:
+        """Apply a new end-of-life threshold u_eol [-] and the name of its rule."""
+        self.u_eol, self.eol_reason = float(u_eol), eol_reason
+        self.u_clear = self.u_eol * (1.0 - self.level_hysteresis)
 
     def reset(self) -> None:
         """Back to OK with nothing pending (a replay restarted); eta_healthy is learned anew."""
@@ -263,8 +278,10 @@ class LevelTracker:
     def from_state(self, state: dict[str, Any]) -> None:
         """Restore :meth:`to_state`; KeyError if a latch is missing.
 
-        A state without ``eta_healthy`` (before it was learned) learns it anew.
+        A state without ``eta_healthy`` (before it was learned) learns it anew; one without
+        the ``locked`` latch (an older file) starts it inactive.
         """
+        state = {'locked': Latch(0.0).to_state(), **state}
         for name in self.latches:            # check all before changing any
             if not isinstance(state[name], dict):
                 raise ValueError(f'latch {name} state must be an object')
@@ -275,8 +292,8 @@ class LevelTracker:
 
     def update(self, t: float, u: float, eta_opposing: float, rul_p5: float,
                filter_check: tuple[int, str] = (OK, ''), u_sigma: float = 0.0,
-               rul_median: float | None = None, law_past_eol: bool = False
-               ) -> tuple[int, str]:
+               rul_median: float | None = None, law_past_eol: bool = False,
+               u_aiding: float = math.nan) -> tuple[int, str]:
         """Return (level, message) at stamp ``t`` [s].
 
         Inputs: u [-], eta_D [-], the RUL's 5 % bound [s of operating time], the
@@ -286,6 +303,8 @@ class LevelTracker:
         fitted to the measurements has crossed u_eol in 95 % of its draws
         (:meth:`~gear_phm.prognostics.predictor.RulPredictor.law_past_eol`), which also enters end
         of life (the filter's u lags accelerating wear that its measurements show).
+        ``u_aiding``: u as the aiding windows read it [-], for the "now self-locking" WARN
+        (with ``watch_self_locking``; NaN: not known).
         """
         median = rul_p5 if rul_median is None else rul_median
         filter_level, filter_reason = filter_check
@@ -304,10 +323,15 @@ class LevelTracker:
         # NaN thresholds (not learned yet) compare False: no efficiency WARN
         eta = latch['eta'].update(t, eta_opposing < self.eta_warn, eta_opposing < self.eta_clear)
         rul = latch['rul'].update(t, median < self.warn_horizon, rul_p5 < self.rul_clear)
+        watch = self.watch_self_locking and math.isfinite(u_aiding)
+        locked = latch['locked'].update(
+            t, watch and u_aiding - EOL_Z * sigma >= U_SELF_LOCKING,
+            watch and u_aiding >= U_SELF_LOCKING * (1.0 - self.level_hysteresis))
         errors = []
         if eol:
-            what = 'self-locking' if self.eol_reason == 'self_locking' \
-                else f'end of life ({self.eol_reason})'
+            what = ('end of life (self_locking, must_back_drive): now self-locking, cannot be '
+                    'back-driven' if self.eol_reason == 'self_locking'
+                    else f'end of life ({self.eol_reason})')
             if u >= self.u_eol:
                 errors.append(f'{what}: u {u:.4g} >= u_eol {self.u_eol:.4g}')
             elif law_past_eol:
@@ -323,6 +347,12 @@ class LevelTracker:
         if errors:
             return ERROR, '; '.join(errors)
         warnings = []
+        if locked:
+            warnings.append(f'now self-locking: cannot be back-driven (aiding reading u '
+                            f'{u_aiding:.4g} >= {U_SELF_LOCKING:g}, eta_I <= 0)'
+                            if u_aiding >= U_SELF_LOCKING
+                            else f'now self-locking: cannot be back-driven (clearing, aiding '
+                                 f'reading u {u_aiding:.4g})')
         if rul:
             warnings.append(f'RUL {median:.4g} s of operation < {self.warn_horizon:.4g} s'
                             if median < self.warn_horizon

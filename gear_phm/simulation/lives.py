@@ -45,8 +45,18 @@ FEATURES: tuple[str, ...] = ('onset', 'running_in', 'offset', 'regime', 'gamma',
 DURATION_RANGE = (300.0, 30_000.0)
 #: Spur plant: largest tooth friction coefficient searched for the end of life [-].
 SPUR_FRICTION_MAX = 3.0
-#: The priors: ``paper`` (the paper's physics) and ``bench`` (every real-gearbox effect on).
-PRIORS: tuple[str, ...] = ('paper', 'bench')
+#: The priors: ``paper`` (the paper's physics), ``bench`` (every real-gearbox effect on) and
+#: ``architectures`` (the paper's physics on the architecture plants, opt-in).
+PRIORS: tuple[str, ...] = ('paper', 'bench', 'architectures')
+#: Tag of the architecture prior's own stream, [seed, ARCHITECTURE_STREAM]: the paper prior's
+#: draws stay the same.
+ARCHITECTURE_STREAM = 0x61726368
+#: The architecture prior's plants (:mod:`gear_phm.simulation.plant`), drawn with equal
+#: probability.
+ARCHITECTURE_PLANTS: tuple[str, ...] = ('gear_train', 'planetary', 'worm', 'screw')
+#: Architecture prior: range of the worm's and screw's lead angle [deg], uniform; reversible
+#: at the healthy friction (friction angle at most 6 deg for mu <= 0.1).
+LEAD_ANGLE_RANGE_DEG = (8.0, 25.0)
 #: Tag of the bench prior's own stream, [seed, BENCH_STREAM]: the paper prior's draws stay
 #: the same.
 BENCH_STREAM = 0x62656E63
@@ -94,7 +104,8 @@ class Life:
                 'eta_opposing_min': self.eta_opposing_min, 'u_eol': self.u_eol,
                 'onset_s': self.onset, 'end_of_life_s': self.end_of_life,
                 'seed_attempts': self.attempts, 'parameters': dict(self.parameters),
-                **({} if self.bench is None else {'prior': self.prior, **self.bench})}
+                **({} if self.prior == 'paper' else {'prior': self.prior}),
+                **({} if self.bench is None else self.bench)}
 
 
 def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
@@ -128,6 +139,33 @@ def _draw_plant(rng: np.random.Generator, p: dict[str, Any]) -> None:
         p['bearing_radius_2'] = float(rng.uniform(0.0, 0.015)) * base_radius * ratio
 
 
+def _draw_architecture(rng: np.random.Generator, p: dict[str, Any]) -> None:
+    """Replace the drawn plant by one of ARCHITECTURE_PLANTS with its geometry (docs/lives.md).
+
+    The spur geometry of the paper draw goes back to its defaults.
+    """
+    base = defaults(BASE_PARAMETERS)
+    for name in ('pinion_teeth', 'bearing_radius_1', 'bearing_radius_2'):
+        p[name] = base[name]
+    plant = p['plant'] = ARCHITECTURE_PLANTS[int(rng.integers(len(ARCHITECTURE_PLANTS)))]
+    if plant in ('gear_train', 'planetary'):
+        p['pinion_teeth'] = float(rng.integers(18, 31))
+    else:
+        p['lead_angle'] = math.radians(float(rng.uniform(*LEAD_ANGLE_RANGE_DEG)))
+
+
+def _friction_max(p: dict[str, Any]) -> float:
+    """Largest friction coefficient searched for the end of life of a non-lever plant [-].
+
+    Worm and screw: the friction angle at 0.8 of the way from 0 to where the thread jams
+    (gamma + phi' = 90 deg), at the worm's 20 deg normal pressure angle (a screw's thread,
+    15 deg, has the smaller friction angle). The gear plants: SPUR_FRICTION_MAX.
+    """
+    if p['plant'] in ('worm', 'screw'):
+        return math.cos(math.radians(20.0)) * math.tan(0.8 * (0.5 * math.pi - p['lead_angle']))
+    return SPUR_FRICTION_MAX
+
+
 def _eta_d(parameters: dict[str, Any], friction: float) -> float:
     config = config_from_parameters(parameters)
     return float(config.plant.efficiencies(friction)[1])
@@ -145,8 +183,10 @@ def random_life(seed: int, rate: float = 100.0, prior: str = 'paper') -> Life:
     """Draw life ``seed`` (an integer >= 0) for a record at ``rate`` [Hz] from ``prior``.
 
     ``prior`` is one of :data:`PRIORS`; the bench prior draws the paper prior's quantities
-    (the same values) and then the real-gearbox effects from its own stream. Raises
-    ValueError on a bad seed, rate or prior.
+    (the same values) and then the real-gearbox effects from its own stream. The
+    architectures prior draws the paper prior's plant quantities, then replaces the plant
+    by one of :data:`ARCHITECTURE_PLANTS` from its own stream; its friction is drawn as the
+    spur plant's. Raises ValueError on a bad seed, rate or prior.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f'seed must be an integer >= 0, got {seed!r}')
@@ -157,6 +197,8 @@ def random_life(seed: int, rate: float = 100.0, prior: str = 'paper') -> Life:
     rng = np.random.default_rng([int(seed), LIFE_STREAM])
     p: dict[str, Any] = dict(defaults(PARAMETERS if prior == 'bench' else BASE_PARAMETERS))
     _draw_plant(rng, p)
+    if prior == 'architectures':
+        _draw_architecture(np.random.default_rng([int(seed), ARCHITECTURE_STREAM]), p)
     ratio = p['ratio']
     features: list[str] = []
     if p['plant'] == 'lever':
@@ -171,7 +213,7 @@ def random_life(seed: int, rate: float = 100.0, prior: str = 'paper') -> Life:
         f0 = float(rng.uniform(0.03, 0.10))
         eta0 = _eta_d(p, f0)
         drop = min(float(rng.uniform(0.02, 0.08)),
-                   0.8 * (eta0 - _eta_d(p, SPUR_FRICTION_MAX)))
+                   0.8 * (eta0 - _eta_d(p, _friction_max(p))))
     eta_min = max(eta0 - drop, 0.5)
     u_eol = float(u_from_eta_opposing(eta_min, ratio))
     duration = float(round(_log_uniform(rng, *DURATION_RANGE)))
@@ -190,7 +232,7 @@ def random_life(seed: int, rate: float = 100.0, prior: str = 'paper') -> Life:
     if p['plant'] == 'lever':
         f_eol = u_eol
     else:
-        f_eol = _friction_for(p, eta_min, f0, SPUR_FRICTION_MAX)
+        f_eol = _friction_for(p, eta_min, f0, _friction_max(p))
     budget = f_eol - f0
     onset = 0.0
     if rng.uniform() < 0.7:

@@ -69,6 +69,8 @@ BASE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('direction_offset', _PLANT.direction_offset,
               "lever plant: model mismatch, eta_I is the lever model's at u + direction_offset "
               '(eta_D at u)', '-', -1.0, 1.0),
+    ParamSpec('lead_angle', _PLANT.lead_angle, 'worm and screw plants: lead angle gamma '
+              '(self-locking once the friction angle reaches it)', 'rad', 1e-6, 1.5),
     ParamSpec('travel', _DUTY.travel, 'duty cycle: load stroke', 'rad', 1e-9, 1e4),
     ParamSpec('extend_time', _DUTY.extend_time, 'duty cycle: extension stroke time', 's', 1e-6,
               _TIME_MAX),
@@ -82,7 +84,8 @@ BASE_PARAMETERS: tuple[ParamSpec, ...] = (
               0.0, _TIME_MAX),
     ParamSpec('wear', _WEAR.kind, 'wear trajectory', choices=WEAR_KINDS),
     ParamSpec('friction_initial', _WEAR.initial,
-              'friction value at t = 0: lever u, or tooth coefficient f (spur)', '-', 0.0),
+              'friction value at t = 0: lever u, or the Coulomb coefficient of the other '
+              'plants (tooth f, thread mu)', '-', 0.0),
     ParamSpec('wear_rate', _WEAR.rate, 'linear (and mixed): friction increase per second; '
               'exponential: relative growth rate; power: friction increase at t = 1 s '
               '(coefficient of t^wear_exponent)', '1/s', 0.0),
@@ -193,7 +196,8 @@ def config_from_parameters(values: Mapping[str, object]) -> SimulationConfig:
                   pinion_teeth=num('pinion_teeth'), module=num('module'),
                   bearing_radius_1=num('bearing_radius_1'),
                   bearing_radius_2=num('bearing_radius_2'),
-                  direction_offset=num('direction_offset'), mesh_teeth=num('mesh_teeth'))
+                  direction_offset=num('direction_offset'), mesh_teeth=num('mesh_teeth'),
+                  lead_angle=num('lead_angle'))
     duty = DutyCycle(travel=num('travel'), extend_time=num('extend_time'),
                      retract_time=num('retract_time'), accel_time=num('accel_time'),
                      dwell_extended=num('dwell_extended'),

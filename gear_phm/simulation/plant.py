@@ -28,6 +28,20 @@ Efficiency source (``efficiency_model``):
 - ``spur``: the friction value is the tooth-tooth Coulomb coefficient f of one spur stage
   (pinion ``pinion_teeth``, wheel ``R * pinion_teeth``, other geometry fixed); the true u is
   the lever u with the same eta_D, ``u_from_eta_opposing(eta_D, R)``.
+- The other architectures of :mod:`gear_phm.models` (docs/architectures.md), their friction
+  value the model's Coulomb coefficient, each efficiency from the geometry and it, the true u
+  again the lever u of eta_D:
+
+  - ``gear_train``: two equal spur stages of ratio sqrt(R), pinions ``pinion_teeth``, the
+    same tooth friction f on both;
+  - ``planetary``: a simple planetary set, ring fixed, sun driving, carrier out
+    (R = 1 + z_ring / z_sun > 2); the smaller of sun and planet has ``pinion_teeth``, f on
+    both meshes (sun-planet, planet-ring);
+  - ``worm``: one start, ``R`` wheel teeth, lead angle ``lead_angle``, normal pressure angle
+    ``pressure_angle``, thread friction mu; self-locking (eta_I <= 0) once the friction angle
+    reaches the lead angle;
+  - ``screw``: a lead screw of lead 2 pi / R (R in rad per unit of load travel), lead angle
+    ``lead_angle`` at its mean diameter, flank angle 15 deg (trapezoidal), thread friction mu.
 """
 from __future__ import annotations
 
@@ -36,12 +50,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gear_phm.models import eta_aiding, eta_opposing, SpurGear, u_from_eta_opposing
+from gear_phm.models import (eta_aiding, eta_opposing, GearTrain, LeadScrew, PlanetaryGearSet,
+                             SpurGear, u_from_eta_opposing, WormGear)
 from gear_phm.models.power_flow import AIDING, IDLE, OPPOSING, SELF_LOCKING
 from gear_phm.parameters import RATIO
 from gear_phm.simulation._checks import non_negative, one_of, positive, real
 
-EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur')
+EFFICIENCY_MODELS: tuple[str, ...] = ('lever', 'spur', 'gear_train', 'planetary', 'worm',
+                                      'screw')
+#: The plants whose pinion is ``pinion_teeth`` (their mesh ripple's teeth).
+_PINION_PLANTS = ('spur', 'gear_train')
+#: Flank angle of the screw plant's thread [rad]: trapezoidal (ISO 2904, 30 deg included).
+SCREW_FLANK_ANGLE = float(np.deg2rad(15.0))
 
 
 @dataclass(frozen=True)
@@ -53,7 +73,8 @@ class Plant:
     pressure_angle [rad], bearing radii [m] (used only when efficiency_model == 'spur');
     direction_offset [-]: lever plant only, eta_I is the lever model's at u + direction_offset;
     mesh_teeth [-]: lever plant, teeth of the pinion on the motor shaft (the mesh ripple's
-    frequency is teeth x shaft speed; the spur plant's are ``pinion_teeth``).
+    frequency is teeth x shaft speed; the spur plant's are ``pinion_teeth``); lead_angle
+    [rad]: the worm and screw plants' lead angle.
     """
 
     ratio: float = float(RATIO.default)
@@ -69,6 +90,7 @@ class Plant:
     bearing_radius_2: float = 0.0
     direction_offset: float = 0.0
     mesh_teeth: float = 20.0
+    lead_angle: float = float(np.deg2rad(10.0))
 
     def __post_init__(self) -> None:
         positive('ratio', self.ratio)
@@ -83,8 +105,8 @@ class Plant:
             raise ValueError(f'direction_offset applies to the lever plant only (the spur '
                              f'plant has its own mismatch), got {offset!r} with '
                              f'{self.efficiency_model}')
-        if self.efficiency_model == 'spur':
-            self.spur_gear(0.0)  # geometry errors surface now, naming the field
+        if self.efficiency_model != 'lever':
+            self.reference_model(0.0)  # geometry errors surface now, naming the field
 
     def spur_gear(self, friction: ArrayLike) -> SpurGear:
         """Return the spur stage (pinion ``pinion_teeth``, wheel ``ratio * pinion_teeth``)."""
@@ -93,6 +115,37 @@ class Plant:
                         pressure_angle=self.pressure_angle, friction=friction,
                         bearing_radius_1=self.bearing_radius_1,
                         bearing_radius_2=self.bearing_radius_2)
+
+    def reference_model(self, friction: ArrayLike) -> (SpurGear | GearTrain | PlanetaryGearSet
+                                                       | WormGear | LeadScrew):
+        """Return the reference model of a plant other than ``lever`` (module docstring).
+
+        Its ratio is ``ratio``. Raises ValueError (a ModelError naming the field) for a
+        geometry the model refuses, e.g. a planetary ratio at most 2 or a worm ratio below 1.
+        """
+        model, ratio = self.efficiency_model, self.ratio
+        if model == 'spur':
+            return self.spur_gear(friction)
+        pinion = positive('pinion_teeth', self.pinion_teeth)
+        if model == 'gear_train':
+            stage = SpurGear(z1=pinion, z2=float(np.sqrt(ratio)) * pinion, module=self.module,
+                             pressure_angle=self.pressure_angle, friction=friction)
+            return GearTrain((stage, stage))
+        if model == 'planetary':
+            if not ratio > 2.0:
+                msg = (f'ratio of the planetary plant must be > 2 (1 + z_ring / z_sun), got '
+                       f'{ratio!r}')
+                raise ValueError(msg) from None
+            # R = 2 + 2 z_planet / z_sun: the smaller gear gets pinion_teeth
+            z_sun, z_planet = ((pinion, 0.5 * (ratio - 2.0) * pinion) if ratio >= 4.0
+                               else (2.0 * pinion / (ratio - 2.0), pinion))
+            return PlanetaryGearSet(z_sun, z_planet, module=self.module,
+                                    pressure_angle=self.pressure_angle, friction=friction)
+        if model == 'worm':
+            return WormGear(self.lead_angle, 1.0, ratio, self.pressure_angle, friction)
+        lead = 2.0 * np.pi / ratio
+        return LeadScrew(lead, lead / (np.pi * np.tan(self.lead_angle)),
+                         SCREW_FLANK_ANGLE, friction)
 
     def efficiencies(self, friction: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return (true lever u, eta_D, eta_I) [-] for the plant friction value(s) [-]."""
@@ -103,14 +156,16 @@ class Plant:
             shifted = u + self.direction_offset if self.direction_offset else u
             eta_i = np.asarray(eta_aiding(shifted, self.ratio))
         else:
-            eta_d, eta_i = (np.asarray(e) for e in self.spur_gear(friction).efficiencies())
+            eta_d, eta_i = (np.asarray(e)
+                            for e in self.reference_model(friction).efficiencies())
             u = np.asarray(u_from_eta_opposing(eta_d, self.ratio))
         return u, eta_d, eta_i
 
     @property
     def teeth(self) -> float:
-        """Teeth of the pinion on the motor shaft: ``mesh_teeth``, or the spur plant's."""
-        return float(self.pinion_teeth if self.efficiency_model == 'spur' else self.mesh_teeth)
+        """Teeth of the pinion on the motor shaft: ``mesh_teeth``, or the spur plants'."""
+        return float(self.pinion_teeth if self.efficiency_model in _PINION_PLANTS
+                     else self.mesh_teeth)
 
     def output_torque(self, position: ArrayLike, acceleration: ArrayLike,
                       scale: ArrayLike | None = None) -> np.ndarray:

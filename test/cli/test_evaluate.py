@@ -71,7 +71,7 @@ def test_evaluate_errors_are_one_line(bags, tmp_path: Path, capsys) -> None:
     assert 'no bag with topic gear_phm/health/rul' in capsys.readouterr().err
     assert main(['evaluate', str(run), '--truth', str(truth), '--u-max', '0.0',
                  '--eta-opposing-min', '0.1', '--eta-warn', '0.2',
-                 '--no-self-locking-eol']) == 2
+                 '--no-must-back-drive']) == 2
     assert 'never reaches u_eol' in capsys.readouterr().err
     assert main(['evaluate', str(run), '--truth', str(truth), '--eta-warn', '0.4']) == 2
     err = capsys.readouterr().err.strip()
@@ -144,7 +144,7 @@ def test_evaluate_without_levels_and_never_finite(bags, tmp_path: Path) -> None:
 def _life(truth: Path, onset: float | None, end_of_life: float | None, **extra) -> None:
     """Write a life.json as `simulate --random-life` does, beside the truth bag."""
     config = HealthConfig(ratio=3.0, eta_opposing_min=0.5)
-    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.self_locking_eol,
+    u_eol, _ = end_of_life_u(config.ratio, config.eta_opposing_min, config.must_back_drive,
                              config.u_max)
     life = {'seed': 1, 'family': 'linear', 'healthy': end_of_life is None, 'ratio': 3.0,
             'eta_opposing_min': 0.5, 'u_eol': u_eol, 'onset_s': onset,

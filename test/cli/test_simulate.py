@@ -148,7 +148,7 @@ def test_truth_every_and_joint_names(tmp_path: Path) -> None:
     (['--ratio', '0'], 'ratio must be in [1e-06, 1e+06]'),
     (['--friction-final', '0.3'], '--friction-final needs --wear linear, exponential or power'),
     (['--wear', 'linear', '--wear-rate', '1.0', '--duration', '10'], 'gearbox jams'),
-    (['--plant', 'worm'], 'plant must be one of lever, spur'),
+    (['--plant', 'hypoid'], 'plant must be one of lever, spur, gear_train, planetary, worm'),
     (['--noise-effort-load', '-0.1'], 'noise_effort_load must be in [0, 1e+09] N m'),
 ])
 def test_cli_errors_one_line_exit_2(tmp_path: Path, args: list[str], expected: str,

@@ -178,7 +178,7 @@ def test_seeded_and_chunk_invariant() -> None:
 
 def test_other_invalid_inputs() -> None:
     with pytest.raises(ValueError, match='efficiency_model'):
-        Plant(efficiency_model='worm')
+        Plant(efficiency_model='hypoid')
     with pytest.raises(ValueError, match='kind'):
         Wear('quadratic')
     with pytest.raises(ValueError, match='seed'):
