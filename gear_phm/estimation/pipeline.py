@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
+from gear_phm.estimation.fusion import WindowFusion
 from gear_phm.estimation.grouping import OnePerStamp
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.kalman import Adaptation, FrictionFilter
+from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.powerflow import classify
 from gear_phm.estimation.predictions import BatchCounts, predicted_estimates, PredictionBase
@@ -33,19 +34,16 @@ from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.state import PipelineState
 from gear_phm.estimation.status import (compose_status, LossPeriod, mark_suffixes,
                                         NOT_IDENTIFIABLE, StatusSnapshot)
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window
 from gear_phm.models.lever import efficiencies
-from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
+from gear_phm.models.power_flow import IMPOSSIBLE
 from gear_phm.parameters import refuse_read_only_changes
 from gear_phm.status import StatusOut
 
 #: Names other modules take from here (they live in the modules named in the docstring).
-__all__ = ['EVENTS', 'EstimatorPipeline', 'GAIN_RATE_MARGIN', 'MESSAGE_REASONS',
+__all__ = ['EVENTS', 'EstimatorPipeline', 'MESSAGE_REASONS',
            'MESSAGE_REASON_TEXT', 'NOT_IDENTIFIABLE', 'SAMPLE_REASONS', 'StatusSnapshot',
            'WINDOW_REASONS']
-
-#: The no-load filter's gains walk by this multiple of the wear rate (:meth:`_gain_rates`).
-GAIN_RATE_MARGIN = 3.0
 
 
 def _ns(seconds: float) -> int:
@@ -77,10 +75,6 @@ class _Samples:
 #: A mark still to snapshot in :meth:`EstimatorPipeline._emit`: (mark, the local position k
 #: of its sample, the counters of the samples from k on).
 _Pending = tuple[int, int, dict[str, int]]
-#: What :meth:`EstimatorPipeline._measure` made of a window: the measurement (or why none),
-#: the inertia correction and its variance, whether it may adapt the filter, and the no-load
-#: energy and its variance.
-_Measured = tuple[Measurement | str, tuple[float, float], bool, tuple[float, float]]
 
 
 class EstimatorPipeline:
@@ -128,27 +122,28 @@ class EstimatorPipeline:
     # --- state -------------------------------------------------------------------------------
     def _reset_estimator(self) -> None:
         c = self.config
-        self.filter = FrictionFilter(c.initial_u, c.initial_u_sigma, c.initial_rate_sigma,
-                                     c.process_noise, c.gate_threshold,
-                                     c.max_consecutive_gated, Adaptation(
-                                         adaptive=c.adaptive, adapt_memory=c.adapt_memory,
-                                         adapt_gain=c.adapt_gain, adapt_pull=c.adapt_pull,
-                                         mismatch_memory=c.mismatch_memory))
+        self._use(WindowFusion(c))
         self.integrator = EnergyIntegrator(
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
-        self.inertia = InertiaLearner(c.motor_inertia)
-        self.no_load = NoLoadLearner(c.no_load_tolerance, c.no_load_cool_gap,
-                                     c.no_load_reference_speed)
-        self.no_load_band = NoLoadBand(c.no_load_band_time, c.no_load_band_factor)
         self._origin_ns: int | None = None
         self._grid: int | None = None
         self._last_code = 0
-        self._last_eta = math.nan
         self._last_stamp: int | None = None
         self.timed_out = False
         self.grouping.carry = None
+
+    def _use(self, fusion: WindowFusion) -> None:
+        """Take the filter, the learned inertia and no-load loss of ``fusion`` as its own.
+
+        ``filter``, ``inertia``, ``no_load`` and ``no_load_band`` are its parts, by name.
+        """
+        self.fusion = fusion
+        self.filter: FrictionFilter = fusion.filter
+        self.inertia: InertiaLearner = fusion.inertia
+        self.no_load: NoLoadLearner = fusion.no_load
+        self.no_load_band: NoLoadBand = fusion.no_load_band
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Apply new settings and keep what was learned.
@@ -204,7 +199,7 @@ class EstimatorPipeline:
             dict(self.counts), self.samples_seen, self.samples_used, self.samples_rejected,
             self.samples_missing, self.windows_used, self.operating_time, self._max_stamp,
             self.grouping.last_stamp, self._origin_ns, self._grid, self._last_code,
-            self._last_eta, self._last_stamp, self.grouping.carry, self.filter.to_state(),
+            self.fusion.last_eta, self._last_stamp, self.grouping.carry, self.filter.to_state(),
             self.inertia.to_state(), self.integrator.to_state(), self.no_load.to_state(),
             self.no_load_band.to_state()).to_json()
 
@@ -223,21 +218,19 @@ class EstimatorPipeline:
         if restored.no_load is not None and restored.no_load_band is not None:
             fresh.no_load.from_state(restored.no_load)
             fresh.no_load_band.from_state(restored.no_load_band)
-        self.filter = fresh.filter
-        self.inertia = fresh.inertia
-        self.no_load = fresh.no_load
-        self.no_load_band = fresh.no_load_band
+        self._use(fresh.fusion)
+        self.fusion.last_eta = restored.last_eta
         self.integrator = fresh.integrator
         self.counts = dict(restored.counts)
         self.grouping.carry = restored.carry
         self.grouping.last_stamp = restored.last_group_stamp
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
          self.windows_used, self.operating_time, self._max_stamp, self._origin_ns, self._grid,
-         self._last_code, self._last_eta, self._last_stamp) = (
+         self._last_code, self._last_stamp) = (
             restored.samples_seen, restored.samples_used, restored.samples_rejected,
             restored.samples_missing, restored.windows_used, restored.operating_time,
             restored.max_stamp, restored.origin_ns, restored.grid, restored.last_code,
-            restored.last_eta, restored.last_stamp)
+            restored.last_stamp)
         self.loss.restart(self.samples_seen, self.samples_missing)
 
     def _t(self, stamp_ns: int) -> float:
@@ -642,7 +635,7 @@ class EstimatorPipeline:
         for window, run, close in zip([*windows, None], runs, closes.tolist()):
             if run.size:
                 take(int(run[-1]), run)
-                runs_at.append((len(outputs), run, self._prediction_base()))
+                runs_at.append((len(outputs), run, self.fusion.prediction_base()))
                 outputs += [None] * run.size
                 self._last_code = int(batch.code[run[-1]])
             if window is not None:
@@ -667,39 +660,6 @@ class EstimatorPipeline:
             return self._operating_before
         return float(self._operating_at[window.close_index - 1])
 
-    def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
-                  rejected: int | None = None, operating_time: float | None = None,
-                  measurement: tuple[float, float, float, float, float] | None = None
-                  ) -> FrictionEstimate:
-        """Return the record at ``stamp_ns``.
-
-        ``measurement``: (u [-], variance, operating time [s] at which it measures u, direction
-        share h [-], bias subtracted [-]) of the window fused for it, carried here with the rate.
-        """
-        u, rate = float(x[0]), float(x[1])
-        # each efficiency as its direction's windows read it: u plus that direction's bias
-        eta_d = efficiencies(u + self.filter.direction_bias(0), self.config.ratio)[0]
-        eta_i = efficiencies(u + self.filter.direction_bias(1), self.config.ratio)[1]
-        last = self.filter.last
-        at = self.operating_time if operating_time is None else operating_time
-        z = variance = h = bias = math.nan
-        if measurement is not None:
-            z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
-            h, bias = measurement[3], measurement[4]
-        torque, sigma, total = self._no_load_fields()
-        return FrictionEstimate(
-            stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
-            self._last_eta, last.innovation, last.innovation_variance, last.nis,
-            self.samples_used if used is None else used,
-            self.samples_rejected if rejected is None else rejected, self._last_code,
-            process_noise=self.filter.process_noise,
-            mismatch_variance=(self.filter.mismatch_variance(0),
-                               self.filter.mismatch_variance(1)),
-            operating_time=at, measurement=z, measurement_variance=variance,
-            direction_offset=self.filter.direction_offset, measurement_direction=h,
-            measurement_bias=bias, no_load_torque=torque, no_load_sigma=sigma,
-            total_efficiency=total)
-
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
                        deadband: np.ndarray | None, impossible: np.ndarray | None) -> np.ndarray:
@@ -715,139 +675,24 @@ class EstimatorPipeline:
             self.samples_rejected += int(np.count_nonzero(rejected))
         return rejected
 
-    def _apply_window(self, window: Window, code: int | None = None, used: int | None = None,
-                      rejected: int | None = None) -> list[FrictionEstimate]:
-        """Fuse a closed window into the filter; return its estimate (none if it gave none)."""
-        c = self.config
+    def _apply_window(self, window: Window, code: int, used: int, rejected: int
+                      ) -> list[FrictionEstimate]:
+        """Fuse a closed window; return its estimate (none if it gave none).
+
+        ``code``: the power flow of the sample that closed it; ``used``, ``rejected``: the
+        sample counts there.
+        """
         # the filter runs on operating time; a window is motion throughout, so its age
         # (half its duration) is the same in stamp and in operating time
         operating = self._window_operating_time(window)
-        measured = self._measure(window, operating)
-        if measured is None:
+        fused = self.fusion.fuse(window, operating, self.counts, self.quality,
+                                 self.on_measurement)
+        if fused is None:
             return []
-        result, inertia, informative, no_load = measured
-        if isinstance(result, str):
-            self.counts[result] += 1
-            return []
-        self.quality.add_window(result.eta, result.eta_variance)
-        direction = 0 if result.code == OPPOSING else 1
-        update = self.filter.update(result.u, result.u_variance, operating, direction,
-                                    0.5 * window.duration, informative)
-        self._last_eta = result.eta
-        if self.on_measurement is not None:
-            self.on_measurement(result, update.accepted)
-        if not update.accepted:
-            self.counts['gated'] += 1
-            return []
-        if update.reinitialised:
-            self.counts['gated'] += 1
-            self.counts['reinitialised'] += 1
         self.windows_used += 1
-        if code is not None:
-            self._last_code = code
-        if c.learn_motor_inertia:       # gear_phm.estimation.inertia
-            self.inertia.add(direction, window.t_end, window.motor_energy, window.load_energy,
-                             window.motor_kinetic, window.motor_energy_variance,
-                             window.load_energy_variance)
-        variance = self._applied_variance(window, result, inertia, no_load) \
-            + self.filter.mismatch_variance(direction)
-        # the measurement as fused: less its direction's learned offset d/2. The error of d is
-        # common to all windows, + for one direction and - for the other: it averages out of
-        # the wear trend, and is not added to each window's variance (adding it cut the RUL
-        # band's coverage on a spur wear life from 0.88 to 0.62, test_analyze_cli; adding it
-        # only while d was unsettled hid the first 14 s of wear of bags/fleet/unit_00)
-        return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
-                               used, rejected, operating,
-                               (result.u - update.bias, variance,
-                                operating - 0.5 * window.duration,
-                                0.5 if direction else -0.5, update.bias))]
-
-    def _measure(self, window: Window, operating: float) -> _Measured | None:
-        """Return what ``window`` measures, with the inertia and no-load corrections known now.
-
-        None for a window held because the no-load loss is not identified (counted).
-        """
-        c = self.config
-        inertia, informative = (0.0, 0.0), True
-        if c.learn_motor_inertia:       # the inertia not removed yet is in the variance
-            inertia = (self.inertia.correction[0],
-                       self.inertia.left_variance(window.motor_energy, window.motor_kinetic))
-            prior = self.inertia.prior(window.motor_energy, window.motor_kinetic)
-            # a window whose variance is mostly the inertia's prior does not adapt the filter
-            informative = prior is None \
-                or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
-        result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
-                                inertia)
-        no_load = (0.0, 0.0)
-        if c.no_load_model and isinstance(result, Measurement):
-            # the no-load part as known before this window (gear_phm.estimation.no_load); a
-            # window where it is not identified is held: it would read drag as friction
-            correction = self.no_load.observe(
-                0 if window.code == OPPOSING else 1, window.t_start, window.t_end, operating,
-                window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
-                window.motor_energy_variance, window.load_energy_variance,
-                window.motor_travel, window.motor_travel_square,
-                window.motion, self._gain_rates(), window.motor_kinetic)
-            if not correction.identified:
-                self.counts['not_identifiable'] += 1
-                return None
-            no_load = (correction.energy, correction.shared * correction.variance)
-            self.no_load_band.add(operating, self.no_load.estimate())
-            result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                    c.model_sigma, inertia, no_load)
-        return result, inertia, informative, no_load
-
-    def _applied_variance(self, window: Window, result: Measurement,
-                          inertia: tuple[float, float], no_load: tuple[float, float]) -> float:
-        """Return the u variance of ``result`` with the inertia correction applied since."""
-        u_variance = result.u_variance
-        if inertia[1] != self.inertia.correction[1]:
-            # the RUL's history takes the window with the applied correction's variance only:
-            # the inertia not applied yet is an error common to the windows of one position in
-            # the stroke, not an independent one, and weighing those windows down there hid
-            # the wear of a unit's first 14 s of operation (bags/fleet/unit_00: WARN at 16 s
-            # became WARN a week later, at its next recording)
-            c = self.config
-            applied = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                     c.model_sigma, self.inertia.correction, no_load)
-            if isinstance(applied, Measurement):
-                u_variance = applied.u_variance
-        return u_variance
-
-    def _gain_rates(self) -> tuple[float, float]:
-        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s].
-
-        :data:`GAIN_RATE_MARGIN` times the filter's |du/dt|: the rate lags a wear that speeds
-        up, and a gain that cannot follow the wear passes it into the no-load part.
-        """
-        u, rate = float(self.filter.x[0]), GAIN_RATE_MARGIN * float(self.filter.x[1])
-        r = self.config.ratio
-        if not (math.isfinite(u) and math.isfinite(rate) and u > -1.0):
-            return 0.0, 0.0
-        # d(1/eta_D)/du = R (R + 1) / (R - u)^2, d(eta_I)/du = -R (R + 1) / (R + u)^2
-        return (abs(rate) * r * (r + 1.0) / max(r - u, 1e-6) ** 2,
-                -abs(rate) * r * (r + 1.0) / (r + u) ** 2)
-
-    def _prediction_base(self) -> PredictionBase:
-        """Return what the estimates published before the next filter update are predicted from."""
-        f = self.filter
-        last = f.last
-        return PredictionBase(
-            f.x, f.P, math.inf if f.t is None else f.t,
-            f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
-            (self._last_eta, last.innovation, last.innovation_variance, last.nis),
-            (f.mismatch_variance(0), f.mismatch_variance(1)), self._no_load_fields())
-
-    def _no_load_fields(self) -> tuple[float, float, float]:
-        """Return an estimate's no-load torque, its std dev and the total efficiency (NaN off)."""
-        c = self.config
-        if not c.no_load_model:
-            return math.nan, math.nan, math.nan
-        learned = self.no_load.estimate()
-        eta_d = efficiencies(float(self.filter.x[0]) + self.filter.direction_bias(0),
-                             c.ratio)[0]
-        return (learned.torque, learned.torque_sigma,
-                learned.total_efficiency(eta_d, c.ratio, c.rated_load_torque, c.rated_speed))
+        self._last_code = code
+        return [self.fusion.estimate(self.stamp_ns(window.t_end), used, rejected, code,
+                                     operating, fused)]
 
     # --- reporting ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
@@ -858,7 +703,7 @@ class EstimatorPipeline:
         return {
             'u': float(x[0]), 'u_rate': float(x[1]), 'sigma_u': math.sqrt(max(p[0, 0], 0.0)),
             'eta_opposing': eta_d, 'eta_aiding': eta_i,
-            'last_measured_efficiency': self._last_eta,
+            'last_measured_efficiency': self.fusion.last_eta,
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
             'process_noise': self.filter.process_noise,
             'mismatch_sigma_opposing': math.sqrt(self.filter.mismatch_variance(0)),
@@ -880,23 +725,8 @@ class EstimatorPipeline:
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
             'windows_over_unity': self.quality.windows_over_unity,
             'over_unity': self.over_unity(),
-            **(self._no_load_summary(eta_d) if self.config.no_load_model else {}),
+            **(self.fusion.no_load_summary(eta_d) if self.config.no_load_model else {}),
         }
-
-    def _no_load_summary(self, eta_opposing: float) -> dict[str, float | bool | str]:
-        """Return the no-load loss and the total efficiency at the rated point (summary keys)."""
-        c = self.config
-        learned = self.no_load.estimate()
-        return {
-            'no_load_torque': learned.torque, 'no_load_torque_sigma': learned.torque_sigma,
-            'no_load_coulomb': learned.coulomb, 'no_load_viscous': learned.viscous,
-            'no_load_offset': learned.offset,
-            'no_load_reference_speed': learned.reference_speed,
-            'no_load_cold_torque': learned.cold_torque,
-            'no_load_identified': learned.identified,
-            'no_load_band': self.no_load_band.message(learned.torque),
-            'total_efficiency': learned.total_efficiency(eta_opposing, c.ratio,
-                                                         c.rated_load_torque, c.rated_speed)}
 
     @property
     def windows_measured(self) -> int:
