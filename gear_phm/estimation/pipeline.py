@@ -34,6 +34,7 @@ from gear_phm.estimation.stamps import Segment, StampScreen
 from gear_phm.estimation.state import PipelineState
 from gear_phm.estimation.status import (compose_status, LossPeriod, mark_suffixes,
                                         NOT_IDENTIFIABLE, StatusSnapshot)
+from gear_phm.estimation.timeline import Timeline
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window
 from gear_phm.models.lever import efficiencies
 from gear_phm.models.power_flow import IMPOSSIBLE
@@ -96,14 +97,8 @@ class EstimatorPipeline:
         self.windows_used = 0
         #: the evidence of a reversed sign, wrong units or a wrong ratio (not persisted)
         self.quality = DataQuality()
-        #: Time with motion [s]: sums of sample intervals (up to sensor_timeout) that end at a
-        #: moving, finite sample; idle time and gaps between recordings do not count. It is
-        #: the filter's time axis (the module docstring).
-        self.operating_time = 0.0
-        #: The current batch's operating time before its first sample and at each sample [s].
-        self._operating_before = 0.0
-        self._operating_at = np.zeros(0)
-        self._max_stamp: int | None = None
+        #: stamp time, the publish grid and operating time (the filter's time axis)
+        self.time = Timeline()
         #: the newest estimate's stamp, and a measurement carried to the next estimate
         self.grouping = OnePerStamp()
         self.screen = StampScreen(config.stamp_run, _ns(config.sensor_timeout),
@@ -127,11 +122,8 @@ class EstimatorPipeline:
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
-        self._origin_ns: int | None = None
-        self._grid: int | None = None
+        self.time.restart()
         self._last_code = 0
-        self._last_stamp: int | None = None
-        self.timed_out = False
         self.grouping.carry = None
 
     def _use(self, fusion: WindowFusion) -> None:
@@ -164,16 +156,15 @@ class EstimatorPipeline:
         refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
                                  'start a new pipeline')
         state = self.to_state()
-        kept = (self.loss.mark, self.timed_out)
+        kept = (self.loss.mark, self.time.timed_out)
         self.config = config
         self._reset_estimator()
         self.from_state(state)
-        self.loss.mark, self.timed_out = kept
+        self.loss.mark, self.time.timed_out = kept
         if config.process_noise != old.process_noise:
             self.filter.process_noise = self.filter.q_test = config.process_noise
-        if config.publish_rate != old.publish_rate and config.publish_rate > 0.0 \
-                and self._last_stamp is not None and self._origin_ns is not None:
-            self._grid = math.floor(self._t(self._last_stamp) * config.publish_rate)
+        if config.publish_rate != old.publish_rate:
+            self.time.regrid(config.publish_rate)
         self.screen.configure(config.stamp_run, _ns(config.sensor_timeout),
                               _ns(config.period_hold), config.backwards_policy == 'reset')
 
@@ -184,7 +175,7 @@ class EstimatorPipeline:
         time origin start afresh, as after a run of stamps far back; the counters stay.
         """
         self._reset_estimator()
-        self._max_stamp = None
+        self.time.max_stamp = None
 
     def to_state(self) -> dict[str, Any]:
         """Return what a restart needs to continue as if it never stopped (JSON-safe).
@@ -195,11 +186,12 @@ class EstimatorPipeline:
         Kept too: the open energy window and the previous sample, so that a restart loses no
         sample. Not kept: the stamp screen's learnt period (relearnt from the next samples).
         """
+        time = self.time
         return PipelineState(
             dict(self.counts), self.samples_seen, self.samples_used, self.samples_rejected,
-            self.samples_missing, self.windows_used, self.operating_time, self._max_stamp,
-            self.grouping.last_stamp, self._origin_ns, self._grid, self._last_code,
-            self.fusion.last_eta, self._last_stamp, self.grouping.carry, self.filter.to_state(),
+            self.samples_missing, self.windows_used, time.operating_time, time.max_stamp,
+            self.grouping.last_stamp, time.origin_ns, time.grid, self._last_code,
+            self.fusion.last_eta, time.last_stamp, self.grouping.carry, self.filter.to_state(),
             self.inertia.to_state(), self.integrator.to_state(), self.no_load.to_state(),
             self.no_load_band.to_state()).to_json()
 
@@ -225,23 +217,31 @@ class EstimatorPipeline:
         self.grouping.carry = restored.carry
         self.grouping.last_stamp = restored.last_group_stamp
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
-         self.windows_used, self.operating_time, self._max_stamp, self._origin_ns, self._grid,
-         self._last_code, self._last_stamp) = (
+         self.windows_used, self._last_code) = (
             restored.samples_seen, restored.samples_used, restored.samples_rejected,
-            restored.samples_missing, restored.windows_used, restored.operating_time,
-            restored.max_stamp, restored.origin_ns, restored.grid, restored.last_code,
+            restored.samples_missing, restored.windows_used, restored.last_code)
+        time = self.time
+        (time.operating_time, time.max_stamp, time.origin_ns, time.grid, time.last_stamp) = (
+            restored.operating_time, restored.max_stamp, restored.origin_ns, restored.grid,
             restored.last_stamp)
         self.loss.restart(self.samples_seen, self.samples_missing)
 
-    def _t(self, stamp_ns: int) -> float:
-        assert self._origin_ns is not None      # _process sets it before any _t
-        return (stamp_ns - self._origin_ns) * 1e-9
-
     def stamp_ns(self, t: float) -> int:
-        """Return the stamp [ns] of pipeline time ``t`` [s] (times count from the first sample)."""
-        if self._origin_ns is None:
-            raise ValueError('no sample yet: pipeline time has no origin')
-        return self._origin_ns + int(round(t * 1e9))
+        """Return the stamp [ns] of pipeline time ``t`` [s] (times count from the first sample).
+
+        Raises ValueError before the first sample.
+        """
+        return self.time.stamp_ns(t)
+
+    @property
+    def operating_time(self) -> float:
+        """Return the time with motion so far [s], the filter's time axis (the module doc)."""
+        return self.time.operating_time
+
+    @property
+    def timed_out(self) -> bool:
+        """Return whether no sample came for ``sensor_timeout`` (:meth:`on_silence`)."""
+        return self.time.timed_out
 
     # --- inputs ------------------------------------------------------------------------------
     def reject_message(self, reason: str, count: int = 1) -> None:
@@ -429,12 +429,8 @@ class EstimatorPipeline:
         Sample stamps and the caller's clock may be in different time bases (a replayed bag
         without use_sim_time), so they are never mixed. Returns an empty list.
         """
-        if self._last_stamp is None or self._origin_ns is None:
-            return []
-        if silence_s <= self.config.sensor_timeout or self.timed_out:
-            return []
-        self.timed_out = True
-        self.counts['timeout'] += 1
+        if self.time.silence(silence_s, self.config.sensor_timeout):
+            self.counts['timeout'] += 1
         return []
 
     def next_output_stamp(self) -> int | None:
@@ -443,10 +439,7 @@ class EstimatorPipeline:
         That sample gives an output (None before the first sample or with publish_rate 0). A live
         node can process at once a sample that reaches it, for low latency.
         """
-        rate = self.config.publish_rate
-        if rate <= 0.0 or self._origin_ns is None or self._grid is None:
-            return None
-        return self._origin_ns + math.ceil((self._grid + 1) / rate * 1e9)
+        return self.time.next_output_stamp(self.config.publish_rate)
 
     # --- core --------------------------------------------------------------------------------
     def _process(self, stamps: np.ndarray, arrays: list[np.ndarray], prior: np.ndarray,
@@ -468,18 +461,19 @@ class EstimatorPipeline:
         duplicate = stamps == prior
         backwards = stamps < prior
         timely = ~(duplicate | backwards)
-        if self._origin_ns is None:
+        if self.time.origin_ns is None:
             first = np.flatnonzero(timely)
             if first.size == 0:
                 return [], self._untimely(duplicate, backwards, marks)
-            self._origin_ns = int(stamps[first[0]])
-        t = (stamps - self._origin_ns) * 1e-9
+            self.time.origin_ns = int(stamps[first[0]])
+        t = (stamps - self.time.origin_ns) * 1e-9
         w_m, tau_m, w_l, tau_l = arrays
         s = self._classify(arrays, timely)
         self.quality.add_samples(w_m, w_l, s.p_m, s.p_l, s.ok & ~s.zero_speed,
                                  s.ok & (s.code != 0), s.impossible)
-        gap_at = self._advance_time(stamps, t, timely, s, bool(marks))
-        self._max_stamp = int(max(stamps.max(), self._max_stamp or stamps.max()))
+        n_gaps, gap_at = self.time.advance(stamps, t, timely, ~s.zero_speed & s.finite,
+                                           self.config.sensor_timeout, bool(marks))
+        self.counts['timeout'] += n_gaps
         with np.errstate(invalid='ignore', over='ignore'):
             windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, s.code, s.usable)
         self.counts['short_window'] += self.integrator.dropped_short
@@ -488,14 +482,14 @@ class EstimatorPipeline:
         masks = {'duplicate_stamp': duplicate, 'backwards': backwards,
                  'nonfinite': s.nonfinite, 'zero_speed': s.zero_speed,
                  'deadband': s.deadband, 'impossible': s.impossible}
-        publish = self._publish_positions(t, timely)
+        publish = self.time.publish_positions(t, timely, self.config.publish_rate)
         suffixes = mark_suffixes([k for _, k in marks], masks, used_cum, plain_cum, gap_at,
                                  short_at)
         for suffix, after in zip(suffixes, dropped_after):
             for key in ('duplicate_stamp', 'samples_seen', 'samples_rejected'):
                 suffix[key] += after
         outputs, marked = self._emit(
-            BatchCounts(stamps, s.code, used_cum, rejected_cum, self._operating_at), windows,
+            BatchCounts(stamps, s.code, used_cum, rejected_cum, self.time.operating_at), windows,
             publish, [(mark, k, suffix) for (mark, k), suffix in zip(marks, suffixes)])
         last_timely = np.flatnonzero(timely)
         if last_timely.size:
@@ -537,38 +531,6 @@ class EstimatorPipeline:
                         ok & (code == 0) & ~zero_speed, ok & (code == IMPOSSIBLE),
                         ok & (code > 0))
 
-    def _advance_time(self, stamps: np.ndarray, t: np.ndarray, timely: np.ndarray,
-                      samples: _Samples, marked: bool) -> np.ndarray:
-        """Count the sensor timeouts and add the operating time of a batch's samples.
-
-        Returns the positions of the samples after a timeout (only when ``marked``: the
-        marks' counters need them).
-        """
-        t_ok = t[timely]
-        gap_at = np.empty(0, dtype=np.int64)
-        operating = np.zeros(stamps.size)   # each sample's operating-time contribution [s]
-        if t_ok.size:                       # timeouts: gaps between consecutive timely samples
-            last = self._t(self._last_stamp) if self._last_stamp is not None else t_ok[0]
-            steps = np.diff(np.concatenate(([last], t_ok)))
-            gaps = steps > self.config.sensor_timeout
-            # operating time: sample intervals that end in motion, not across a gap
-            operating[timely] = np.where(~gaps & ~samples.zero_speed[timely]
-                                         & samples.finite[timely], steps, 0.0)
-            n_gaps = int(np.count_nonzero(gaps))
-            if self.timed_out and gaps[0]:
-                n_gaps -= 1         # already counted by on_silence
-                gaps[0] = False
-            self.counts['timeout'] += n_gaps
-            if marked:
-                gap_at = np.flatnonzero(timely)[gaps]
-            self.timed_out = False
-            self._last_stamp = int(stamps[timely][-1])
-        # the filter's time axis: cumulative operating time at each sample [s]
-        self._operating_before = self.operating_time
-        self._operating_at = self.operating_time + np.cumsum(operating)
-        self.operating_time = float(self._operating_at[-1])
-        return gap_at
-
     def _tally(self, duplicate: np.ndarray, backwards: np.ndarray, samples: _Samples,
                dropped: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Count a batch's samples by reason; return the cumulative counts at each sample.
@@ -589,20 +551,6 @@ class EstimatorPipeline:
         self.samples_used = int(used_cum[-1])
         self.samples_rejected = int(rejected_cum[-1])
         return used_cum, plain_cum, rejected_cum
-
-    def _publish_positions(self, t: np.ndarray, timely: np.ndarray) -> np.ndarray:
-        """Return the samples that cross the ``publish_rate`` grid in sample time."""
-        rate = self.config.publish_rate
-        if not rate > 0.0:
-            return np.empty(0, dtype=np.int64)
-        cell = np.where(timely, np.floor(t * rate), -np.inf)
-        cell = np.maximum.accumulate(cell)
-        prev = np.concatenate(([self._grid if self._grid is not None else -np.inf],
-                               cell[:-1]))
-        publish = np.flatnonzero(timely & (cell > prev))
-        if np.isfinite(cell[-1]):
-            self._grid = int(cell[-1])
-        return publish
 
     def _emit(self, batch: BatchCounts, windows: list[Window], publish: np.ndarray,
               pending: list[_Pending]
@@ -651,15 +599,6 @@ class EstimatorPipeline:
                 outputs[at:at + run.size] = estimates
         return [output for output in outputs if output is not None], marked
 
-    def _window_operating_time(self, window: Window) -> float:
-        """Operating time [s] at the last sample of ``window``, closed by the current batch.
-
-        That sample is the one before ``close_index``, or, at 0, the previous batch's last.
-        """
-        if window.close_index <= 0:
-            return self._operating_before
-        return float(self._operating_at[window.close_index - 1])
-
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
                        deadband: np.ndarray | None, impossible: np.ndarray | None) -> np.ndarray:
@@ -684,7 +623,7 @@ class EstimatorPipeline:
         """
         # the filter runs on operating time; a window is motion throughout, so its age
         # (half its duration) is the same in stamp and in operating time
-        operating = self._window_operating_time(window)
+        operating = self.time.operating_at_close(window.close_index)
         fused = self.fusion.fuse(window, operating, self.counts, self.quality,
                                  self.on_measurement)
         if fused is None:
