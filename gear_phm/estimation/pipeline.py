@@ -14,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 import math
-from typing import Any
 
 import numpy as np
 
@@ -31,9 +30,9 @@ from gear_phm.estimation.reasons import (ALL_REASONS, EVENTS, MESSAGE_REASON_TEX
                                          MESSAGE_REASONS, SAMPLE_REASONS, WINDOW_REASONS)
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
-from gear_phm.estimation.state import PipelineState
+from gear_phm.estimation.state import PipelineState, StateDict
 from gear_phm.estimation.status import (compose_status, LossPeriod, mark_suffixes,
-                                        NOT_IDENTIFIABLE, StatusSnapshot)
+                                        NOT_IDENTIFIABLE, StatusSnapshot, SummaryValues)
 from gear_phm.estimation.timeline import Timeline
 from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window
 from gear_phm.models.lever import efficiencies
@@ -177,7 +176,7 @@ class EstimatorPipeline:
         self._reset_estimator()
         self.time.max_stamp = None
 
-    def to_state(self) -> dict[str, Any]:
+    def to_state(self) -> StateDict:
         """Return what a restart needs to continue as if it never stopped (JSON-safe).
 
         The filter, counters, operating time and stamp origin (see :mod:`gear_phm.persistence`;
@@ -634,7 +633,7 @@ class EstimatorPipeline:
                                      operating, fused)]
 
     # --- reporting ---------------------------------------------------------------------------
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> SummaryValues:
         """Return the final estimate and counters (JSON-friendly)."""
         x, p = self.filter.x, self.filter.P
         eta_d = efficiencies(float(x[0]) + self.filter.direction_bias(0), self.config.ratio)[0]

@@ -23,8 +23,9 @@ from typing import Any
 
 from gear_phm.persistence import decode_float, encode_float
 
-#: A part's own state, as its ``to_state()`` writes it and its ``from_state()`` reads it.
-PartState = dict[str, Any]
+#: A state as a ``to_state()`` writes it and its ``from_state()`` reads it: the pipeline's and
+#: each of its parts' (JSON-safe, of values of several types, read by key).
+StateDict = dict[str, Any]
 #: A measurement carried to the next estimate: u [-], its variance [-^2], the operating time
 #: it holds at [s], its direction share h [-] and the bias subtracted from it [-].
 Carry = tuple[float, float, float, float, float]
@@ -43,7 +44,7 @@ def _stamp(value: object) -> int | None:
     return None if value is None else _integer(value)
 
 
-def _part(value: object) -> PartState:
+def _part(value: object) -> StateDict:
     """Return a part's state object; TypeError for what is not one."""
     if not isinstance(value, dict):
         msg = f'expected an object, got {value!r}'
@@ -90,11 +91,11 @@ class PipelineState:
     last_eta: float
     last_stamp: int | None
     carry: Carry | None
-    kalman: PartState
-    inertia: PartState | None
-    window: PartState | None
-    no_load: PartState | None
-    no_load_band: PartState | None
+    kalman: StateDict
+    inertia: StateDict | None
+    window: StateDict | None
+    no_load: StateDict | None
+    no_load_band: StateDict | None
 
     def to_json(self) -> dict[str, object]:
         """Return the JSON-safe layout of the module docstring (every part present)."""

@@ -22,6 +22,9 @@ from gear_phm.estimation.reasons import count_keys
 from gear_phm.estimation.summary import stalled_stamps
 from gear_phm.status import format_values, OK, StatusOut, WARN
 
+#: The estimator's summary values (``EstimatorPipeline.summary``): numbers, flags, texts and
+#: the counters by reason, read by key.
+SummaryValues = dict[str, Any]
 #: The summary values of the estimator's status, in its order (after messages_received).
 STATUS_SUMMARY_KEYS = (
     'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
@@ -50,7 +53,7 @@ class StatusSnapshot:
 
     position: int
     estimates: int
-    values: dict[str, Any]
+    values: SummaryValues
 
     def without_messages(self, reasons: Sequence[str]) -> StatusSnapshot:
         """Return this snapshot without the rejected messages ``reasons`` (counted later)."""
@@ -88,7 +91,7 @@ class LossPeriod:
         return self.ratio
 
 
-def _level_and_message(summary: Mapping[str, Any], gated: int) -> tuple[int, str]:
+def _level_and_message(summary: SummaryValues, gated: int) -> tuple[int, str]:
     """Return the status level and message the filter's progress gives."""
     counts = summary['counts']
     if summary['timed_out']:
@@ -114,7 +117,7 @@ def _level_and_message(summary: Mapping[str, Any], gated: int) -> tuple[int, str
     return level, message
 
 
-def compose_status(summary: Mapping[str, Any], name: str, *, gated: int, loss: float,
+def compose_status(summary: SummaryValues, name: str, *, gated: int, loss: float,
                    loss_warn: float, no_load_model: bool,
                    messages_received: int | None = None) -> StatusOut:
     """Return the DiagnosticStatus record: level, message, estimate and counters by reason.
