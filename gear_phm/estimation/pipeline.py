@@ -11,88 +11,39 @@ across the idle gap between two recordings. Energy windows run on stamp time.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-import functools
-import itertools
 import math
-import operator
-from typing import Any, cast
 
 import numpy as np
 
 from gear_phm.estimation.config import EstimatorConfig, PARAMETERS
+from gear_phm.estimation.fusion import WindowFusion
+from gear_phm.estimation.grouping import OnePerStamp
 from gear_phm.estimation.inertia import InertiaLearner
-from gear_phm.estimation.kalman import (Adaptation, FrictionFilter, OFFSET_DRIFT_Z,
-                                        predicted_stacked)
+from gear_phm.estimation.kalman import FrictionFilter
 from gear_phm.estimation.no_load import NoLoadBand, NoLoadLearner
 from gear_phm.estimation.powerflow import classify
+from gear_phm.estimation.predictions import BatchCounts, predicted_estimates, PredictionBase
+from gear_phm.estimation.quality import DataQuality
+from gear_phm.estimation.reasons import (ALL_REASONS, EVENTS, MESSAGE_REASON_TEXT,
+                                         MESSAGE_REASONS, SAMPLE_REASONS, WINDOW_REASONS)
 from gear_phm.estimation.records import FrictionEstimate, JointSample
 from gear_phm.estimation.stamps import Segment, StampScreen
-from gear_phm.estimation.summary import stalled_stamps
-from gear_phm.estimation.windows import EnergyIntegrator, Measurement, to_measurement, Window
-from gear_phm.models.lever import efficiencies, efficiencies_array
-from gear_phm.models.power_flow import IMPOSSIBLE, OPPOSING
+from gear_phm.estimation.state import PipelineState, StateDict
+from gear_phm.estimation.status import (compose_status, LossPeriod, mark_suffixes,
+                                        NOT_IDENTIFIABLE, StatusSnapshot, SummaryValues)
+from gear_phm.estimation.timeline import Timeline
+from gear_phm.estimation.windows import EnergyIntegrator, Measurement, Window
+from gear_phm.models.lever import efficiencies
+from gear_phm.models.power_flow import IMPOSSIBLE
 from gear_phm.parameters import refuse_read_only_changes
-from gear_phm.persistence import decode_float, encode_float
-from gear_phm.status import format_values, OK, StatusOut, WARN
+from gear_phm.status import StatusOut
 
-#: Per-sample rejection reasons (each counts into "samples rejected").
-SAMPLE_REASONS = ('nonfinite', 'zero_speed', 'deadband', 'impossible', 'backwards',
-                  'future', 'duplicate_stamp')
-#: Message-level reasons (a message that gives no sample at all).
-MESSAGE_REASONS = ('missing_joint', 'short_arrays', 'truncated', 'bad_encoding', 'bad_message')
-#: What each message-level reason means, for error messages (gear_phm.codec decides them).
-MESSAGE_REASON_TEXT = {
-    'missing_joint': 'without one of the joint names',
-    'short_arrays': 'whose velocity or effort array is too short for the joints (not published?)',
-    'truncated': 'truncated', 'bad_encoding': 'not in little-endian CDR',
-    'bad_message': 'not a readable JointState'}
-#: Window / measurement reasons and events (do not count as rejected samples).
-WINDOW_REASONS = ('short_window', 'low_energy', 'wrong_energy_sign', 'out_of_domain', 'gated',
-                  'not_identifiable')
-EVENTS = ('timeout', 'stamp_reset', 'reinitialised')
-#: The summary values of the estimator's status, in its order (after messages_received).
-_STATUS_SUMMARY_KEYS = (
-    'u', 'sigma_u', 'eta_opposing', 'eta_aiding', 'filter_updates', 'samples_used',
-    'samples_rejected', 'samples_missing', 'sample_period_s', 'process_noise',
-    'mismatch_sigma_opposing', 'mismatch_sigma_aiding', 'direction_offset',
-    'direction_offset_sigma', 'direction_offset_drift_z', 'motor_inertia', 'operating_time_s')
-_STATUS_SUMMARY = operator.itemgetter(*_STATUS_SUMMARY_KEYS)
-#: With ``no_load_model``, the status also holds these summary values, after the others.
-_NO_LOAD_STATUS_KEYS = ('no_load_torque', 'no_load_torque_sigma', 'no_load_coulomb',
-                        'no_load_viscous', 'no_load_offset', 'no_load_identified',
-                        'total_efficiency')
-
-
-@functools.lru_cache(maxsize=16)
-def _count_keys(reasons: tuple[str, ...]) -> tuple[str, ...]:
-    """Return the status keys of the counters ``reasons`` (windows, events, drops)."""
-    return tuple(f'windows_rejected_{reason}' if reason in WINDOW_REASONS
-                 else f'events_{reason}' if reason in EVENTS else f'dropped_{reason}'
-                 for reason in reasons)
-
-
-#: The no-load filter's gains walk by this multiple of the wear rate (:meth:`_gain_rates`).
-GAIN_RATE_MARGIN = 3.0
-#: The status message while windows are held because the no-load loss is not identified.
-NOT_IDENTIFIABLE = ('no-load loss not identifiable (the load does not vary enough to tell it '
-                    'from friction): u held')
-
-
-#: :meth:`EstimatorPipeline.reversed_torque`: the share of samples out of the deadband that
-#: give out power at both shafts, and their least number, from which a sign looks reversed.
-REVERSED_SHARE = 0.25
-REVERSED_MIN = 200
-#: :meth:`EstimatorPipeline.ratio_check`: the relative difference between the ratio parameter
-#: and the speeds' ratio that is reported, from this many moving samples.
-RATIO_CHECK_TOLERANCE = 0.02
-RATIO_CHECK_MIN = 500
-#: :meth:`EstimatorPipeline.over_unity`: a window's efficiency this many sigma above 1 is
-#: impossible; from this share of the measured windows, and this many, it is reported.
-OVER_UNITY_Z = 5.0
-OVER_UNITY_SHARE = 0.25
-OVER_UNITY_MIN = 5
+#: Names other modules take from here (they live in the modules named in the docstring).
+__all__ = ['EVENTS', 'EstimatorPipeline', 'MESSAGE_REASONS',
+           'MESSAGE_REASON_TEXT', 'NOT_IDENTIFIABLE', 'SAMPLE_REASONS', 'StatusSnapshot',
+           'WINDOW_REASONS']
 
 
 def _ns(seconds: float) -> int:
@@ -100,48 +51,30 @@ def _ns(seconds: float) -> int:
 
 
 @dataclass(frozen=True)
-class StatusSnapshot:
-    """What :meth:`EstimatorPipeline.status` reports, as of a mark inside a batch.
+class _Samples:
+    """A batch's samples by power flow and by rejection reason (:meth:`_classify`).
 
-    ``position``: the mark (a position in the arrays given to
-    :meth:`EstimatorPipeline.on_batch_marked`); ``estimates``: how many of that call's
-    estimates came from samples before it; ``values``: :meth:`EstimatorPipeline.summary` as of
-    the mark, plus ``consecutive_gated``.
+    The shaft powers ``p_m``, ``p_l`` [W], the power-flow ``code`` (0 for non-finite values)
+    and masks: ``finite`` values, ``ok`` (timely and finite), and of those the rejected
+    (``zero_speed``, ``deadband``, ``impossible``) and the ``usable``; ``nonfinite``: timely
+    samples that are not finite.
     """
 
-    position: int
-    estimates: int
-    values: dict[str, Any]
-
-    def without_messages(self, reasons: Sequence[str]) -> StatusSnapshot:
-        """Return this snapshot without the rejected messages ``reasons`` (counted later)."""
-        if not reasons:
-            return self
-        values = dict(self.values)
-        counts = dict(values['counts'])
-        for reason in reasons:
-            counts[reason if reason in counts else 'bad_message'] -= 1
-        values['counts'] = counts
-        values['samples_rejected'] -= len(reasons)
-        return replace(self, values=values)
+    p_m: np.ndarray
+    p_l: np.ndarray
+    code: np.ndarray
+    finite: np.ndarray
+    nonfinite: np.ndarray
+    ok: np.ndarray
+    zero_speed: np.ndarray
+    deadband: np.ndarray
+    impossible: np.ndarray
+    usable: np.ndarray
 
 
-@dataclass(frozen=True)
-class _PredictionBase:
-    """A filter state the published estimates until the next update are predicted from.
-
-    Its x, P, time t [s] (inf: none yet), q [1/s^3], each direction's bias, the newest window's
-    efficiency and the last update's innovation, its variance and NIS, the mismatch variances.
-    """
-
-    x: np.ndarray
-    p: np.ndarray
-    t: float
-    q: float
-    bias: tuple[float, float]
-    fixed: tuple[float, float, float, float]
-    mismatch: tuple[float, float]
-    no_load: tuple[float, float, float]
+#: A mark still to snapshot in :meth:`EstimatorPipeline._emit`: (mark, the local position k
+#: of its sample, the counters of the samples from k on).
+_Pending = tuple[int, int, dict[str, int]]
 
 
 class EstimatorPipeline:
@@ -155,73 +88,53 @@ class EstimatorPipeline:
                  on_measurement: Callable[[Measurement, bool], None] | None = None) -> None:
         self.config = config
         self.on_measurement = on_measurement
-        self.counts: dict[str, int] = dict.fromkeys(
-            SAMPLE_REASONS + MESSAGE_REASONS + WINDOW_REASONS + EVENTS, 0)
+        self.counts: dict[str, int] = dict.fromkeys(ALL_REASONS, 0)
         self.samples_seen = 0
         self.samples_used = 0
         self.samples_rejected = 0
         self.samples_missing = 0
         self.windows_used = 0
-        #: samples out of the power deadband; of them, those giving out power at both shafts
-        #: (``impossible``), and of those, the ones whose load power is the larger
-        #: (:meth:`reversed_torque`)
-        self.power_samples = 0
-        self.impossible_samples = 0
-        self.impossible_load_larger = 0
-        #: windows measured, those whose efficiency is above 1 by OVER_UNITY_Z sigma, and the
-        #: largest of these (:meth:`over_unity`)
-        self.windows_measured = 0
-        self.windows_over_unity = 0
-        self.largest_efficiency = 0.0
-        #: moving samples, and their sums of w_m w_l and w_l^2 (:meth:`ratio_check`)
-        self.speed_samples = 0
-        self.speed_products = 0.0
-        self.load_speed_squares = 0.0
-        #: Time with motion [s]: sums of sample intervals (up to sensor_timeout) that end at a
-        #: moving, finite sample; idle time and gaps between recordings do not count. It is
-        #: the filter's time axis (the module docstring).
-        self.operating_time = 0.0
-        #: The current batch's operating time before its first sample and at each sample [s].
-        self._operating_before = 0.0
-        self._operating_at = np.zeros(0)
-        self._max_stamp: int | None = None
-        self._last_group_stamp: int | None = None     # stamp of the newest estimate [ns]
+        #: the evidence of a reversed sign, wrong units or a wrong ratio (not persisted)
+        self.quality = DataQuality()
+        #: stamp time, the publish grid and operating time (the filter's time axis)
+        self.time = Timeline()
+        #: the newest estimate's stamp, and a measurement carried to the next estimate
+        self.grouping = OnePerStamp()
         self.screen = StampScreen(config.stamp_run, _ns(config.sensor_timeout),
                                   _ns(config.period_hold), config.backwards_policy == 'reset')
         #: Samples held by the screen for a run: (stamps, [4 value arrays]).
         self._held: tuple[np.ndarray, list[np.ndarray]] | None = None
-        self._status_mark = (0, 0)        # samples_seen, samples_missing at the last status
-        self.loss_ratio = 0.0             # share of samples missing over the last period
+        #: the share of samples missing over the last status period
+        self.loss = LossPeriod()
         self._reset_estimator()
+
+    @property
+    def loss_ratio(self) -> float:
+        """Return the share of samples missing over the last status period (:meth:`status`)."""
+        return self.loss.ratio
 
     # --- state -------------------------------------------------------------------------------
     def _reset_estimator(self) -> None:
         c = self.config
-        self.filter = FrictionFilter(c.initial_u, c.initial_u_sigma, c.initial_rate_sigma,
-                                     c.process_noise, c.gate_threshold,
-                                     c.max_consecutive_gated, Adaptation(
-                                         adaptive=c.adaptive, adapt_memory=c.adapt_memory,
-                                         adapt_gain=c.adapt_gain, adapt_pull=c.adapt_pull,
-                                         mismatch_memory=c.mismatch_memory))
+        self._use(WindowFusion(c))
         self.integrator = EnergyIntegrator(
             c.window, c.sensor_timeout, c.motor_inertia, c.load_inertia,
             (c.motor_torque_noise, c.motor_speed_noise, c.load_torque_noise,
              c.load_speed_noise), min_duration=c.min_window)
-        self.inertia = InertiaLearner(c.motor_inertia)
-        self.no_load = NoLoadLearner(c.no_load_tolerance, c.no_load_cool_gap,
-                                     c.no_load_reference_speed)
-        self.no_load_band = NoLoadBand(c.no_load_band_time, c.no_load_band_factor)
-        self._origin_ns: int | None = None
-        self._grid: int | None = None
+        self.time.restart()
         self._last_code = 0
-        self._last_eta = math.nan
-        self._last_stamp: int | None = None
-        self.timed_out = False
-        #: A measurement whose estimate was dropped (same stamp as the one before), for the
-        #: next estimate: (u [-], variance [-^2], operating time it holds at [s], direction
-        #: share h [-], bias subtracted [-]; FrictionEstimate's measurement_direction and
-        #: measurement_bias).
-        self._carry: tuple[float, float, float, float, float] | None = None
+        self.grouping.carry = None
+
+    def _use(self, fusion: WindowFusion) -> None:
+        """Take the filter, the learned inertia and no-load loss of ``fusion`` as its own.
+
+        ``filter``, ``inertia``, ``no_load`` and ``no_load_band`` are its parts, by name.
+        """
+        self.fusion = fusion
+        self.filter: FrictionFilter = fusion.filter
+        self.inertia: InertiaLearner = fusion.inertia
+        self.no_load: NoLoadLearner = fusion.no_load
+        self.no_load_band: NoLoadBand = fusion.no_load_band
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Apply new settings and keep what was learned.
@@ -242,16 +155,15 @@ class EstimatorPipeline:
         refuse_read_only_changes(PARAMETERS, old.as_dict(), config.as_dict(),
                                  'start a new pipeline')
         state = self.to_state()
-        kept = (self._status_mark, self.timed_out)
+        kept = (self.loss.mark, self.time.timed_out)
         self.config = config
         self._reset_estimator()
         self.from_state(state)
-        self._status_mark, self.timed_out = kept
+        self.loss.mark, self.time.timed_out = kept
         if config.process_noise != old.process_noise:
             self.filter.process_noise = self.filter.q_test = config.process_noise
-        if config.publish_rate != old.publish_rate and config.publish_rate > 0.0 \
-                and self._last_stamp is not None and self._origin_ns is not None:
-            self._grid = math.floor(self._t(self._last_stamp) * config.publish_rate)
+        if config.publish_rate != old.publish_rate:
+            self.time.regrid(config.publish_rate)
         self.screen.configure(config.stamp_run, _ns(config.sensor_timeout),
                               _ns(config.period_hold), config.backwards_policy == 'reset')
 
@@ -262,82 +174,73 @@ class EstimatorPipeline:
         time origin start afresh, as after a run of stamps far back; the counters stay.
         """
         self._reset_estimator()
-        self._max_stamp = None
+        self.time.max_stamp = None
 
-    def to_state(self) -> dict[str, Any]:
+    def to_state(self) -> StateDict:
         """Return what a restart needs to continue as if it never stopped (JSON-safe).
 
-        The filter, counters, operating time and stamp origin (see :mod:`gear_phm.persistence`).
+        The filter, counters, operating time and stamp origin (see :mod:`gear_phm.persistence`;
+        the layout: :mod:`gear_phm.estimation.state`).
 
         Kept too: the open energy window and the previous sample, so that a restart loses no
         sample. Not kept: the stamp screen's learnt period (relearnt from the next samples).
         """
-        return {
-            'filter': self.filter.to_state(), 'counts': dict(self.counts),
-            'samples_seen': self.samples_seen, 'samples_used': self.samples_used,
-            'samples_rejected': self.samples_rejected,
-            'samples_missing': self.samples_missing, 'windows_used': self.windows_used,
-            'operating_time': encode_float(self.operating_time),
-            'max_stamp': self._max_stamp, 'last_group_stamp': self._last_group_stamp,
-            'origin_ns': self._origin_ns, 'grid': self._grid, 'last_code': self._last_code,
-            'last_eta': encode_float(self._last_eta), 'last_stamp': self._last_stamp,
-            'carry': None if self._carry is None else [encode_float(v) for v in self._carry],
-            'inertia': self.inertia.to_state(), 'window': self.integrator.to_state(),
-            'no_load': self.no_load.to_state(), 'no_load_band': self.no_load_band.to_state(),
-        }
+        time = self.time
+        return PipelineState(
+            dict(self.counts), self.samples_seen, self.samples_used, self.samples_rejected,
+            self.samples_missing, self.windows_used, time.operating_time, time.max_stamp,
+            self.grouping.last_stamp, time.origin_ns, time.grid, self._last_code,
+            self.fusion.last_eta, time.last_stamp, self.grouping.carry, self.filter.to_state(),
+            self.inertia.to_state(), self.integrator.to_state(), self.no_load.to_state(),
+            self.no_load_band.to_state()).to_json()
 
-    def from_state(self, state: dict[str, Any]) -> None:
+    def from_state(self, state: Mapping[str, object]) -> None:
         """Restore :meth:`to_state` into a pipeline built with the same configuration.
 
         KeyError/ValueError/TypeError on a malformed dict (the pipeline is then unchanged).
         """
-        def stamp(value: Any) -> int | None:
-            return None if value is None else int(value)
-
         fresh = EstimatorPipeline(self.config)      # validate everything before changing self
-        fresh.filter.from_state(state['filter'])
-        counts = {key: int(state['counts'].get(key, 0)) for key in self.counts}
-        values = (int(state['samples_seen']), int(state['samples_used']),
-                  int(state['samples_rejected']), int(state['samples_missing']),
-                  int(state['windows_used']), decode_float(state['operating_time']),
-                  stamp(state['max_stamp']), stamp(state['last_group_stamp']),
-                  stamp(state['origin_ns']), stamp(state['grid']), int(state['last_code']),
-                  decode_float(state['last_eta']), stamp(state['last_stamp']))
-        carry = state.get('carry')          # added within schema 2
-        # h and the bias added within schema 2; an older carry's are 0 (its
-        # measurement is not re-corrected)
-        carried = None if carry is None else cast(
-            'tuple[float, float, float, float, float]',
-            tuple(decode_float(v) for v in [*carry, 0.0, 0.0][:5]))
-        if 'inertia' in state:              # added within schema 2
-            fresh.inertia.from_state(state['inertia'])
-        if 'window' in state:               # added within schema 2
-            fresh.integrator.from_state(state['window'])
-        if 'no_load' in state:              # a state without it starts the no-load part anew
-            fresh.no_load.from_state(state['no_load'])
-            fresh.no_load_band.from_state(state['no_load_band'])
-        self.filter = fresh.filter
-        self.inertia = fresh.inertia
-        self.no_load = fresh.no_load
-        self.no_load_band = fresh.no_load_band
+        restored = PipelineState.from_json(state, tuple(self.counts))
+        fresh.filter.from_state(restored.kalman)
+        if restored.inertia is not None:    # added within schema 2
+            fresh.inertia.from_state(restored.inertia)
+        if restored.window is not None:     # added within schema 2
+            fresh.integrator.from_state(restored.window)
+        if restored.no_load is not None and restored.no_load_band is not None:
+            fresh.no_load.from_state(restored.no_load)
+            fresh.no_load_band.from_state(restored.no_load_band)
+        self._use(fresh.fusion)
+        self.fusion.last_eta = restored.last_eta
         self.integrator = fresh.integrator
-        self.counts = counts
-        self._carry = carried
+        self.counts = dict(restored.counts)
+        self.grouping.carry = restored.carry
+        self.grouping.last_stamp = restored.last_group_stamp
         (self.samples_seen, self.samples_used, self.samples_rejected, self.samples_missing,
-         self.windows_used, self.operating_time, self._max_stamp, self._last_group_stamp,
-         self._origin_ns, self._grid, self._last_code, self._last_eta,
-         self._last_stamp) = values
-        self._status_mark = (self.samples_seen, self.samples_missing)
-
-    def _t(self, stamp_ns: int) -> float:
-        assert self._origin_ns is not None      # _process sets it before any _t
-        return (stamp_ns - self._origin_ns) * 1e-9
+         self.windows_used, self._last_code) = (
+            restored.samples_seen, restored.samples_used, restored.samples_rejected,
+            restored.samples_missing, restored.windows_used, restored.last_code)
+        time = self.time
+        (time.operating_time, time.max_stamp, time.origin_ns, time.grid, time.last_stamp) = (
+            restored.operating_time, restored.max_stamp, restored.origin_ns, restored.grid,
+            restored.last_stamp)
+        self.loss.restart(self.samples_seen, self.samples_missing)
 
     def stamp_ns(self, t: float) -> int:
-        """Return the stamp [ns] of pipeline time ``t`` [s] (times count from the first sample)."""
-        if self._origin_ns is None:
-            raise ValueError('no sample yet: pipeline time has no origin')
-        return self._origin_ns + int(round(t * 1e9))
+        """Return the stamp [ns] of pipeline time ``t`` [s] (times count from the first sample).
+
+        Raises ValueError before the first sample.
+        """
+        return self.time.stamp_ns(t)
+
+    @property
+    def operating_time(self) -> float:
+        """Return the time with motion so far [s], the filter's time axis (the module doc)."""
+        return self.time.operating_time
+
+    @property
+    def timed_out(self) -> bool:
+        """Return whether no sample came for ``sensor_timeout`` (:meth:`on_silence`)."""
+        return self.time.timed_out
 
     # --- inputs ------------------------------------------------------------------------------
     def reject_message(self, reason: str, count: int = 1) -> None:
@@ -375,21 +278,10 @@ class EstimatorPipeline:
         every tick cost more than the estimator). ``rejected_at`` are messages that gave no
         sample, as (position of the next sample, reason), counted as :meth:`reject_message`
         does. Drops by the stamp screen (duplicates, strays) count from the next accepted
-        sample on.
+        sample on. Raises ValueError for arrays of different shapes or marks out of order.
         """
-        stamps = np.asarray(stamp_ns, dtype=np.int64)
-        c = self.config
-        arrays = [np.asarray(a, dtype=float) for a in
-                  (motor_velocity, motor_effort, load_velocity, load_effort)]
-        if c.motor_effort_sign != 1:        # the README's conventions (parameters)
-            arrays[1] = -arrays[1]
-        if c.load_effort_sign != 1:
-            arrays[3] = -arrays[3]
-        if any(a.shape != stamps.shape for a in arrays) or stamps.ndim != 1:
-            raise ValueError(f'batch arrays must be 1-D of equal length, got shapes '
-                             f'{[stamps.shape] + [a.shape for a in arrays]}')
-        if list(marks) != sorted(marks) or any(not 0 <= m <= stamps.size for m in marks):
-            raise ValueError(f'marks must ascend within 0..{stamps.size}, got {list(marks)}')
+        stamps, arrays = self._checked_batch(
+            stamp_ns, (motor_velocity, motor_effort, load_velocity, load_effort), marks)
         for _, reason in rejected_at:
             self.reject_message(reason)
         held = 0
@@ -400,11 +292,48 @@ class EstimatorPipeline:
             stamps = np.concatenate((held_stamps, stamps))
             arrays = [np.concatenate((h, a)) for h, a in zip(held_arrays, arrays)]
         screened = self.screen.screen(stamps)
+        outputs, snapshots = self._run_steps(screened.steps, stamps, arrays,
+                                             [int(m) + held for m in marks], held)
+        if screened.held.size:
+            self._held = (stamps[screened.held], [a[screened.held] for a in arrays])
+        if rejected_at:                     # messages rejected after a mark are not in it
+            snapshots = [snap.without_messages([reason for position, reason in rejected_at
+                                                if position >= snap.position])
+                         for snap in snapshots]
+        return outputs, snapshots
+
+    def _checked_batch(self, stamp_ns: np.ndarray, columns: Sequence[np.ndarray],
+                       marks: Sequence[int]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Return the stamps and the four value arrays, the efforts with the README's signs.
+
+        Raises ValueError for arrays of different shapes or marks out of order.
+        """
+        stamps = np.asarray(stamp_ns, dtype=np.int64)
+        c = self.config
+        arrays = [np.asarray(a, dtype=float) for a in columns]
+        if c.motor_effort_sign != 1:        # the README's conventions (parameters)
+            arrays[1] = -arrays[1]
+        if c.load_effort_sign != 1:
+            arrays[3] = -arrays[3]
+        if any(a.shape != stamps.shape for a in arrays) or stamps.ndim != 1:
+            raise ValueError(f'batch arrays must be 1-D of equal length, got shapes '
+                             f'{[stamps.shape] + [a.shape for a in arrays]}')
+        if list(marks) != sorted(marks) or any(not 0 <= m <= stamps.size for m in marks):
+            raise ValueError(f'marks must ascend within 0..{stamps.size}, got {list(marks)}')
+        return stamps, arrays
+
+    def _run_steps(self, steps: Sequence[Segment | tuple[str, int]], stamps: np.ndarray,
+                   arrays: list[np.ndarray], pending: list[int], held: int
+                   ) -> tuple[list[FrictionEstimate], list[StatusSnapshot]]:
+        """Run the screen's steps: accepted segments, and drops (reason, count) between them.
+
+        ``pending``: the marks, as positions in ``stamps``, whose first ``held`` samples were
+        held from the call before.
+        """
         outputs: list[FrictionEstimate] = []
-        pending = [int(m) + held for m in marks]
         snapshots: list[StatusSnapshot] = []
         last_stamp: int | None = None       # the newest accepted sample of this call [ns]
-        for step in screened.steps:
+        for step in steps:
             if isinstance(step, Segment):
                 index = step.index
                 while pending and pending[0] <= index[0]:
@@ -425,14 +354,8 @@ class EstimatorPipeline:
                 self.counts[reason] += count
                 self.samples_rejected += count
                 self.samples_seen += count
-        if screened.held.size:
-            self._held = (stamps[screened.held], [a[screened.held] for a in arrays])
         snapshots += [self._snapshot(mark - held, len(outputs), last_stamp)
                       for mark in pending]
-        if rejected_at:                     # messages rejected after a mark are not in it
-            snapshots = [snap.without_messages([reason for position, reason in rejected_at
-                                                if position >= snap.position])
-                         for snap in snapshots]
         return outputs, snapshots
 
     def _snapshot(self, position: int, estimates: int, last_stamp: int | None,
@@ -505,12 +428,8 @@ class EstimatorPipeline:
         Sample stamps and the caller's clock may be in different time bases (a replayed bag
         without use_sim_time), so they are never mixed. Returns an empty list.
         """
-        if self._last_stamp is None or self._origin_ns is None:
-            return []
-        if silence_s <= self.config.sensor_timeout or self.timed_out:
-            return []
-        self.timed_out = True
-        self.counts['timeout'] += 1
+        if self.time.silence(silence_s, self.config.sensor_timeout):
+            self.counts['timeout'] += 1
         return []
 
     def next_output_stamp(self) -> int | None:
@@ -519,10 +438,7 @@ class EstimatorPipeline:
         That sample gives an output (None before the first sample or with publish_rate 0). A live
         node can process at once a sample that reaches it, for low latency.
         """
-        rate = self.config.publish_rate
-        if rate <= 0.0 or self._origin_ns is None or self._grid is None:
-            return None
-        return self._origin_ns + math.ceil((self._grid + 1) / rate * 1e9)
+        return self.time.next_output_stamp(self.config.publish_rate)
 
     # --- core --------------------------------------------------------------------------------
     def _process(self, stamps: np.ndarray, arrays: list[np.ndarray], prior: np.ndarray,
@@ -541,22 +457,64 @@ class EstimatorPipeline:
         n = stamps.size
         if n == 0:
             return [], []
-        c = self.config
-        w_m, tau_m, w_l, tau_l = arrays
         duplicate = stamps == prior
         backwards = stamps < prior
         timely = ~(duplicate | backwards)
-        if self._origin_ns is None:
+        if self.time.origin_ns is None:
             first = np.flatnonzero(timely)
             if first.size == 0:
-                self._count_samples(n, duplicate, backwards, None, None, None, None)
-                return [], [(k, self._snapshot(mark, 0, None, {
-                    'samples_seen': n - k,
-                    'samples_rejected': int(np.count_nonzero((duplicate | backwards)[k:])),
-                    'duplicate_stamp': int(np.count_nonzero(duplicate[k:])),
-                    'backwards': int(np.count_nonzero(backwards[k:]))})) for mark, k in marks]
-            self._origin_ns = int(stamps[first[0]])
-        t = (stamps - self._origin_ns) * 1e-9
+                return [], self._untimely(duplicate, backwards, marks)
+            self.time.origin_ns = int(stamps[first[0]])
+        t = (stamps - self.time.origin_ns) * 1e-9
+        w_m, tau_m, w_l, tau_l = arrays
+        s = self._classify(arrays, timely)
+        self.quality.add_samples(w_m, w_l, s.p_m, s.p_l, s.ok & ~s.zero_speed,
+                                 s.ok & (s.code != 0), s.impossible)
+        n_gaps, gap_at = self.time.advance(stamps, t, timely, ~s.zero_speed & s.finite,
+                                           self.config.sensor_timeout, bool(marks))
+        self.counts['timeout'] += n_gaps
+        with np.errstate(invalid='ignore', over='ignore'):
+            windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, s.code, s.usable)
+        self.counts['short_window'] += self.integrator.dropped_short
+        short_at = self.integrator.take_dropped_short()
+        used_cum, plain_cum, rejected_cum = self._tally(duplicate, backwards, s, dropped)
+        masks = {'duplicate_stamp': duplicate, 'backwards': backwards,
+                 'nonfinite': s.nonfinite, 'zero_speed': s.zero_speed,
+                 'deadband': s.deadband, 'impossible': s.impossible}
+        publish = self.time.publish_positions(t, timely, self.config.publish_rate)
+        suffixes = mark_suffixes([k for _, k in marks], masks, used_cum, plain_cum, gap_at,
+                                 short_at)
+        for suffix, after in zip(suffixes, dropped_after):
+            for key in ('duplicate_stamp', 'samples_seen', 'samples_rejected'):
+                suffix[key] += after
+        outputs, marked = self._emit(
+            BatchCounts(stamps, s.code, used_cum, rejected_cum, self.time.operating_at), windows,
+            publish, [(mark, k, suffix) for (mark, k), suffix in zip(marks, suffixes)])
+        last_timely = np.flatnonzero(timely)
+        if last_timely.size:
+            self._last_code = int(s.code[last_timely[-1]])
+        kept, keep = self.grouping.keep(outputs)
+        if len(kept) < len(outputs):        # count only the estimates kept before each mark
+            before = np.concatenate(([0], np.cumsum(keep)))
+            marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
+                      for k, snap in marked]
+        return kept, marked
+
+    def _untimely(self, duplicate: np.ndarray, backwards: np.ndarray,
+                  marks: Sequence[tuple[int, int]]) -> list[tuple[int, StatusSnapshot]]:
+        """Count a batch of which no sample is timely, before any sample was; its snapshots."""
+        n = duplicate.size
+        self._count_samples(n, duplicate, backwards, None, None, None, None)
+        return [(k, self._snapshot(mark, 0, None, {
+            'samples_seen': n - k,
+            'samples_rejected': int(np.count_nonzero((duplicate | backwards)[k:])),
+            'duplicate_stamp': int(np.count_nonzero(duplicate[k:])),
+            'backwards': int(np.count_nonzero(backwards[k:]))})) for mark, k in marks]
+
+    def _classify(self, arrays: list[np.ndarray], timely: np.ndarray) -> _Samples:
+        """Return the samples' powers, power flow and rejection masks."""
+        c = self.config
+        w_m, tau_m, w_l, tau_l = arrays
         with np.errstate(invalid='ignore', over='ignore'):
             p_m = tau_m * w_m
             p_l = -tau_l * w_l
@@ -566,58 +524,22 @@ class EstimatorPipeline:
             finite = np.isfinite(p_m) & np.isfinite(p_l) & np.isfinite(w_m * w_m) \
                 & np.isfinite(w_l * w_l)
         code[~finite] = 0
-        nonfinite = timely & ~finite
         ok = timely & finite
         zero_speed = ok & ~(np.abs(w_m) > c.speed_threshold)
-        deadband = ok & (code == 0) & ~zero_speed
-        impossible = ok & (code == IMPOSSIBLE)
-        usable = ok & (code > 0)
-        # the speeds' own ratio (ratio_check): least squares of w_m on w_l while moving.
-        # Element-wise sums, not ``@``: a BLAS dot of a batch runs OpenBLAS's threads, whose
-        # spinning doubled the CPU time of an 8-drive analysis (7.4-9.0 s against 3.9-4.9 s)
-        moving = ok & ~zero_speed
-        w_l_moving = w_l[moving]
-        self.speed_samples += int(np.count_nonzero(moving))
-        self.speed_products += float(np.sum(w_m[moving] * w_l_moving))
-        self.load_speed_squares += float(np.sum(w_l_moving * w_l_moving))
-        # evidence of a reversed torque sign (reversed_torque): samples out of the deadband,
-        # those that give out power at both shafts, and of them those where the load's is larger
-        self.power_samples += int(np.count_nonzero(ok & (code != 0)))
-        self.impossible_samples += int(np.count_nonzero(impossible))
-        self.impossible_load_larger += int(np.count_nonzero(impossible
-                                                            & (np.abs(p_l) > np.abs(p_m))))
-        # sensor timeouts: gaps between consecutive timely samples
-        t_ok = t[timely]
-        gap_at = np.empty(0, dtype=np.int64)
-        operating = np.zeros(n)           # each sample's operating-time contribution [s]
-        if t_ok.size:
-            last = self._t(self._last_stamp) if self._last_stamp is not None else t_ok[0]
-            steps = np.diff(np.concatenate(([last], t_ok)))
-            gaps = steps > c.sensor_timeout
-            # operating time: sample intervals that end in motion, not across a gap
-            operating[timely] = np.where(~gaps & ~zero_speed[timely] & finite[timely], steps,
-                                         0.0)
-            n_gaps = int(np.count_nonzero(gaps))
-            if self.timed_out and gaps[0]:
-                n_gaps -= 1         # already counted by on_silence
-                gaps[0] = False
-            self.counts['timeout'] += n_gaps
-            if marks:
-                gap_at = np.flatnonzero(timely)[gaps]
-            self.timed_out = False
-            self._last_stamp = int(stamps[timely][-1])
-        # the filter's time axis: cumulative operating time at each sample [s]
-        self._operating_before = self.operating_time
-        self._operating_at = self.operating_time + np.cumsum(operating)
-        self.operating_time = float(self._operating_at[-1])
-        self._max_stamp = int(max(stamps.max(), self._max_stamp or stamps.max()))
-        with np.errstate(invalid='ignore', over='ignore'):
-            windows = self.integrator.process(t, w_m, tau_m, w_l, tau_l, code, usable)
-        self.counts['short_window'] += self.integrator.dropped_short
-        short_at = self.integrator.take_dropped_short()
-        rejected = self._count_samples(n, duplicate, backwards, nonfinite, zero_speed,
-                                       deadband, impossible)
-        used_cum = self.samples_used + np.cumsum(usable)
+        return _Samples(p_m, p_l, code, finite, timely & ~finite, ok, zero_speed,
+                        ok & (code == 0) & ~zero_speed, ok & (code == IMPOSSIBLE),
+                        ok & (code > 0))
+
+    def _tally(self, duplicate: np.ndarray, backwards: np.ndarray, samples: _Samples,
+               dropped: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Count a batch's samples by reason; return the cumulative counts at each sample.
+
+        The samples used, the samples rejected without and with the ``dropped`` duplicates.
+        """
+        rejected = self._count_samples(duplicate.size, duplicate, backwards, samples.nonfinite,
+                                       samples.zero_speed, samples.deadband,
+                                       samples.impossible)
+        used_cum = self.samples_used + np.cumsum(samples.usable)
         plain_cum = self.samples_rejected + np.cumsum(rejected)    # the marks' suffixes
         rejected_cum = plain_cum
         if dropped is not None:
@@ -627,27 +549,19 @@ class EstimatorPipeline:
             rejected_cum = plain_cum + np.cumsum(dropped)
         self.samples_used = int(used_cum[-1])
         self.samples_rejected = int(rejected_cum[-1])
-        masks = {'duplicate_stamp': duplicate, 'backwards': backwards, 'nonfinite': nonfinite,
-                 'zero_speed': zero_speed, 'deadband': deadband, 'impossible': impossible}
-        # periodic outputs on the grid of publish_rate in sample time
-        if c.publish_rate > 0.0:
-            cell = np.where(timely, np.floor(t * c.publish_rate), -np.inf)
-            cell = np.maximum.accumulate(cell)
-            prev = np.concatenate(([self._grid if self._grid is not None else -np.inf],
-                                   cell[:-1]))
-            publish = np.flatnonzero(timely & (cell > prev))
-            if np.isfinite(cell[-1]):
-                self._grid = int(cell[-1])
-        else:
-            publish = np.empty(0, dtype=np.int64)
-        outputs: list[FrictionEstimate] = []
+        return used_cum, plain_cum, rejected_cum
+
+    def _emit(self, batch: BatchCounts, windows: list[Window], publish: np.ndarray,
+              pending: list[_Pending]
+              ) -> tuple[list[FrictionEstimate], list[tuple[int, StatusSnapshot]]]:
+        """Return a batch's estimates in stamp order, and the snapshots of its marks.
+
+        Each window's update comes after the publishes before it, which are predictions of
+        one posterior (:mod:`gear_phm.estimation.predictions`).
+        """
+        n = batch.stamps.size
+        outputs: list[FrictionEstimate | None] = []
         marked: list[tuple[int, StatusSnapshot]] = []
-        suffixes = self._suffixes([k for _, k in marks], masks, used_cum, plain_cum, gap_at,
-                                  short_at)
-        for suffix, after in zip(suffixes, dropped_after):
-            for key in ('duplicate_stamp', 'samples_seen', 'samples_rejected'):
-                suffix[key] += after
-        pending = [(mark, k, suffix) for (mark, k), suffix in zip(marks, suffixes)]
 
         def take(before: int, run: np.ndarray | None = None) -> None:
             """Snapshot the marks at or before sample ``before`` (its events not yet run).
@@ -657,105 +571,32 @@ class EstimatorPipeline:
             while pending and pending[0][1] <= before:
                 mark, k, suffix = pending.pop(0)
                 count = len(outputs) + (0 if run is None else int(np.searchsorted(run, k)))
-                values = self._snapshot(mark, count, int(stamps[k - 1]), suffix)
-                values.values['operating_time_s'] = float(self._operating_at[k - 1])
+                values = self._snapshot(mark, count, int(batch.stamps[k - 1]), suffix)
+                values.values['operating_time_s'] = float(batch.operating_at[k - 1])
                 values.values['timed_out'] = False
                 marked.append((k, values))
 
-        # each window's update, after the publishes before it (predictions of one posterior)
         closes = np.array([window.close_index for window in windows] + [n + 1], dtype=np.int64)
         runs = np.split(publish, np.searchsorted(publish, closes[:-1], side='left'))
-        runs_at: list[tuple[int, np.ndarray, _PredictionBase]] = []
-        for window, run, close in zip(windows + [None], runs, closes.tolist()):
+        runs_at: list[tuple[int, np.ndarray, PredictionBase]] = []
+        for window, run, close in zip([*windows, None], runs, closes.tolist()):
             if run.size:
                 take(int(run[-1]), run)
-                runs_at.append((len(outputs), run, self._prediction_base()))
-                outputs += [None] * run.size        # type: ignore[list-item]
-                self._last_code = int(code[run[-1]])
+                runs_at.append((len(outputs), run, self.fusion.prediction_base()))
+                outputs += [None] * run.size
+                self._last_code = int(batch.code[run[-1]])
             if window is not None:
                 k = min(close, n - 1)
                 take(close)
-                outputs += self._apply_window(window, int(code[k]), int(used_cum[k]),
-                                              int(rejected_cum[k]))
+                outputs += self._apply_window(window, int(batch.code[k]),
+                                              int(batch.used_cum[k]), int(batch.rejected_cum[k]))
         take(n)
         if runs_at:
-            self._predictions(outputs, runs_at, stamps, code, used_cum, rejected_cum)
-        last_timely = np.flatnonzero(timely)
-        if last_timely.size:
-            self._last_code = int(code[last_timely[-1]])
-        kept, keep = self._one_per_stamp(outputs)
-        if len(kept) < len(outputs):        # count only the estimates kept before each mark
-            before = np.concatenate(([0], np.cumsum(keep)))
-            marked = [(k, replace(snap, estimates=int(before[snap.estimates])))
-                      for k, snap in marked]
-        return kept, marked
-
-    @staticmethod
-    def _suffixes(ks: list[int], masks: dict[str, np.ndarray], used_cum: np.ndarray,
-                  rejected_cum: np.ndarray, gap_at: np.ndarray, short_at: np.ndarray
-                  ) -> list[dict[str, int]]:
-        """Return the counters of the samples from each ``ks`` (0 < k < n) on, all marks at once.
-
-        ``masks``: per-sample rejections by reason; ``used_cum``, ``rejected_cum``: the
-        cumulative counts; ``gap_at``, ``short_at``: the samples with a timeout, a short window.
-        """
-        if not ks:
-            return []
-        at = np.array(ks, dtype=np.int64)
-        n = used_cum.size
-        columns = {key: mask.sum() - np.cumsum(mask)[at - 1] for key, mask in masks.items()}
-        columns.update({
-            'samples_seen': n - at, 'samples_used': used_cum[-1] - used_cum[at - 1],
-            'samples_rejected': rejected_cum[-1] - rejected_cum[at - 1],
-            'timeout': np.count_nonzero(gap_at[None, :] >= at[:, None], axis=1),
-            'short_window': np.count_nonzero(short_at[None, :] >= at[:, None], axis=1)})
-        lists = {key: column.tolist() for key, column in columns.items()}
-        return [{key: values[i] for key, values in lists.items()} for i in range(at.size)]
-
-    def _one_per_stamp(self, outputs: list[FrictionEstimate]
-                       ) -> tuple[list[FrictionEstimate], list[bool]]:
-        """At most one estimate per stamp, whatever the batch split.
-
-        An estimate whose stamp equals the previous one's is dropped (the filter state it carries
-        is in the next, and so is its measurement, carried with the rate: :meth:`_merged`).
-        Returns the kept estimates and whether each output was kept.
-        """
-        kept, keep = [], []
-        for output in outputs:
-            if output.stamp_ns == self._last_group_stamp:
-                if math.isfinite(output.measurement):
-                    z, variance, h, bias = self._merged(output)
-                    self._carry = (z, variance, output.operating_time, h, bias)
-                keep.append(False)
-                continue
-            self._last_group_stamp = output.stamp_ns
-            if self._carry is not None:
-                z, variance, h, bias = self._merged(output)
-                output = replace(output, measurement=z, measurement_variance=variance,
-                                 measurement_direction=h, measurement_bias=bias)
-                self._carry = None
-            kept.append(output)
-            keep.append(True)
-        return kept, keep
-
-    def _merged(self, output: FrictionEstimate) -> tuple[float, float, float, float]:
-        """Combine the carried measurement (if any) with ``output``'s own by inverse variance.
-
-        The carried one is first moved to ``output``'s operating time with its rate. Returns
-        (u [-], variance, direction share h [-], bias subtracted [-]), h and the bias with the same
-        weights.
-        """
-        z, variance = output.measurement, output.measurement_variance
-        h, bias = output.measurement_direction, output.measurement_bias
-        if self._carry is None:
-            return z, variance, h, bias
-        cz, cv, at, ch, cb = self._carry
-        cz += output.rate * (output.operating_time - at)
-        if not math.isfinite(z):
-            return cz, cv, ch, cb
-        total = 1.0 / cv + 1.0 / variance
-        return ((cz / cv + z / variance) / total, 1.0 / total,
-                (ch / cv + h / variance) / total, (cb / cv + bias / variance) / total)
+            predicted = predicted_estimates([(run, base) for _, run, base in runs_at], batch,
+                                            self.config.ratio)
+            for (at, run, _), estimates in zip(runs_at, predicted):
+                outputs[at:at + run.size] = estimates
+        return [output for output in outputs if output is not None], marked
 
     def _count_samples(self, n: int, duplicate: np.ndarray, backwards: np.ndarray,
                        nonfinite: np.ndarray | None, zero_speed: np.ndarray | None,
@@ -772,214 +613,27 @@ class EstimatorPipeline:
             self.samples_rejected += int(np.count_nonzero(rejected))
         return rejected
 
-    def _apply_window(self, window: Window, code: int | None = None, used: int | None = None,
-                      rejected: int | None = None) -> list[FrictionEstimate]:
-        c = self.config
-        inertia, informative = (0.0, 0.0), True
-        if c.learn_motor_inertia:       # the inertia not removed yet is in the variance
-            inertia = (self.inertia.correction[0],
-                       self.inertia.left_variance(window.motor_energy, window.motor_kinetic))
-            prior = self.inertia.prior(window.motor_energy, window.motor_kinetic)
-            # a window whose variance is mostly the inertia's prior does not adapt the filter
-            informative = prior is None \
-                or prior * window.motor_kinetic ** 2 <= window.motor_energy_variance
-        result = to_measurement(window, c.ratio, c.min_window, c.min_energy, c.model_sigma,
-                                inertia)
+    def _apply_window(self, window: Window, code: int, used: int, rejected: int
+                      ) -> list[FrictionEstimate]:
+        """Fuse a closed window; return its estimate (none if it gave none).
+
+        ``code``: the power flow of the sample that closed it; ``used``, ``rejected``: the
+        sample counts there.
+        """
         # the filter runs on operating time; a window is motion throughout, so its age
         # (half its duration) is the same in stamp and in operating time
-        operating = self._window_operating_time(window)
-        no_load = (0.0, 0.0)
-        if c.no_load_model and isinstance(result, Measurement):
-            # the no-load part as known before this window (gear_phm.estimation.no_load); a
-            # window where it is not identified is held: it would read drag as friction
-            correction = self.no_load.observe(
-                0 if window.code == OPPOSING else 1, window.t_start, window.t_end, operating,
-                window.motor_energy - inertia[0] * window.motor_kinetic, window.load_energy,
-                window.motor_energy_variance, window.load_energy_variance,
-                window.motor_travel, window.motor_travel_square,
-                window.motion, self._gain_rates(), window.motor_kinetic)
-            if not correction.identified:
-                self.counts['not_identifiable'] += 1
-                return []
-            no_load = (correction.energy, correction.shared * correction.variance)
-            self.no_load_band.add(operating, self.no_load.estimate())
-            result = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                    c.model_sigma, inertia, no_load)
-        if isinstance(result, str):
-            self.counts[result] += 1
+        operating = self.time.operating_at_close(window.close_index)
+        fused = self.fusion.fuse(window, operating, self.counts, self.quality,
+                                 self.on_measurement)
+        if fused is None:
             return []
-        self.windows_measured += 1          # over_unity
-        if result.eta - 1.0 > OVER_UNITY_Z * math.sqrt(max(result.eta_variance, 0.0)):
-            self.windows_over_unity += 1
-            self.largest_efficiency = max(self.largest_efficiency, result.eta)
-        direction = 0 if result.code == OPPOSING else 1
-        update = self.filter.update(result.u, result.u_variance, operating, direction,
-                                    0.5 * window.duration, informative)
-        self._last_eta = result.eta
-        if self.on_measurement is not None:
-            self.on_measurement(result, update.accepted)
-        if not update.accepted:
-            self.counts['gated'] += 1
-            return []
-        if update.reinitialised:
-            self.counts['gated'] += 1
-            self.counts['reinitialised'] += 1
         self.windows_used += 1
-        if code is not None:
-            self._last_code = code
-        if c.learn_motor_inertia:       # gear_phm.estimation.inertia
-            # less the no-load energy: a drag costs energy along the travel, which differs
-            # between a ramp's windows and a cruise's as K does, and was read as inertia
-            self.inertia.add(direction, window.t_end, window.motor_energy - no_load[0],
-                             window.load_energy, window.motor_kinetic,
-                             window.motor_energy_variance, window.load_energy_variance)
-        u_variance = result.u_variance
-        if inertia[1] != self.inertia.correction[1]:
-            # the RUL's history takes the window with the applied correction's variance only:
-            # the inertia not applied yet is an error common to the windows of one position in
-            # the stroke, not an independent one, and weighing those windows down there hid
-            # the wear of a unit's first 14 s of operation (bags/fleet/unit_00: WARN at 16 s
-            # became WARN a week later, at its next recording)
-            applied = to_measurement(window, c.ratio, c.min_window, c.min_energy,
-                                     c.model_sigma, self.inertia.correction, no_load)
-            if isinstance(applied, Measurement):
-                u_variance = applied.u_variance
-        variance = u_variance + self.filter.mismatch_variance(direction)
-        # the measurement as fused: less its direction's learned offset d/2. The error of d is
-        # common to all windows, + for one direction and - for the other: it averages out of
-        # the wear trend, and is not added to each window's variance (adding it cut the RUL
-        # band's coverage on a spur wear life from 0.88 to 0.62, test_analyze_cli; adding it
-        # only while d was unsettled hid the first 14 s of wear of bags/fleet/unit_00)
-        return [self._estimate(self.stamp_ns(window.t_end), self.filter.x, self.filter.P,
-                               used, rejected, operating,
-                               (result.u - update.bias, variance,
-                                operating - 0.5 * window.duration,
-                                0.5 if direction else -0.5, update.bias))]
-
-    def _gain_rates(self) -> tuple[float, float]:
-        """Return how fast the filter's wear rate moves 1 / eta_D and eta_I [1/s].
-
-        :data:`GAIN_RATE_MARGIN` times the filter's |du/dt|: the rate lags a wear that speeds
-        up, and a gain that cannot follow the wear passes it into the no-load part.
-        """
-        u, rate = float(self.filter.x[0]), GAIN_RATE_MARGIN * float(self.filter.x[1])
-        r = self.config.ratio
-        if not (math.isfinite(u) and math.isfinite(rate) and u > -1.0):
-            return 0.0, 0.0
-        # d(1/eta_D)/du = R (R + 1) / (R - u)^2, d(eta_I)/du = -R (R + 1) / (R + u)^2
-        return (abs(rate) * r * (r + 1.0) / max(r - u, 1e-6) ** 2,
-                -abs(rate) * r * (r + 1.0) / (r + u) ** 2)
-
-    def _prediction_base(self) -> _PredictionBase:
-        """Return what the estimates published before the next filter update are predicted from."""
-        f = self.filter
-        last = f.last
-        return _PredictionBase(
-            f.x, f.P, math.inf if f.t is None else f.t,
-            f.process_noise, (f.direction_bias(0), f.direction_bias(1)),
-            (self._last_eta, last.innovation, last.innovation_variance, last.nis),
-            (f.mismatch_variance(0), f.mismatch_variance(1)), self._no_load_fields())
-
-    def _no_load_fields(self) -> tuple[float, float, float]:
-        """Return an estimate's no-load torque, its std dev and the total efficiency (NaN off)."""
-        c = self.config
-        if not c.no_load_model:
-            return math.nan, math.nan, math.nan
-        learned = self.no_load.estimate()
-        eta_d = efficiencies(float(self.filter.x[0]) + self.filter.direction_bias(0),
-                             c.ratio)[0]
-        return (learned.torque, learned.torque_sigma,
-                learned.total_efficiency(eta_d, c.ratio, c.rated_load_torque, c.rated_speed))
-
-    def _predictions(self, outputs: list[FrictionEstimate],
-                     runs_at: list[tuple[int, np.ndarray, _PredictionBase]],
-                     stamps: np.ndarray, code: np.ndarray, used_cum: np.ndarray,
-                     rejected_cum: np.ndarray) -> None:
-        """Fill in the published estimates of a batch, all at once.
-
-        ``runs_at``: (position in ``outputs``, the samples published, the filter state they
-        are predicted from) of each run between two filter updates. Each estimate is the
-        posterior predicted to its sample's operating time: the same values as
-        :meth:`_estimate` of :meth:`FrictionFilter.predicted` at each.
-        """
-        sizes = [run.size for _, run, _ in runs_at]
-        bases = [base for _, _, base in runs_at]
-        index = np.concatenate([run for _, run, _ in runs_at])
-        operating = self._operating_at[index]
-
-        def per_row(values: list[Any]) -> np.ndarray:
-            return np.repeat(np.array(values, dtype=float), sizes, axis=0)
-
-        x, p = predicted_stacked(per_row([b.x for b in bases]), per_row([b.p for b in bases]),
-                                 per_row([b.t for b in bases]), per_row([b.q for b in bases]),
-                                 operating)
-        u = x[:, 0]
-        bias = per_row([b.bias for b in bases])
-        eta_d = efficiencies_array(u + bias[:, 0], self.config.ratio)[0]
-        eta_i = efficiencies_array(u + bias[:, 1], self.config.ratio)[1]
-        nan = math.nan
-        rows = zip(stamps[index].tolist(), u.tolist(), x[:, 1].tolist(), p[:, 0, 0].tolist(),
-                   p[:, 0, 1].tolist(), p[:, 1, 1].tolist(), eta_d.tolist(), eta_i.tolist(),
-                   used_cum[index].tolist(), rejected_cum[index].tolist(),
-                   code[index].tolist(), operating.tolist())
-        for (at, _, base), size in zip(runs_at, sizes):
-            fixed, q, mismatch = base.fixed, base.q, base.mismatch
-            offset = base.bias[1] - base.bias[0]
-            torque, sigma, total = base.no_load
-            outputs[at:at + size] = [
-                FrictionEstimate(stamp, u_k, rate, (p_uu, p_ur, p_rr), e_d, e_i, *fixed, used,
-                                 rejected, flow, process_noise=q, mismatch_variance=mismatch,
-                                 operating_time=time, measurement=nan,
-                                 measurement_variance=nan, direction_offset=offset,
-                                 no_load_torque=torque, no_load_sigma=sigma,
-                                 total_efficiency=total)
-                for stamp, u_k, rate, p_uu, p_ur, p_rr, e_d, e_i, used, rejected, flow, time
-                in itertools.islice(rows, size)]
-
-    def _window_operating_time(self, window: Window) -> float:
-        """Operating time [s] at the last sample of ``window``, closed by the current batch.
-
-        That sample is the one before ``close_index``, or, at 0, the previous batch's last.
-        """
-        if window.close_index <= 0:
-            return self._operating_before
-        return float(self._operating_at[window.close_index - 1])
-
-    def _estimate(self, stamp_ns: int, x: np.ndarray, p: np.ndarray, used: int | None = None,
-                  rejected: int | None = None, operating_time: float | None = None,
-                  measurement: tuple[float, float, float, float, float] | None = None
-                  ) -> FrictionEstimate:
-        """Return the record at ``stamp_ns``.
-
-        ``measurement``: (u [-], variance, operating time [s] at which it measures u, direction
-        share h [-], bias subtracted [-]) of the window fused for it, carried here with the rate.
-        """
-        u, rate = float(x[0]), float(x[1])
-        # each efficiency as its direction's windows read it: u plus that direction's bias
-        eta_d = efficiencies(u + self.filter.direction_bias(0), self.config.ratio)[0]
-        eta_i = efficiencies(u + self.filter.direction_bias(1), self.config.ratio)[1]
-        last = self.filter.last
-        at = self.operating_time if operating_time is None else operating_time
-        z = variance = h = bias = math.nan
-        if measurement is not None:
-            z, variance = measurement[0] + rate * (at - measurement[2]), measurement[1]
-            h, bias = measurement[3], measurement[4]
-        torque, sigma, total = self._no_load_fields()
-        return FrictionEstimate(
-            stamp_ns, u, rate, (float(p[0, 0]), float(p[0, 1]), float(p[1, 1])), eta_d, eta_i,
-            self._last_eta, last.innovation, last.innovation_variance, last.nis,
-            self.samples_used if used is None else used,
-            self.samples_rejected if rejected is None else rejected, self._last_code,
-            process_noise=self.filter.process_noise,
-            mismatch_variance=(self.filter.mismatch_variance(0),
-                               self.filter.mismatch_variance(1)),
-            operating_time=at, measurement=z, measurement_variance=variance,
-            direction_offset=self.filter.direction_offset, measurement_direction=h,
-            measurement_bias=bias, no_load_torque=torque, no_load_sigma=sigma,
-            total_efficiency=total)
+        self._last_code = code
+        return [self.fusion.estimate(self.stamp_ns(window.t_end), used, rejected, code,
+                                     operating, fused)]
 
     # --- reporting ---------------------------------------------------------------------------
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> SummaryValues:
         """Return the final estimate and counters (JSON-friendly)."""
         x, p = self.filter.x, self.filter.P
         eta_d = efficiencies(float(x[0]) + self.filter.direction_bias(0), self.config.ratio)[0]
@@ -987,7 +641,7 @@ class EstimatorPipeline:
         return {
             'u': float(x[0]), 'u_rate': float(x[1]), 'sigma_u': math.sqrt(max(p[0, 0], 0.0)),
             'eta_opposing': eta_d, 'eta_aiding': eta_i,
-            'last_measured_efficiency': self._last_eta,
+            'last_measured_efficiency': self.fusion.last_eta,
             'filter_updates': self.filter.updates, 'samples_seen': self.samples_seen,
             'process_noise': self.filter.process_noise,
             'mismatch_sigma_opposing': math.sqrt(self.filter.mismatch_variance(0)),
@@ -1007,108 +661,46 @@ class EstimatorPipeline:
             'timed_out': self.timed_out,
             'reversed_torque': self.reversed_torque(),
             'speed_ratio': self.speed_ratio(), 'ratio_check': self.ratio_check(),
-            'windows_over_unity': self.windows_over_unity, 'over_unity': self.over_unity(),
-            **(self._no_load_summary(eta_d) if self.config.no_load_model else {}),
+            'windows_over_unity': self.quality.windows_over_unity,
+            'over_unity': self.over_unity(),
+            **(self.fusion.no_load_summary(eta_d) if self.config.no_load_model else {}),
         }
 
-    def _no_load_summary(self, eta_opposing: float) -> dict[str, Any]:
-        """Return the no-load loss and the total efficiency at the rated point (summary keys)."""
-        c = self.config
-        learned = self.no_load.estimate()
-        return {
-            'no_load_torque': learned.torque, 'no_load_torque_sigma': learned.torque_sigma,
-            'no_load_coulomb': learned.coulomb, 'no_load_viscous': learned.viscous,
-            'no_load_offset': learned.offset,
-            'no_load_reference_speed': learned.reference_speed,
-            'no_load_cold_torque': learned.cold_torque,
-            'no_load_identified': learned.identified,
-            'no_load_band': self.no_load_band.message(learned.torque),
-            'total_efficiency': learned.total_efficiency(eta_opposing, c.ratio,
-                                                         c.rated_load_torque, c.rated_speed)}
+    @property
+    def windows_measured(self) -> int:
+        """Return how many windows gave a measurement (:mod:`gear_phm.estimation.quality`)."""
+        return self.quality.windows_measured
 
     def reversed_torque(self) -> str:
         """Return which effort's sign looks reversed, as advice; '' when nothing does.
 
-        A gearbox never gives out power at both shafts. Samples that seem to (``impossible``)
-        come from noise near the deadband: at most 11 % of the samples out of the deadband in
-        149 random lives. If one torque's sign is the opposite of the README's convention,
-        the phases of one load direction all look so (43 % of them on bags/healthy with the
-        load's reversed). Which one: there, the shaft that feeds the losses gives out the
-        larger power; the load in an aiding phase read with its sign reversed, the motor in an
-        opposing phase. At least :data:`REVERSED_SHARE` of the samples out of the deadband and
-        :data:`REVERSED_MIN` samples. A stream with one load direction only shows nothing.
+        See :meth:`~gear_phm.estimation.quality.DataQuality.reversed_torque`.
         """
-        fix = self.reversed_torque_fix()
-        if fix is None:
-            return ''
-        name, value = fix
-        return (f'{100.0 * self.impossible_samples / self.power_samples:.3g} % of the samples '
-                f'give out power at both shafts, which no gearbox does: the '
-                f'{name.split("_")[0]} torque\'s sign looks reversed (README "Conventions"); '
-                f'set {name} to {value}')
+        c = self.config
+        return self.quality.reversed_torque(c.motor_effort_sign, c.load_effort_sign)
+
+    def reversed_torque_fix(self) -> tuple[str, int] | None:
+        """Return the parameter and value that :meth:`reversed_torque` advises, or None."""
+        c = self.config
+        return self.quality.reversed_torque_fix(c.motor_effort_sign, c.load_effort_sign)
 
     def over_unity(self) -> str:
-        """Return why the windows' energies look wrong when many give out more than they take.
+        """Return why the windows' energies look wrong, or ''.
 
-        No gearbox gives out more energy than it takes in: an efficiency above 1 by
-        :data:`OVER_UNITY_Z` of its own sigma is noise in one window of several hundred. When
-        at least :data:`OVER_UNITY_SHARE` of the measured windows (and :data:`OVER_UNITY_MIN`)
-        are so, the torques are most likely in different units or scales (a motor torque in
-        mN m made a healthy bags/healthy read u 2.99 and ERROR "end of life": its aiding
-        windows had efficiencies near 900). '' otherwise.
+        See :meth:`~gear_phm.estimation.quality.DataQuality.over_unity`.
         """
-        n, bad = self.windows_measured, self.windows_over_unity
-        if bad < OVER_UNITY_MIN or bad < OVER_UNITY_SHARE * n:
-            return ''
-        return (f'{100.0 * bad / n:.3g} % of the windows give out more energy than they take '
-                f'in (efficiency up to {self.largest_efficiency:.4g}), which no gearbox does: '
-                f"are both torques in N m, the motor's at the motor and the load's at the "
-                f'load (README "Conventions")?')
+        return self.quality.over_unity()
 
     def speed_ratio(self) -> float:
         """Return the ratio the speeds give, |sum w_m w_l / sum w_l^2| [-] (NaN before)."""
-        if not self.load_speed_squares > 0.0:
-            return math.nan
-        return abs(self.speed_products / self.load_speed_squares)
+        return self.quality.speed_ratio()
 
     def ratio_check(self) -> str:
         """Return why the ``ratio`` parameter disagrees with the speeds; '' when it does not.
 
-        A gear train's speeds hold its ratio exactly: velocity_motor = R velocity_load
-        (README "Conventions"). The least-squares ratio of the moving samples was within
-        0.17 % of the true one in all 149 re-analysed random lives (lever and spur plants, R 2
-        to 80, 100 Hz and 1 kHz). From :data:`RATIO_CHECK_MIN` moving samples, a ratio
-        parameter more than :data:`RATIO_CHECK_TOLERANCE` away is reported: every u and the
-        end of life computed with it would be wrong, silently (bags/healthy, R 3, read with
-        5.0: u 0.055 instead of 0.050, level OK). The sign is not compared (a load joint whose
-        axis points the other way).
+        See :meth:`~gear_phm.estimation.quality.DataQuality.ratio_check`.
         """
-        implied, ratio = self.speed_ratio(), self.config.ratio
-        if self.speed_samples < RATIO_CHECK_MIN or not math.isfinite(implied) \
-                or abs(implied / ratio - 1.0) <= RATIO_CHECK_TOLERANCE:
-            return ''
-        return (f'the speeds give ratio {implied:.5g} (velocity_motor / velocity_load), the '
-                f"ratio parameter is {ratio:.6g}: set ratio to the gearbox's R = z2/z1")
-
-    def reversed_torque_fix(self) -> tuple[str, int] | None:
-        """Return the parameter and value that :meth:`reversed_torque` advises, or None."""
-        n, bad = self.power_samples, self.impossible_samples
-        if bad < REVERSED_MIN or bad < REVERSED_SHARE * n:
-            return None
-        name = ('load_effort_sign' if 2 * self.impossible_load_larger > bad
-                else 'motor_effort_sign')
-        return name, -int(getattr(self.config, name))
-
-    def _close_status_period(self, seen: int, missing: int) -> float:
-        """Return the share of samples missing since the previous call (one status period).
-
-        Given the counts of samples seen and missing at the end of that period.
-        """
-        d_seen, d_missing = seen - self._status_mark[0], missing - self._status_mark[1]
-        self._status_mark = (seen, missing)
-        total = d_seen + d_missing
-        self.loss_ratio = d_missing / total if total > 0 else 0.0
-        return self.loss_ratio
+        return self.quality.ratio_check(self.config.ratio)
 
     def status(self, name: str, messages_received: int | None = None,
                snapshot: StatusSnapshot | None = None) -> StatusOut:
@@ -1116,49 +708,13 @@ class EstimatorPipeline:
 
         Each call closes a status period: ``loss_ratio`` is the share of samples missing since the
         previous call (WARN above ``loss_warn``). With ``snapshot`` (from :meth:`on_batch_marked`),
-        the status as of that mark.
+        the status as of that mark. The composition: :mod:`gear_phm.estimation.status`.
         """
         summary = self.summary() if snapshot is None else snapshot.values
-        loss = self._close_status_period(summary['samples_seen'], summary['samples_missing'])
+        loss = self.loss.close(summary['samples_seen'], summary['samples_missing'])
         gated = (self.filter.consecutive_gated if snapshot is None
                  else summary['consecutive_gated'])
-        if summary['timed_out']:
-            level, message = WARN, 'sensor timeout: no sample for sensor_timeout'
-        elif summary['filter_updates'] == 0 and summary['counts'].get('not_identifiable', 0):
-            level, message = OK, NOT_IDENTIFIABLE
-        elif summary['filter_updates'] == 0:
-            stalled = stalled_stamps(summary['samples_seen'], summary['filter_updates'],
-                                     summary['counts'].get('duplicate_stamp', 0))
-            level, message = WARN, ('no efficiency measurement yet'
-                                    + (f': {stalled}' if stalled else ''))
-        elif gated:
-            level, message = WARN, f'{gated} measurement(s) gated'
-        else:
-            level, message = OK, 'estimating'
-        if level == OK and summary['filter_updates'] and summary.get('no_load_identified') \
-                is False and summary['counts'].get('not_identifiable', 0):
-            message += f'; {NOT_IDENTIFIABLE}'
-        drift = summary.get('direction_offset_drift_z', math.nan)
-        if abs(drift) > OFFSET_DRIFT_Z:     # a report of its own, not a level (not wear)
-            message += (f'; direction offset drifted {drift:+.3g} sigma since it settled '
-                        f'(now {summary["direction_offset"]:.4g})')
-        for problem in (summary.get('reversed_torque', ''), summary.get('ratio_check', ''),
-                        summary.get('over_unity', ''), summary.get('no_load_band', '')):
-            if problem:
-                message = problem if level == OK else f'{message}; {problem}'
-                level = WARN
-        if loss > self.config.loss_warn:
-            text = f'{100.0 * loss:.3g} % of samples missing over the last status period'
-            message = text if level == OK else f'{message}; {text}'
-            level = WARN
-        counts = sorted(summary['counts'].items())
-        no_load = _NO_LOAD_STATUS_KEYS if self.config.no_load_model else ()
-        keys = ((('messages_received',) if messages_received is not None else ())
-                + _STATUS_SUMMARY_KEYS + no_load + ('loss_ratio',) + _count_keys(tuple(
-                    reason for reason, _ in counts)))
-        values = itertools.chain(
-            (messages_received,) if messages_received is not None else (),
-            _STATUS_SUMMARY(summary), (summary[key] for key in no_load), (loss,),
-            (count for _, count in counts))
-        return StatusOut(level, name, message, 'gear_phm',
-                         tuple(zip(keys, format_values(values))))
+        return compose_status(summary, name, gated=gated, loss=loss,
+                              loss_warn=self.config.loss_warn,
+                              no_load_model=self.config.no_load_model,
+                              messages_received=messages_received)

@@ -236,28 +236,7 @@ class HealthAssessor:
         ``u_sigma`` [-], ``read`` eq 13's readings (u_D, u_I) [-] of its efficiencies, ``suspect``:
         its efficiencies may not match this assessor's ratio (:meth:`_ratio_mismatch` decides).
         """
-        if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
-            self.predictor.reset()                         # replay restarted
-            self.divergence.reset()
-            self.levels.reset()
-            self.utilisation.reset()
-            self._learn_self_locking(None)
-        if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
-            # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
-            eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
-            estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
-            read = readings(eta_d, eta_i, self.config.ratio)
-            suspect = True
-        if math.isfinite(estimate.operating_time) and self.latest is not None \
-                and not math.isfinite(self.latest.operating_time):
-            # the stream gained operating time (its first updates came without: the topic
-            # matched late, or a newer estimator): the history so far moves onto the
-            # operating axis, as if the gearbox had moved throughout it; the utilisation is
-            # measured from here on (taking that motion as real made a live node's 0.5 come
-            # out 0.5013 when its first update lost its operating time to a callback race)
-            offset = estimate.operating_time - estimate.t
-            self.predictor.shift(offset)
-            self.utilisation.reset()
+        estimate, read, suspect = self._prepared(estimate, read, suspect)
         operating = self._operating_time(estimate)
         predictor = self.predictor
         # end of life on the reading its criterion is about (eta_D: the opposing windows')
@@ -268,19 +247,7 @@ class HealthAssessor:
             self._learn_self_locking(healthy_self_locking(u_i, u_sigma))
         reading = self._reading_offset(u, u_d, u_i)
         predictor.u_eol = self.u_eol - reading
-        measurement = estimate.measurement
-        if math.isfinite(estimate.direction_offset):
-            # the history's measurements, each with the offset between the load directions
-            # learned so far (gear_phm.prognostics.history)
-            predictor.history.offset = estimate.direction_offset
-        if math.isfinite(measurement) and estimate.measurement_variance > 0.0:
-            # the window's measurement: independent of the others, no filter lag
-            predictor.add(operating, measurement, estimate.measurement_variance,
-                          independent=True, direction=estimate.measurement_direction,
-                          bias=estimate.measurement_bias)
-        elif not predictor.history.independent:
-            # a stream without measurements (an older estimator or recording): posteriors
-            predictor.add(operating, u, estimate.covariance[0])
+        self._add_to_history(estimate, operating)
         self.utilisation.add(t, operating)
         filter_check = self.divergence.update(estimate.innovation,
                                               estimate.innovation_variance, estimate.nis,
@@ -318,6 +285,55 @@ class HealthAssessor:
             'utilisation': utilisation, 'eta_healthy': levels.eta_healthy,
             'eta_warn': levels.eta_warn, 'eol_rule': self.eol_reason})
         return self.latest
+
+    def _prepared(self, estimate: FrictionEstimate, read: tuple[float, float], suspect: bool
+                  ) -> tuple[FrictionEstimate, tuple[float, float], bool]:
+        """Return the update as assessed, and restart or move the history where it must.
+
+        A replay that restarted (an earlier stamp) restarts the assessment; an estimate
+        without efficiencies gets eqs 10 and 12's at its u (then ``suspect``); a stream that
+        gained operating time moves the history onto that axis.
+        """
+        if self.latest is not None and estimate.stamp_ns < self.latest.stamp_ns:
+            self.predictor.reset()                         # replay restarted
+            self.divergence.reset()
+            self.levels.reset()
+            self.utilisation.reset()
+            self._learn_self_locking(None)
+        if not math.isfinite(estimate.eta_opposing) or not math.isfinite(estimate.eta_aiding):
+            # an estimate without efficiencies (an older recording): eqs 10 and 12 at u
+            eta_d, eta_i = efficiencies(estimate.u, self.config.ratio)
+            estimate = replace(estimate, eta_opposing=eta_d, eta_aiding=eta_i)
+            read = readings(eta_d, eta_i, self.config.ratio)
+            suspect = True
+        if math.isfinite(estimate.operating_time) and self.latest is not None \
+                and not math.isfinite(self.latest.operating_time):
+            # the stream gained operating time (its first updates came without: the topic
+            # matched late, or a newer estimator): the history so far moves onto the
+            # operating axis, as if the gearbox had moved throughout it; the utilisation is
+            # measured from here on (taking that motion as real made a live node's 0.5 come
+            # out 0.5013 when its first update lost its operating time to a callback race)
+            offset = estimate.operating_time - estimate.t
+            self.predictor.shift(offset)
+            self.utilisation.reset()
+        return estimate, read, suspect
+
+    def _add_to_history(self, estimate: FrictionEstimate, operating: float) -> None:
+        """Add the update's measurement (or, without any, its posterior) to the RUL's history."""
+        predictor = self.predictor
+        measurement = estimate.measurement
+        if math.isfinite(estimate.direction_offset):
+            # the history's measurements, each with the offset between the load directions
+            # learned so far (gear_phm.prognostics.history)
+            predictor.history.offset = estimate.direction_offset
+        if math.isfinite(measurement) and estimate.measurement_variance > 0.0:
+            # the window's measurement: independent of the others, no filter lag
+            predictor.add(operating, measurement, estimate.measurement_variance,
+                          independent=True, direction=estimate.measurement_direction,
+                          bias=estimate.measurement_bias)
+        elif not predictor.history.independent:
+            # a stream without measurements (an older estimator or recording): posteriors
+            predictor.add(operating, estimate.u, estimate.covariance[0])
 
     def _reading_offset(self, u: float, u_d: float, u_i: float) -> float:
         """Return the end-of-life criterion's reading of u minus u [-] (0 without one).

@@ -382,6 +382,36 @@ def _covariance(jacobian: np.ndarray, w: np.ndarray, scale: float,
     return np.asarray(scale * np.linalg.inv(normalised) / outer)
 
 
+def _scored_law(name: str, fit: _Fit, precision: np.ndarray,
+                stats: tuple[int, float, float, float], t_end: float, span: float
+                ) -> tuple[float, Trend] | None:
+    """Return the AICc of law ``name``'s ``fit`` and its :class:`Trend` (None: too few points).
+
+    ``stats``: the points, the effective points, the residual scale sigma^2 of the most
+    flexible fit and the shape prior's information (0 without one); ``t_end``: the history's
+    last time [s], ``span`` [s].
+    """
+    n, n_eff, sigma2, information = stats
+    k = fit.free
+    if not n_eff > k + 1.0:
+        return None
+    aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
+    scale = max(fit.rss / max(n - k, 1), 1.0) * n / n_eff
+    cov = _covariance(fit.jacobian, precision, scale, information)
+    low, high = _shape_range(fit, scale)
+    if cov is None:
+        return None
+    cov = fit.expanded(cov)
+    params = fit.params.tolist()
+    return aicc, frozen_instance(Trend, {
+        'model': name, 't_end': t_end, 'u_end': params[0], 'slope': params[1],
+        'slope_sigma': math.sqrt(max(float(cov[1, 1]), 0.0)),
+        'shape': params[2] if name != LINEAR else 0.0, 'span': span,
+        'covariance': tuple(cov.ravel().tolist()), 'points': n,
+        'effective_points': n_eff, 'weight': 1.0, 'scale': scale, 'shape_low': low,
+        'shape_high': high})
+
+
 def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
              trend: str = str(DEFAULTS['trend']), min_points: int = 8,
              prior: ShapePrior | None = None,
@@ -418,25 +448,9 @@ def fit_laws(t: np.ndarray, u: np.ndarray, precision: np.ndarray,
             return ()
         fits = {prior.model: fitted}
         information = 1.0 / (float(fitted.params[2]) * prior.log_sigma) ** 2
-    laws = []
-    for name, fit in fits.items():
-        k = fit.free
-        if not n_eff > k + 1.0:
-            continue
-        aicc = n_eff / n * fit.rss / sigma2 + 2.0 * k + 2.0 * k * (k + 1.0) / (n_eff - k - 1.0)
-        scale = max(fit.rss / max(n - k, 1), 1.0) * n / n_eff
-        cov = _covariance(fit.jacobian, precision, scale, information)
-        low, high = _shape_range(fit, scale)
-        if cov is not None:
-            cov = fit.expanded(cov)
-            params = fit.params.tolist()
-            laws.append((aicc, frozen_instance(Trend, {
-                'model': name, 't_end': t_end, 'u_end': params[0], 'slope': params[1],
-                'slope_sigma': math.sqrt(max(float(cov[1, 1]), 0.0)),
-                'shape': params[2] if name != LINEAR else 0.0, 'span': span,
-                'covariance': tuple(cov.ravel().tolist()), 'points': n,
-                'effective_points': n_eff, 'weight': 1.0, 'scale': scale, 'shape_low': low,
-                'shape_high': high})))
+    laws = [law for name, fit in fits.items()
+            if (law := _scored_law(name, fit, precision, (n, n_eff, sigma2, information),
+                                   t_end, span)) is not None]
     if not laws:
         return ()
     if LINEAR in fits and len(laws) > 1:
