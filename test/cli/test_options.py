@@ -32,10 +32,10 @@ def test_health_options_default_to_the_specs_and_read_back_by_name() -> None:
     assert set(defaults) == set(offline)          # ratio and stale_timeout: no option
     assert math.isnan(defaults.pop('eta_warn')) and math.isnan(offline.pop('eta_warn'))
     assert defaults == offline
-    values = health_values(parser.parse_args(['--no-self-locking-eol', '--trend', 'linear',
+    values = health_values(parser.parse_args(['--must-back-drive', '--trend', 'linear',
                                               '--mc-samples', '5e3', '--warn-horizon', '60']))
-    assert (values['self_locking_eol'], values['trend'], values['mc_samples'],
-            values['warn_horizon']) == (False, 'linear', 5000, 60.0)
+    assert (values['must_back_drive'], values['trend'], values['mc_samples'],
+            values['warn_horizon']) == (True, 'linear', 5000, 60.0)
     with pytest.raises(SystemExit):
         parser.parse_args(['--ratio', '3'])
 
