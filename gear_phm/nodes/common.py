@@ -99,6 +99,32 @@ def declare_required(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]:
     return {name: value for name, value in values.items() if value is not None}
 
 
+#: Parameters that were renamed: the old name, and what to set instead.
+RENAMED = {'self_locking_eol': 'must_back_drive (true: a drive worn into self-locking is at '
+                               'end of life; the old default true is must_back_drive true)'}
+
+
+def check_overrides(node: Node) -> None:
+    """Refuse a renamed parameter and warn of any other override this node did not declare.
+
+    rclpy drops the value of a parameter that a parameters file or ``-p`` sets but the node
+    does not declare; a misspelt or renamed name would then be lost without a word. Raises
+    :class:`ConfigError` naming a renamed parameter and its replacement; logs one warning line
+    naming the others (``qos_overrides.*`` are rclpy's own).
+    """
+    overrides = getattr(node, '_parameter_overrides', {})
+    unknown = sorted(name for name in overrides
+                     if not node.has_parameter(name) and not name.startswith('qos_overrides.'))
+    renamed = [name for name in unknown if name.split('.')[-1] in RENAMED]
+    if renamed:
+        name = renamed[0]
+        msg = f'parameter {name} was replaced by {RENAMED[name.split(".")[-1]]}'
+        raise ConfigError(msg)
+    if unknown:
+        node.get_logger().warning(f'ignored parameters (not parameters of {node.get_name()}): '
+                                  f'{", ".join(unknown)}')
+
+
 _TYPES = {bool: Parameter.Type.BOOL, int: Parameter.Type.INTEGER,
           float: Parameter.Type.DOUBLE, str: Parameter.Type.STRING}
 

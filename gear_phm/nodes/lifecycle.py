@@ -38,7 +38,7 @@ from typing import Any
 
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
-from gear_phm.nodes.common import ConfigError
+from gear_phm.nodes.common import check_overrides, ConfigError
 from gear_phm.parameters import ParamSpec
 
 #: Configure and activate at construction (module docstring).
@@ -140,6 +140,7 @@ class ManagedNode(LifecycleNode):
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._configuring = True
         try:
+            check_overrides(self)
             self.configure()
         except ConfigError as exc:
             self.config_error = str(exc)

@@ -36,6 +36,20 @@ def test_bad_parameter_is_refused_with_reason() -> None:
     assert 'min_window must be < window' in result.stderr
 
 
+def test_renamed_parameter_is_refused_and_an_unknown_one_named() -> None:
+    """rclpy drops undeclared overrides: a renamed one is refused, a misspelt one is named."""
+    renamed = subprocess.run([str(VENV_BIN / 'diagnostics'), '--ros-args', '-p',
+                              'self_locking_eol:=false'], capture_output=True, text=True,
+                             timeout=30, env=os.environ.copy())
+    assert renamed.returncode == 2
+    assert 'parameter self_locking_eol was replaced by must_back_drive' in renamed.stderr
+    misspelt = subprocess.run([str(VENV_BIN / 'estimator'), '--ros-args', '-p', 'window:=0.5',
+                               '-p', 'min_window:=0.8', '-p', 'windw:=2.0'],
+                              capture_output=True, text=True, timeout=30, env=os.environ.copy())
+    assert misspelt.returncode == 2          # refused for min_window, after naming windw
+    assert 'ignored parameters (not parameters of estimator): windw' in misspelt.stderr
+
+
 @pytest.mark.long(12)
 def test_node_survives_garbage_and_keeps_estimating() -> None:
     import rclpy
