@@ -37,7 +37,7 @@ def test_bad_parameter_is_refused_with_reason() -> None:
 
 
 def test_renamed_parameter_is_refused_and_an_unknown_one_named() -> None:
-    """rclpy drops undeclared overrides: a renamed one is refused, a misspelt one is named."""
+    """Overrides rclpy would drop: a renamed one is refused, a misspelt one is named."""
     renamed = subprocess.run([str(VENV_BIN / 'diagnostics'), '--ros-args', '-p',
                               'self_locking_eol:=false'], capture_output=True, text=True,
                              timeout=30, env=os.environ.copy())
