@@ -38,7 +38,8 @@ try:
 except FileNotFoundError as exc:
     print('error came back:', type(exc).__name__)
 plotter.close()
-assert not plotter.process.is_alive() and 'matplotlib' not in sys.modules
+assert not plotter.process.is_alive(), 'the plot process outlived close()'
+assert 'matplotlib' not in sys.modules, 'the caller imported matplotlib'
 plot_analysis(out / 'here.png', analysis, 3.0, [bag])
 """
 
