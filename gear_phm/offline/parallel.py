@@ -30,6 +30,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from typing import Any, Protocol, Sequence, TYPE_CHECKING
 import warnings
 
@@ -544,6 +545,11 @@ def _end(workers: Sequence[_Worker]) -> None:
         if worker.process.is_alive():
             worker.process.terminate()
             worker.process.join()
+        # the pool's manager thread joins its process too: when it reaps the process first,
+        # this thread's join returns before that thread has set the exit code
+        deadline = time.monotonic() + 5.0
+        while worker.process.exitcode is None and time.monotonic() < deadline:
+            time.sleep(0.005)
 
 
 def _request(worker: _Worker, request: tuple[Any, ...]) -> None:
