@@ -241,7 +241,13 @@ def idle(observer: Observer, executor: str, seconds: float) -> tuple[float, floa
 
 
 def latency(observer: Observer, executor: str, rate: float, duration: float) -> list[str]:
+    from gear_phm.interfaces import FRICTION
     with Targets(observer, commands('estimator', executor), [RECEIVER['estimator']]):
+        # its estimates reach this process only once its estimate writer matched our reader:
+        # a /diagnostics status does not say so (a short stream was all sent before, 0 seen)
+        if not observer.spin_until(lambda: observer.node.count_publishers(FRICTION) >= 1,
+                                   30.0):
+            raise RuntimeError(f'{FRICTION}: no writer matched within 30 s')
         flood(observer, rate, duration, 1, [RECEIVER['estimator']])
         lat_ms = np.asarray(observer.latencies) * 1e3
     if not lat_ms.size:
