@@ -33,6 +33,28 @@ def test_the_speeds_give_the_ratio_and_a_wrong_parameter_is_reported() -> None:
     assert quality.ratio_check(5.0).startswith('the speeds give ratio 3 ')
 
 
+def test_a_quantised_load_speed_gives_the_ratio_and_is_not_refused() -> None:
+    """A load speed differenced from a coarse encoder at 1 kHz: noise of its own spread."""
+    rng = np.random.default_rng(7)
+    n = 20_000
+    t = np.arange(n) * 1e-3
+    w_l = 0.3 * np.sin(2.0 * np.pi * 0.2 * t)                  # strokes both ways [rad/s]
+    count = 2.0 * np.pi / 2 ** 16                              # one count [rad]
+    angle = np.floor((np.cumsum(w_l) * 1e-3 + rng.uniform(0, count)) / count) * count
+    w_l_read = np.diff(angle, prepend=angle[0]) / 1e-3         # encoder differencing
+    w_m = 30.0 * w_l + rng.normal(0.0, 0.05, n)
+    moving = np.abs(w_m) > 0.5
+    ones = np.ones(n, dtype=bool)
+    quality = DataQuality()
+    quality.add_samples(w_m, w_l_read, np.ones(n), np.ones(n), moving, ones, ~ones)
+    assert quality.speed_ratio() == pytest.approx(30.0, rel=2e-3)
+    assert quality.ratio_check(30.0) == ''
+    # the least squares of w_m on the read w_l, as the check was, reads low: refused
+    w_l_moving = w_l_read[moving]
+    least_squares = np.sum(w_m[moving] * w_l_moving) / np.sum(w_l_moving ** 2)
+    assert least_squares < 30.0 * (1.0 - 0.02)
+
+
 def test_too_few_moving_samples_report_no_ratio() -> None:
     quality = DataQuality()
     _samples(quality, RATIO_CHECK_MIN - 1, 3.0, 0)
