@@ -1,7 +1,6 @@
 """BagReader (gear_phm.bagio.reader): the storages it reads and the errors it names."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -10,33 +9,11 @@ from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import StoragePlugin, Writer as Ros2Writer
 from rosbags.typesys import get_typestore, Stores
 
-from gear_phm.bagio import Rosbag2McapWriter, TYPESTORE
+from gear_phm.bagio import TYPESTORE
 from gear_phm.bagio.reader import BagError, BagReader
 from gear_phm.codec import decode_joint_states
-from gear_phm.interfaces import DiagnosticsOut, stamp_to_ns, StatusOut, Vector3Out
-
-JOINT_STATE = 'sensor_msgs/msg/JointState'
-
-
-def joint_state(i: int, names: tuple[str, ...] = ('motor', 'load')):
-    types = TYPESTORE.types
-    header = types['std_msgs/msg/Header'](
-        stamp=types['builtin_interfaces/msg/Time'](sec=10 + i // 1000, nanosec=(i % 1000) * 10**6),
-        frame_id='')
-    n = len(names)
-    return types[JOINT_STATE](header=header, name=list(names),
-                              position=np.arange(n, dtype=float) + i,
-                              velocity=np.full(n, 0.5 * i), effort=np.linspace(-1.0, 1.0, n))
-
-
-def write_bag(directory: Path, count: int, **kwargs) -> None:
-    with Rosbag2McapWriter(directory, **kwargs) as writer:
-        writer.add_topic('joint_states', JOINT_STATE)
-        for i in range(count):
-            writer.write('joint_states', 10**10 + i * 10**6, joint_state(i))
-        writer.write_output(Vector3Out('gear_phm/friction', 10**10, 0.125, -1.5, math.inf))
-        writer.write_output(DiagnosticsOut(10**10, (StatusOut(
-            1, 'gear_phm: flap', 'warn', 'bench-1', (('u', '0.125'), ('rul_s', 'inf'))),)))
+from gear_phm.interfaces import stamp_to_ns
+from helpers.bags import JOINT_STATE, joint_state, write_bag
 
 
 def test_reader_accepts_sqlite3_and_ros1(tmp_path: Path) -> None:

@@ -20,29 +20,7 @@ import yaml
 
 from gear_phm.bagio import BagError, BagReader, recover, Rosbag2McapWriter, TYPESTORE
 from gear_phm.interfaces import DiagnosticsOut, StatusOut, Vector3Out
-
-JOINT_STATE = 'sensor_msgs/msg/JointState'
-
-
-def joint_state(i: int, names: tuple[str, ...] = ('motor', 'load')):
-    types = TYPESTORE.types
-    header = types['std_msgs/msg/Header'](
-        stamp=types['builtin_interfaces/msg/Time'](sec=10 + i // 1000, nanosec=(i % 1000) * 10**6),
-        frame_id='')
-    n = len(names)
-    return types[JOINT_STATE](header=header, name=list(names),
-                              position=np.arange(n, dtype=float) + i,
-                              velocity=np.full(n, 0.5 * i), effort=np.linspace(-1.0, 1.0, n))
-
-
-def write_bag(directory: Path, count: int, **kwargs) -> None:
-    with Rosbag2McapWriter(directory, **kwargs) as writer:
-        writer.add_topic('joint_states', JOINT_STATE)
-        for i in range(count):
-            writer.write('joint_states', 10**10 + i * 10**6, joint_state(i))
-        writer.write_output(Vector3Out('gear_phm/friction', 10**10, 0.125, -1.5, math.inf))
-        writer.write_output(DiagnosticsOut(10**10, (StatusOut(
-            1, 'gear_phm: flap', 'warn', 'bench-1', (('u', '0.125'), ('rul_s', 'inf'))),)))
+from helpers.bags import JOINT_STATE, write_bag
 
 
 def test_written_bag_reads_back_with_rosbags_and_mcap(tmp_path: Path) -> None:
